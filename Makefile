@@ -1,0 +1,37 @@
+# The two commands a newcomer needs (both install missing Debian packages first):
+#   make demo   build (Release) and run the main demo
+#   make test   build with warnings as errors and run the whole test suite
+# Further: make bench (core + solver benchmarks), make test-sanitize (ASan+UBSan build of the tests).
+JOBS ?= $(shell nproc)
+DEMO_OUT ?= runs/hydrostatic
+
+.PHONY: deps demo test test-sanitize bench clean
+
+deps:
+	@bash scripts/install-deps.sh
+
+build/release/CMakeCache.txt: | deps
+	cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release
+
+demo: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target hydrostatic
+	./build/release/apps/hydrostatic/hydrostatic --out $(DEMO_OUT)
+
+test: deps
+	cmake -S . -B build/test -DCMAKE_BUILD_TYPE=Release -DSPARSEMPS_WERROR=ON
+	cmake --build build/test -j$(JOBS)
+	cd build/test && ctest --output-on-failure -j$(JOBS)
+
+test-sanitize: deps
+	cmake -S . -B build/sanitize -DCMAKE_BUILD_TYPE=Debug -DSPARSEMPS_WERROR=ON -DSPARSEMPS_SANITIZE=ON
+	cmake --build build/sanitize -j$(JOBS)
+	cd build/sanitize && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+	  ctest --output-on-failure -j$(JOBS) -LE slow
+
+bench: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_core
+	./build/release/bench/bench_core --out bench/results/core.csv
+	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
+
+clean:
+	rm -rf build runs

@@ -1,0 +1,28 @@
+#pragma once
+// Compressed sparse row matrix with 32-bit indices and sorted columns: the layout Eigen, CHOLMOD and hypre
+// all accept, so every backend reads the PPE without converting it.
+#include <cstddef>
+#include <span>
+#include <vector>
+
+namespace mps {
+
+struct CsrMatrix {
+  int rows = 0, cols = 0;
+  std::vector<int> row_ptr{0};  // rows + 1 entries
+  std::vector<int> col;         // ascending within a row
+  std::vector<double> val;
+
+  [[nodiscard]] std::size_t nnz() const { return val.size(); }
+  void multiply(std::span<const double> x, std::span<double> y) const;  // y = A x
+  [[nodiscard]] double at(int i, int j) const;                          // 0 where no entry is stored
+  // max |a_ij - a_ji| <= tol * max |a_ij| over the stored pattern and its transpose
+  [[nodiscard]] bool is_symmetric(double tol = 1e-12) const;
+  void validate() const;  // throws std::invalid_argument if the arrays do not form a CSR matrix
+};
+
+double norm2(std::span<const double> x);
+// ||b - A x|| / ||b|| (or ||b - A x|| when b = 0)
+double relative_residual(const CsrMatrix& a, std::span<const double> x, std::span<const double> b);
+
+}  // namespace mps

@@ -1,0 +1,31 @@
+#pragma once
+// Initial particle arrangements: square lattices, concentric rings, and wall/dummy layers around them.
+#include "mps/particles.hpp"
+
+namespace mps {
+
+struct Rect {
+  double x0, y0, x1, y1;
+};
+
+// Square lattice filling rect; points sit at cell centres, (x0 + (i + 1/2) l0, y0 + (j + 1/2) l0), so two
+// rectangles sharing an edge tile without overlap.
+void fill_rectangle(Particles& particles, Rect rect, double l0, Kind kind, int group = 0);
+
+enum Side : unsigned { left = 1u, right = 2u, bottom = 4u, top = 8u };
+
+// Adds boundary layers outside `inner` on the given sides (corners between walled sides included), on the
+// same lattice as fill_rectangle: the first `wall_layers` layers are Kind::wall, the next `dummy_layers`
+// are Kind::dummy. An unwalled side stays open (e.g. a tank's top).
+void add_rectangle_walls(Particles& particles, Rect inner, double l0, unsigned sides, int wall_layers,
+                         int dummy_layers, int group = 0);
+
+enum class Lattice { square, rings };
+
+// Fills r0 <= r < r1, theta0 <= theta < theta1 (radians, counter-clockwise) about (cx, cy).
+// rings: ring k at r0 + (k + 1/2) l0 with round(r * span / l0) evenly spaced particles;
+// square: the cell-centred square lattice clipped to the sector.
+void fill_annular_sector(Particles& particles, double r0, double r1, double theta0, double theta1, double l0,
+                         Kind kind, Lattice lattice, int group = 0, double cx = 0.0, double cy = 0.0);
+
+}  // namespace mps

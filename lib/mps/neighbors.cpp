@@ -1,0 +1,149 @@
+#include "mps/neighbors.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mps {
+
+bool Domain::contains(double x, double y) const {
+  const bool in_x = periodic_x || (x >= xmin && x <= xmax);
+  const bool in_y = periodic_y || (y >= ymin && y <= ymax);
+  return in_x && in_y && std::isfinite(x) && std::isfinite(y);
+}
+
+void Domain::wrap(double& x, double& y) const {
+  if (periodic_x) {
+    x = xmin + std::fmod(x - xmin, width());
+    if (x < xmin) x += width();
+    if (x >= xmax) x -= width();
+  }
+  if (periodic_y) {
+    y = ymin + std::fmod(y - ymin, height());
+    if (y < ymin) y += height();
+    if (y >= ymax) y -= height();
+  }
+}
+
+void Domain::validate() const {
+  if (!(xmax > xmin) || !(ymax > ymin) || !std::isfinite(xmin) || !std::isfinite(xmax) ||
+      !std::isfinite(ymin) || !std::isfinite(ymax))
+    throw std::invalid_argument("Domain: need finite bounds with xmax > xmin and ymax > ymin");
+}
+
+CellGrid::CellGrid(const Domain& domain, double cell_size) : domain_(domain), cell_size_(cell_size) {
+  domain_.validate();
+  if (!(cell_size > 0.0) || !std::isfinite(cell_size))
+    throw std::invalid_argument("CellGrid: cell size (the largest search radius) must be positive, got " +
+                                std::to_string(cell_size));
+  nx_ = std::max(1, static_cast<int>(std::floor(domain_.width() / cell_size)));
+  ny_ = std::max(1, static_cast<int>(std::floor(domain_.height() / cell_size)));
+  // Three cells are the least a periodic axis needs for the 3x3 scan to visit no cell twice.
+  if ((domain_.periodic_x && nx_ < 3) || (domain_.periodic_y && ny_ < 3))
+    throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
+  hx_ = domain_.width() / nx_;
+  hy_ = domain_.height() / ny_;
+}
+
+std::array<int, 2> CellGrid::cell_of(double x, double y) const {
+  // Clamping keeps escaped particles binned (at the edge) so the search stays correct; the guard reports them.
+  int cx = static_cast<int>(std::floor((x - domain_.xmin) / hx_));
+  int cy = static_cast<int>(std::floor((y - domain_.ymin) / hy_));
+  if (domain_.periodic_x) cx = ((cx % nx_) + nx_) % nx_;
+  if (domain_.periodic_y) cy = ((cy % ny_) + ny_) % ny_;
+  return {std::clamp(cx, 0, nx_ - 1), std::clamp(cy, 0, ny_ - 1)};
+}
+
+void CellGrid::bin(const Particles& particles) {
+  const std::size_t n = particles.size();
+  n_particles_ = n;
+  std::vector<int> cell(n, -1);
+  cell_start_.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+  ghosts_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (particles.kind[i] == Kind::ghost) {
+      ghosts_.push_back(static_cast<int>(i));
+      continue;
+    }
+    if (!std::isfinite(particles.x[i]) || !std::isfinite(particles.y[i]))
+      throw std::runtime_error("CellGrid: particle " + std::to_string(i) + " has a non-finite position");
+    const auto [cx, cy] = cell_of(particles.x[i], particles.y[i]);
+    cell[i] = cell_index(cx, cy);
+    ++cell_start_[static_cast<std::size_t>(cell[i]) + 1];
+  }
+  for (std::size_t c = 1; c < cell_start_.size(); ++c) cell_start_[c] += cell_start_[c - 1];
+  cell_particles_.resize(n - ghosts_.size());
+  std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    if (cell[i] >= 0) cell_particles_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell[i])]++)] =
+        static_cast<int>(i);
+}
+
+NeighborList CellGrid::neighbors(const Particles& particles, double radius) const {
+  if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
+  if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
+    throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
+  const double r2 = radius * radius;
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  NeighborList list;
+  list.radius = radius;
+  list.offsets.assign(particles.size() + 1, 0);
+
+  // Two passes (count, then fill) keep the result in one allocation and independent of thread scheduling.
+  auto visit = [&](std::ptrdiff_t i, auto&& on_neighbor) {
+    const double xi = particles.x[static_cast<std::size_t>(i)], yi = particles.y[static_cast<std::size_t>(i)];
+    const auto [cx, cy] = cell_of(xi, yi);
+    for (int oy = -1; oy <= 1; ++oy) {
+      int ky = cy + oy;
+      if (domain_.periodic_y) ky = (ky + ny_) % ny_;
+      else if (ky < 0 || ky >= ny_) continue;
+      for (int ox = -1; ox <= 1; ++ox) {
+        int kx = cx + ox;
+        if (domain_.periodic_x) kx = (kx + nx_) % nx_;
+        else if (kx < 0 || kx >= nx_) continue;
+        const int c = cell_index(kx, ky);
+        for (int k = cell_start_[static_cast<std::size_t>(c)]; k < cell_start_[static_cast<std::size_t>(c) + 1]; ++k) {
+          const int j = cell_particles_[static_cast<std::size_t>(k)];
+          if (j == i) continue;
+          const auto d = domain_.displacement(xi, yi, particles.x[static_cast<std::size_t>(j)],
+                                              particles.y[static_cast<std::size_t>(j)]);
+          if (d[0] * d[0] + d[1] * d[1] < r2) on_neighbor(j);
+        }
+      }
+    }
+  };
+
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
+    int count = 0;
+    visit(i, [&](int) { ++count; });
+    list.offsets[static_cast<std::size_t>(i) + 1] = count;
+  }
+  for (std::size_t i = 1; i < list.offsets.size(); ++i) list.offsets[i] += list.offsets[i - 1];
+  list.index.resize(static_cast<std::size_t>(list.offsets.back()));
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
+    int* out = list.index.data() + list.offsets[static_cast<std::size_t>(i)];
+    int* begin = out;
+    visit(i, [&](int j) { *out++ = j; });
+    std::sort(begin, out);
+  }
+  return list;
+}
+
+std::vector<int> CellGrid::cell_order() const {
+  std::vector<int> order(cell_particles_);
+  order.insert(order.end(), ghosts_.begin(), ghosts_.end());
+  return order;
+}
+
+NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius) {
+  CellGrid grid(domain, radius);
+  grid.bin(particles);
+  return grid.neighbors(particles, radius);
+}
+
+}  // namespace mps

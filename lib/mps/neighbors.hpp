@@ -1,0 +1,73 @@
+#pragma once
+// Neighbour search on a uniform cell grid, producing CSR neighbour lists (one per radius).
+#include <array>
+#include <cmath>
+#include <span>
+#include <vector>
+
+#include "mps/particles.hpp"
+
+namespace mps {
+
+// The region particles may occupy. A particle outside a non-periodic extent has escaped (the stability
+// guard reports it); a periodic axis wraps positions and measures distances by the minimum image.
+struct Domain {
+  double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
+  bool periodic_x = false, periodic_y = false;
+
+  [[nodiscard]] double width() const { return xmax - xmin; }
+  [[nodiscard]] double height() const { return ymax - ymin; }
+  // r_j - r_i, by the minimum image on periodic axes.
+  [[nodiscard]] std::array<double, 2> displacement(double xi, double yi, double xj, double yj) const {
+    double dx = xj - xi, dy = yj - yi;
+    if (periodic_x) dx -= width() * std::nearbyint(dx / width());
+    if (periodic_y) dy -= height() * std::nearbyint(dy / height());
+    return {dx, dy};
+  }
+  [[nodiscard]] bool contains(double x, double y) const;
+  void wrap(double& x, double& y) const;  // into [min, max) on periodic axes
+  void validate() const;                  // throws std::invalid_argument with the reason
+};
+
+// neighbours of particle i are index[offsets[i] .. offsets[i+1]), sorted ascending, i itself excluded.
+struct NeighborList {
+  double radius = 0;
+  std::vector<int> offsets{0};
+  std::vector<int> index;
+
+  [[nodiscard]] std::span<const int> of(std::size_t i) const {
+    return {index.data() + offsets[i], static_cast<std::size_t>(offsets[i + 1] - offsets[i])};
+  }
+  [[nodiscard]] std::size_t particles() const { return offsets.size() - 1; }
+  [[nodiscard]] std::size_t pairs() const { return index.size(); }
+};
+
+// Bins the active (non-ghost) particles into square cells at least `cell_size` wide; one binning serves
+// every radius up to cell_size.
+class CellGrid {
+ public:
+  CellGrid(const Domain& domain, double cell_size);
+  void bin(const Particles& particles);
+  [[nodiscard]] NeighborList neighbors(const Particles& particles, double radius) const;
+  // A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
+  // neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
+  [[nodiscard]] std::vector<int> cell_order() const;
+  [[nodiscard]] double cell_size() const { return cell_size_; }
+
+ private:
+  [[nodiscard]] int cell_index(int cx, int cy) const { return cy * nx_ + cx; }
+  [[nodiscard]] std::array<int, 2> cell_of(double x, double y) const;
+
+  Domain domain_;
+  double cell_size_ = 0, hx_ = 0, hy_ = 0;
+  int nx_ = 0, ny_ = 0;
+  std::size_t n_particles_ = 0;
+  std::vector<int> cell_start_;      // CSR over cells
+  std::vector<int> cell_particles_;  // particle indices, grouped by cell
+  std::vector<int> ghosts_;
+};
+
+// One-off search (bins and searches once).
+NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius);
+
+}  // namespace mps

@@ -1,0 +1,153 @@
+#include "mps/operators.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace mps {
+namespace {
+
+using Index = std::ptrdiff_t;
+
+void check_size(std::size_t got, std::size_t want, const char* what) {
+  if (got != want) throw std::invalid_argument(std::string("operator: ") + what + " has the wrong length");
+}
+
+// Calls f(j, dx, dy, r2, w) for every neighbour j of i with w > 0.
+template <class F>
+void for_each_pair(const Stencil& s, std::size_t i, F&& f) {
+  const Particles& p = s.particles;
+  for (int j : s.neighbors.of(i)) {
+    const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[static_cast<std::size_t>(j)],
+                                         p.y[static_cast<std::size_t>(j)]);
+    const double r2 = d[0] * d[0] + d[1] * d[1];
+    const double w = s.kernel.w(std::sqrt(r2));
+    if (w > 0.0) f(static_cast<std::size_t>(j), d[0], d[1], r2, w);
+  }
+}
+
+Index count(const Stencil& s) { return static_cast<Index>(s.particles.size()); }
+
+// A CSR matrix with one row per particle, built from per-pair coefficients in two passes; `diagonal`
+// asks for an explicit diagonal entry placed in column order.
+template <class Coefficient>
+CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient) {
+  const Index n = count(s);
+  CsrMatrix a;
+  a.rows = a.cols = static_cast<int>(n);
+  a.row_ptr.assign(static_cast<std::size_t>(n) + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    int c = diagonal ? 1 : 0;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double, double, double, double) { ++c; });
+    a.row_ptr[static_cast<std::size_t>(i) + 1] = c;
+  }
+  for (std::size_t i = 1; i < a.row_ptr.size(); ++i) a.row_ptr[i] += a.row_ptr[i - 1];
+  a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
+  a.val.resize(a.col.size());
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(i)]);
+    std::size_t diag_slot = k;
+    double diag = 0.0;
+    bool placed = !diagonal;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t j, double dx, double dy, double r2, double w) {
+      if (!placed && j > static_cast<std::size_t>(i)) {
+        diag_slot = k++;
+        placed = true;
+      }
+      const double c = coefficient(dx, dy, r2, w);
+      a.col[k] = static_cast<int>(j);
+      a.val[k++] = c;
+      diag -= c;
+    });
+    if (!placed) diag_slot = k++;
+    if (diagonal) {
+      a.col[diag_slot] = static_cast<int>(i);
+      a.val[diag_slot] = diag;
+    }
+  }
+  return a;
+}
+
+}  // namespace
+
+std::vector<double> number_density(const Stencil& s) {
+  const Index n = count(s);
+  std::vector<double> out(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    double sum = 0.0;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double, double, double, double w) { sum += w; });
+    out[static_cast<std::size_t>(i)] = sum;
+  }
+  return out;
+}
+
+void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
+              GradientVariant variant) {
+  const Index n = count(s);
+  check_size(phi.size(), s.particles.size(), "phi");
+  check_size(gx.size(), s.particles.size(), "gx");
+  check_size(gy.size(), s.particles.size(), "gy");
+  const double scale = kDim / s.kernel.n0;
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double ref = phi[i];
+    if (variant == GradientVariant::min_reference)
+      for_each_pair(s, i, [&](std::size_t j, double, double, double, double) { ref = std::min(ref, phi[j]); });
+    double sx = 0.0, sy = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
+      const double f = (phi[j] - ref) * w / r2;
+      sx += f * dx;
+      sy += f * dy;
+    });
+    gx[i] = scale * sx;
+    gy[i] = scale * sy;
+  }
+}
+
+void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out) {
+  const Index n = count(s);
+  check_size(u.size(), s.particles.size(), "u");
+  check_size(v.size(), s.particles.size(), "v");
+  check_size(out.size(), s.particles.size(), "out");
+  const double scale = kDim / s.kernel.n0;
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double sum = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
+      sum += ((u[j] - u[i]) * dx + (v[j] - v[i]) * dy) * w / r2;
+    });
+    out[i] = scale * sum;
+  }
+}
+
+void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out) {
+  const Index n = count(s);
+  check_size(phi.size(), s.particles.size(), "phi");
+  check_size(out.size(), s.particles.size(), "out");
+  const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double sum = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, double, double, double, double w) { sum += (phi[j] - phi[i]) * w; });
+    out[i] = scale * sum;
+  }
+}
+
+CsrMatrix laplacian_matrix(const Stencil& s) {
+  const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
+  return pair_matrix(s, true, [scale](double, double, double, double w) { return scale * w; });
+}
+
+GradientMatrices gradient_matrices(const Stencil& s) {
+  const double scale = kDim / s.kernel.n0;
+  return {pair_matrix(s, true, [scale](double dx, double, double r2, double w) { return scale * dx * w / r2; }),
+          pair_matrix(s, true, [scale](double, double dy, double r2, double w) { return scale * dy * w / r2; })};
+}
+
+}  // namespace mps

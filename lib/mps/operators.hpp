@@ -1,0 +1,48 @@
+#pragma once
+// The MPS particle operators (design §3), each as a loop over neighbour pairs and as a CSR matrix that
+// gives the same numbers. Sums run over every active neighbour (fluid, wall and dummy alike).
+#include <span>
+#include <vector>
+
+#include "mps/csr.hpp"
+#include "mps/kernel.hpp"
+#include "mps/neighbors.hpp"
+#include "mps/particles.hpp"
+
+namespace mps {
+
+// What one operator application needs: where the particles are, who neighbours whom, and the weight.
+// The neighbour list's radius may exceed the kernel's; pairs beyond kernel.re weigh zero.
+struct Stencil {
+  const Particles& particles;
+  const Domain& domain;
+  const NeighborList& neighbors;
+  const Kernel& kernel;
+};
+
+// n_i = sum_j w_ij
+std::vector<double> number_density(const Stencil& s);
+
+enum class GradientVariant {
+  plain,          // (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij
+  min_reference,  // phi_i replaced by the minimum over i and its neighbours (Koshizuka 1998): keeps the
+                  // pressure gradient repulsive, which suppresses particle clustering
+};
+void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
+              GradientVariant variant = GradientVariant::plain);
+
+// (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
+void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);
+
+// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij
+void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out);
+
+CsrMatrix laplacian_matrix(const Stencil& s);
+
+// grad phi = (x * phi, y * phi) and div(u, v) = x * u + y * v: the divergence uses the same two matrices.
+struct GradientMatrices {
+  CsrMatrix x, y;
+};
+GradientMatrices gradient_matrices(const Stencil& s);
+
+}  // namespace mps

@@ -1,0 +1,207 @@
+#include "mps/ppe.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace mps {
+namespace {
+
+using Index = std::ptrdiff_t;
+
+bool in_ppe_sum(Kind k) { return k == Kind::fluid || k == Kind::wall; }
+
+int find_root(std::vector<int>& parent, int a) {
+  while (parent[static_cast<std::size_t>(a)] != a) {
+    parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
+    a = parent[static_cast<std::size_t>(a)];
+  }
+  return a;
+}
+
+}  // namespace
+
+std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
+                                 double rho, double dt, double gamma) {
+  if (!(gamma >= 0.0 && gamma <= 1.0))
+    throw std::invalid_argument("mixed source: gamma must be in [0, 1], got " + std::to_string(gamma));
+  if (!(dt > 0.0)) throw std::invalid_argument("mixed source: time step must be positive");
+  if (n_star.size() != div_u_star.size()) throw std::invalid_argument("mixed source: n* and div u* differ in length");
+  std::vector<double> s(n_star.size());
+  for (std::size_t i = 0; i < s.size(); ++i)
+    s[i] = (1.0 - gamma) * rho / dt * div_u_star[i] - gamma * rho / (dt * dt) * (n_star[i] - n0) / n0;
+  return s;
+}
+
+std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
+                                      double beta) {
+  if (!(beta > 0.0 && beta < 1.0)) throw std::invalid_argument("free surface: beta must be in (0, 1)");
+  std::vector<char> surface(particles.size(), 0);
+  for (std::size_t i = 0; i < surface.size(); ++i)
+    surface[i] = in_ppe_sum(particles.kind[i]) && n_star[i] < beta * n0;
+  return surface;
+}
+
+PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source) {
+  const Particles& p = s.particles;
+  const std::size_t n = p.size();
+  if (free_surface.size() != n || source.size() != n)
+    throw std::invalid_argument("assemble_ppe: free-surface flags and source must have one entry per particle");
+  const double c = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
+
+  // Who enters a Laplacian sum: fluid particles (free-surface ones as Dirichlet P = 0) and wet walls. A dry
+  // wall (a wall flagged free surface: above the water line) is a zero-flux boundary like a dummy, not a
+  // P = 0 neighbour: were it Dirichlet, fluid at a contact line would see more P = 0 neighbours than fluid
+  // at the open surface, and the low-pressure pocket this makes draws the fluid up the wall.
+  auto in_sum = [&](std::size_t j) { return p.kind[j] == Kind::fluid || (p.kind[j] == Kind::wall && !free_surface[j]); };
+  // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
+  auto ppe_weight = [&](std::size_t i, auto&& each) {
+    double diag = 0.0;
+    for (int jj : s.neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (!in_sum(j)) continue;
+      const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
+      const double w = s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1]));
+      if (w <= 0.0) continue;
+      diag += w;
+      each(j, w);
+    }
+    return diag;
+  };
+
+  PpeSystem sys;
+  sys.unknown.assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!in_ppe_sum(p.kind[i]) || free_surface[i]) continue;
+    if (ppe_weight(i, [](std::size_t, double) {}) <= 0.0) continue;
+    sys.unknown[i] = static_cast<int>(sys.particle.size());
+    sys.particle.push_back(static_cast<int>(i));
+  }
+  const auto m = static_cast<Index>(sys.particle.size());
+  CsrMatrix& a = sys.matrix;
+  a.rows = a.cols = static_cast<int>(m);
+  a.row_ptr.assign(static_cast<std::size_t>(m) + 1, 0);
+  sys.rhs.resize(static_cast<std::size_t>(m));
+  std::vector<char> anchored(static_cast<std::size_t>(m), 0);
+
+#pragma omp parallel for schedule(static)
+  for (Index r = 0; r < m; ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+    int entries = 1;
+    ppe_weight(i, [&](std::size_t j, double) { entries += sys.unknown[j] >= 0; });
+    a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
+  }
+  for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
+  a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
+  a.val.resize(a.col.size());
+
+  // Unknowns are numbered in particle order and neighbour lists are sorted, so columns come out sorted
+  // once the diagonal is slotted in at its place.
+#pragma omp parallel for schedule(static)
+  for (Index r = 0; r < m; ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+    auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
+    std::size_t diag_slot = 0;
+    bool placed = false;
+    const double diag = ppe_weight(i, [&](std::size_t j, double w) {
+      const int col = sys.unknown[j];
+      if (col < 0) {
+        anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
+        return;
+      }
+      if (!placed && col > r) {
+        diag_slot = k++;
+        placed = true;
+      }
+      a.col[k] = col;
+      a.val[k++] = -c * w;
+    });
+    if (!placed) diag_slot = k++;
+    a.col[diag_slot] = static_cast<int>(r);
+    a.val[diag_slot] = c * diag;
+    sys.rhs[static_cast<std::size_t>(r)] = -source[i];
+  }
+
+  // Connected groups of unknowns; those without a Dirichlet neighbour are singular and get the gauge.
+  std::vector<int> parent(static_cast<std::size_t>(m));
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int r = 0; r < m; ++r)
+    for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+      const int ra = find_root(parent, r), rb = find_root(parent, a.col[static_cast<std::size_t>(k)]);
+      if (ra != rb) parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+    }
+  std::vector<char> root_anchored(static_cast<std::size_t>(m), 0);
+  for (int r = 0; r < m; ++r)
+    if (anchored[static_cast<std::size_t>(r)]) root_anchored[static_cast<std::size_t>(find_root(parent, r))] = 1;
+  sys.group.assign(static_cast<std::size_t>(m), -1);
+  std::vector<int> group_of_root(static_cast<std::size_t>(m), -1);
+  for (int r = 0; r < m; ++r) {
+    const int root = find_root(parent, r);
+    if (root_anchored[static_cast<std::size_t>(root)]) continue;
+    int& g = group_of_root[static_cast<std::size_t>(root)];
+    if (g < 0) {
+      g = static_cast<int>(sys.floating.size());
+      sys.floating.push_back({r, 0, 0.0});  // roots are the lowest member, met first
+    }
+    sys.group[static_cast<std::size_t>(r)] = g;
+    ++sys.floating[static_cast<std::size_t>(g)].size;
+    sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean += sys.rhs[static_cast<std::size_t>(r)];
+  }
+  for (auto& g : sys.floating) {
+    g.removed_rhs_mean /= g.size;
+    const int pin = g.pinned;
+    for (int k = a.row_ptr[static_cast<std::size_t>(pin)]; k < a.row_ptr[static_cast<std::size_t>(pin) + 1]; ++k)
+      if (a.col[static_cast<std::size_t>(k)] == pin) a.val[static_cast<std::size_t>(k)] *= 2.0;
+  }
+  for (Index r = 0; r < m; ++r) {
+    const int g = sys.group[static_cast<std::size_t>(r)];
+    if (g >= 0) sys.rhs[static_cast<std::size_t>(r)] -= sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean;
+  }
+  return sys;
+}
+
+std::vector<double> PpeSystem::gather(const Particles& particles) const {
+  std::vector<double> x(particle.size());
+  for (std::size_t r = 0; r < x.size(); ++r) x[r] = particles.p[static_cast<std::size_t>(particle[r])];
+  return x;
+}
+
+void PpeSystem::scatter(std::span<const double> solution, Particles& particles, bool clamp_negative) const {
+  if (solution.size() != particle.size()) throw std::invalid_argument("PpeSystem::scatter: wrong solution length");
+  std::vector<double> mean(floating.size(), 0.0);
+  for (std::size_t r = 0; r < solution.size(); ++r)
+    if (group[r] >= 0) mean[static_cast<std::size_t>(group[r])] += solution[r];
+  for (std::size_t g = 0; g < mean.size(); ++g) mean[g] /= floating[g].size;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (in_ppe_sum(particles.kind[i])) particles.p[i] = 0.0;
+  for (std::size_t r = 0; r < solution.size(); ++r) {
+    double& pr = particles.p[static_cast<std::size_t>(particle[r])];
+    if (group[r] >= 0) pr = solution[r] - mean[static_cast<std::size_t>(group[r])];
+    else pr = clamp_negative ? std::max(0.0, solution[r]) : solution[r];
+  }
+}
+
+void set_dummy_pressure(const Stencil& s, Particles& p, double rho, double fx, double fy) {
+  const auto n = static_cast<Index>(p.size());
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::dummy) continue;
+    double best_r2 = s.kernel.re * s.kernel.re, pressure = 0.0;
+    for (int jj : s.neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (p.kind[j] != Kind::wall) continue;
+      const auto d = s.domain.displacement(p.x[j], p.y[j], p.x[i], p.y[i]);  // r_dummy - r_wall
+      const double r2 = d[0] * d[0] + d[1] * d[1];
+      if (r2 < best_r2) {  // strict: the lowest-numbered of equally near walls wins, whatever the threads do
+        best_r2 = r2;
+        pressure = p.p[j] + rho * (fx * d[0] + fy * d[1]);
+      }
+    }
+    p.p[i] = pressure;
+  }
+}
+
+}  // namespace mps

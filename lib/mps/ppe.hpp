@@ -1,0 +1,69 @@
+#pragma once
+// Pressure Poisson equation with the mixed source term (seed 004, eq. 4), assembled straight into CSR.
+//
+// Unknowns: fluid and wall particles that are not on the free surface. Free-surface fluid particles are
+// Dirichlet P = 0 and eliminated: they add to their neighbours' diagonals only, so the matrix stays
+// symmetric. Dummy particles and dry walls (wall particles flagged free surface, e.g. above the water
+// line) are not unknowns and not in the Laplacian sum: a zero-flux wall.
+// The stored matrix is A = -(discrete Laplacian): symmetric positive definite when every connected
+// group of unknowns touches the free surface, so CG and Cholesky apply.
+//
+// Closed domains (a connected group of unknowns with no free-surface neighbour, e.g. a sealed channel)
+// give a singular all-Neumann block whose null space is the constant pressure. For each such group the
+// assembly (1) removes the mean of the right-hand side over the group, the part no pressure field can
+// produce, (2) doubles the diagonal of one member (the lowest-numbered), which fixes that member's
+// pressure to 0 without touching symmetry or the sparsity pattern, and PpeSystem::scatter (3) shifts
+// the group's solution to zero mean. The result is the unique zero-mean solution of the consistent
+// singular system, identical whichever solver produced it.
+#include <span>
+#include <vector>
+
+#include "mps/csr.hpp"
+#include "mps/operators.hpp"
+#include "mps/particles.hpp"
+
+namespace mps {
+
+// (1 - gamma) (rho/dt) div u*_i - gamma (rho/dt^2) (n*_i - n0)/n0, the right-hand side of lap P = ...
+std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
+                                 double rho, double dt, double gamma);
+
+// Fluid and wall particles with n* < beta n0. Dummies and ghosts are never flagged.
+std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
+                                      double beta);
+
+struct FloatingGroup {
+  int pinned = -1;              // unknown whose diagonal was doubled
+  int size = 0;                 // unknowns in the group
+  double removed_rhs_mean = 0;  // mean of b taken out over the group (the inconsistent part)
+};
+
+struct PpeSystem {
+  CsrMatrix matrix;            // A = -lap restricted to the unknowns
+  std::vector<double> rhs;     // b = -source
+  std::vector<int> unknown;    // particle -> unknown, or -1
+  std::vector<int> particle;   // unknown -> particle
+  std::vector<int> group;      // unknown -> index into floating, or -1 when anchored by a free surface
+  std::vector<FloatingGroup> floating;
+
+  [[nodiscard]] std::size_t size() const { return particle.size(); }
+  // Particle pressures of the unknowns, as an initial guess (warm start).
+  [[nodiscard]] std::vector<double> gather(const Particles& particles) const;
+  // Writes the solution to the particles: unknowns get it (floating groups shifted to zero mean), fluid
+  // and wall particles that are not unknowns get 0; dummies are left for set_dummy_pressure.
+  // clamp_negative sets negative pressures to 0 in groups that touch a free surface: liquid there cannot
+  // hold tension, and letting it (the number-density deficit near a surface asks for suction) is MPS's
+  // tensile instability. Floating groups are never clamped, their level being a gauge.
+  void scatter(std::span<const double> solution, Particles& particles, bool clamp_negative = false) const;
+};
+
+// `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
+// `source` are per particle.
+PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source);
+
+// Dummy pressure from the nearest wall particle in its stencil, carried hydrostatically under body force f:
+// P_wall + rho f.(r_dummy - r_wall); 0 if no wall is in reach. The nearest wall, not an average: walls at
+// other heights mix in surface walls (P = 0) whose hydrostatic carry would invent pressure at the contact line.
+void set_dummy_pressure(const Stencil& s, Particles& particles, double rho, double fx, double fy);
+
+}  // namespace mps

@@ -1,0 +1,286 @@
+#include "mps/step.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace mps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Index = std::ptrdiff_t;
+
+double lap(Clock::time_point& t) {
+  const auto now = Clock::now();
+  const double s = std::chrono::duration<double>(now - t).count();
+  t = now;
+  return s;
+}
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument("simulation config: " + message);
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+void SimulationConfig::validate() const {
+  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  require(positive(l0), "particle spacing l0 must be positive, got " + fmt(l0));
+  require(positive(radius_density) && radius_density > 1.0, "radius_density must exceed 1 (in l0), got " + fmt(radius_density));
+  require(positive(radius_surface) && radius_surface > 1.0, "radius_surface must exceed 1 (in l0), got " + fmt(radius_surface));
+  require(positive(radius_gradient) && radius_gradient > 1.0, "radius_gradient must exceed 1 (in l0), got " + fmt(radius_gradient));
+  require(positive(radius_laplacian) && radius_laplacian > 1.0, "radius_laplacian must exceed 1 (in l0), got " + fmt(radius_laplacian));
+  require(positive(rho), "density rho must be positive, got " + fmt(rho));
+  require(nu >= 0.0 && std::isfinite(nu), "viscosity nu must be >= 0, got " + fmt(nu));
+  require(std::isfinite(fx) && std::isfinite(fy), "body force must be finite");
+  require(gamma >= 0.0 && gamma <= 1.0, "gamma must be in [0, 1], got " + fmt(gamma));
+  require(beta > 0.0 && beta < 1.0, "beta must be in (0, 1), got " + fmt(beta));
+  require(positive(dt_max), "time step dt_max must be positive, got " + fmt(dt_max));
+  require(positive(cfl), "cfl must be positive, got " + fmt(cfl));
+  require(positive(viscous_number), "viscous_number must be positive, got " + fmt(viscous_number));
+  require(collision_distance >= 0.0 && collision_distance < radius_gradient,
+          "collision_distance must be in [0, radius_gradient) (in l0), got " + fmt(collision_distance));
+  require(collision_restitution >= 0.0 && collision_restitution <= 1.0, "collision_restitution must be in [0, 1]");
+  require(reorder_every >= 0, "reorder_every must be >= 0");
+  require(positive(max_displacement), "max_displacement must be positive (in l0)");
+  require(max_speed > 0.0, "max_speed must be positive");
+}
+
+Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config)
+    : Simulation(std::move(particles), domain, config, make_solver(config.solver)) {}
+
+Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config,
+                       std::unique_ptr<LinearSolver> solver)
+    : particles_(std::move(particles)),
+      domain_(domain),
+      config_(std::move(config)),
+      solver_(std::move(solver)),
+      k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight)),
+      k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight)),
+      k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight)),
+      k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight)),
+      grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
+                                            config_.radius_laplacian})) {
+  config_.validate();
+  if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
+  if (particles_.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: the domain holds no fluid particles");
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
+      throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at (" + fmt(particles_.x[i]) + ", " +
+                                  fmt(particles_.y[i]) + ") starts outside the domain");
+}
+
+double Simulation::choose_dt(std::string& limit) const {
+  double umax2 = 0.0;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    if (particles_.kind[i] == Kind::fluid)
+      umax2 = std::max(umax2, particles_.u[i] * particles_.u[i] + particles_.v[i] * particles_.v[i]);
+  double dt = config_.dt_max;
+  limit = "dt_max";
+  const double umax = std::sqrt(umax2);
+  if (umax > 0.0 && config_.cfl * config_.l0 / umax < dt) {
+    dt = config_.cfl * config_.l0 / umax;
+    limit = "cfl";
+  }
+  if (config_.nu > 0.0 && config_.viscous_number * config_.l0 * config_.l0 / config_.nu < dt) {
+    dt = config_.viscous_number * config_.l0 * config_.l0 / config_.nu;
+    limit = "viscous";
+  }
+  return dt;
+}
+
+const StepInfo& Simulation::step() {
+  const Particles before = particles_;
+  const StepInfo info_before = info_;
+  try {
+    advance();
+    check_guard();
+  } catch (const SolverError& e) {
+    particles_ = before;
+    info_ = info_before;
+    throw SimulationError("step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
+                          " s): pressure solve failed: " + e.what());
+  } catch (const SimulationError&) {
+    particles_ = before;
+    info_ = info_before;
+    throw;
+  }
+  return info_;
+}
+
+void Simulation::advance() {
+  Particles& p = particles_;
+  const auto n = static_cast<Index>(p.size());
+  auto t = Clock::now();
+  const double dt = choose_dt(info_.dt_limit);
+  info_.dt = dt;
+
+  if (config_.reorder_every > 0 && info_.step % config_.reorder_every == 0) {
+    grid_.bin(p);
+    p.permute(grid_.cell_order());
+  }
+  grid_.bin(p);
+  const NeighborList near_now = grid_.neighbors(p, k_laplacian_.re);  // viscosity only
+  times_.neighbors += lap(t);
+
+  // Predictor: explicit viscosity and body force; walls and dummies carry their (prescribed) velocity into
+  // the viscous sum, which is the no-slip condition.
+  {
+    const Stencil s{p, domain_, near_now, k_laplacian_};
+    std::vector<double> lu(p.size()), lv(p.size());
+    laplacian(s, p.u, lu);
+    laplacian(s, p.v, lv);
+#pragma omp parallel for schedule(static)
+    for (Index ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      if (p.kind[i] != Kind::fluid) continue;
+      p.u[i] += dt * (config_.nu * lu[i] + config_.fx);
+      p.v[i] += dt * (config_.nu * lv[i] + config_.fy);
+      p.x[i] += dt * p.u[i];
+      p.y[i] += dt * p.v[i];
+      domain_.wrap(p.x[i], p.y[i]);
+    }
+  }
+  if (motion_) motion_(p, info_.time + dt);
+  times_.predict += lap(t);
+
+  // Two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
+  grid_.bin(p);
+  const NeighborList near_star = grid_.neighbors(p, grid_.cell_size());
+  const Kernel* kernels[] = {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_};
+  double small_radius = 0.0;
+  for (const Kernel* k : kernels)
+    if (k->re < grid_.cell_size() * (1.0 - 1e-12)) small_radius = std::max(small_radius, k->re);
+  const NeighborList close_star = small_radius > 0.0 ? grid_.neighbors(p, small_radius) : NeighborList{};
+  const auto list_for = [&](const Kernel& k) -> const NeighborList& {
+    return k.re <= small_radius ? close_star : near_star;
+  };
+  times_.neighbors += lap(t);
+
+  const Stencil grad{p, domain_, list_for(k_gradient_), k_gradient_};
+  const Stencil lapl{p, domain_, list_for(k_laplacian_), k_laplacian_};
+  n_star_ = mps::number_density({p, domain_, list_for(k_density_), k_density_});
+  const std::vector<double> n_surface = k_surface_.re == k_density_.re
+                                            ? n_star_
+                                            : mps::number_density({p, domain_, list_for(k_surface_), k_surface_});
+  std::vector<double> div(p.size());
+  divergence(grad, p.u, p.v, div);
+  const std::vector<char> surface = detect_free_surface(p, n_surface, k_surface_.n0, config_.beta);
+  std::vector<double> source = mixed_source(n_star_, k_density_.n0, div, config_.rho, dt, config_.gamma);
+  if (k_surface_.re != k_density_.re) {
+    // Where the source kernel reaches past the free surface, its number density deficit is geometry, not
+    // expansion, and would ask for suction: there the surface-radius number density stands in.
+    const std::vector<double> near_surface_source =
+        mixed_source(n_surface, k_surface_.n0, div, config_.rho, dt, config_.gamma);
+    const NeighborList& reach = list_for(k_density_);
+#pragma omp parallel for schedule(static)
+    for (Index ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      for (int j : reach.of(i))
+        if (surface[static_cast<std::size_t>(j)]) {
+          source[i] = near_surface_source[i];
+          break;
+        }
+    }
+  }
+  ppe_ = assemble_ppe(lapl, surface, source);
+  info_.unknowns = ppe_.size();
+  info_.free_surface = static_cast<std::size_t>(std::count(surface.begin(), surface.end(), 1));
+  info_.floating_groups = ppe_.floating.size();
+  times_.assemble += lap(t);
+
+  std::vector<double> pressure = ppe_.gather(p);  // warm start from the previous step
+  if (ppe_.size() > 0) info_.solve = solver_->solve(ppe_.matrix, ppe_.rhs, pressure);
+  times_.solver_setup += info_.solve.setup_seconds;
+  times_.solve += lap(t) - info_.solve.setup_seconds;
+
+  ppe_.scatter(pressure, p, config_.clamp_negative_pressure);
+  set_dummy_pressure(lapl, p, config_.rho, config_.fx, config_.fy);
+  std::vector<double> gx(p.size()), gy(p.size());
+  gradient(grad, p.p, gx, gy, config_.pressure_gradient);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] != Kind::fluid) continue;
+    const double du = -dt / config_.rho * gx[i], dv = -dt / config_.rho * gy[i];
+    p.u[i] += du;
+    p.v[i] += dv;
+    p.x[i] += dt * du;  // x^{n+1} = x^n + dt u^{n+1}, the predictor having moved it by dt u*
+    p.y[i] += dt * dv;
+    domain_.wrap(p.x[i], p.y[i]);
+  }
+  if (config_.collision_distance > 0.0) collide(grad.neighbors, dt);
+  double umax2 = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
+  info_.max_speed = std::sqrt(umax2);
+  info_.time += dt;
+  ++info_.step;
+  times_.correct += lap(t);
+}
+
+void Simulation::collide(const NeighborList& neighbors, double dt) {
+  Particles& p = particles_;
+  const auto n = static_cast<Index>(p.size());
+  const double reach = config_.collision_distance * config_.l0, e = config_.collision_restitution;
+  // Velocity changes from the pre-collision velocities of both partners: symmetric and order-independent.
+  std::vector<double> du(p.size(), 0.0), dv(p.size(), 0.0);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::fluid) continue;
+    for (int jj : neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      const auto d = domain_.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
+      const double r = std::hypot(d[0], d[1]);
+      if (r >= reach || r <= 0.0) continue;
+      const double nx = d[0] / r, ny = d[1] / r;
+      const double approach = (p.u[i] - p.u[j]) * nx + (p.v[i] - p.v[j]) * ny;
+      if (approach <= 0.0) continue;
+      const double share = (p.kind[j] == Kind::fluid ? 0.5 : 1.0) * (1.0 + e) * approach;
+      du[i] -= share * nx;
+      dv[i] -= share * ny;
+    }
+  }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.u[i] += du[i];
+    p.v[i] += dv[i];
+    p.x[i] += dt * du[i];
+    p.y[i] += dt * dv[i];
+    domain_.wrap(p.x[i], p.y[i]);
+  }
+}
+
+void Simulation::check_guard() const {
+  const Particles& p = particles_;
+  auto fail = [&](const std::string& what) {
+    throw SimulationError("step " + std::to_string(info_.step) + " (t = " + fmt(info_.time) + " s, dt = " +
+                          fmt(info_.dt) + " s, dt limit " + info_.dt_limit + "): " + what);
+  };
+  // A fluid particle moves by exactly dt |u^{n+1}| in a step, so the displacement bound is a speed bound.
+  const double max_move = config_.max_displacement * config_.l0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == Kind::ghost) continue;
+    const double speed = std::hypot(p.u[i], p.v[i]);
+    if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
+      fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up "
+           "(reduce dt_max or cfl)");
+    if (!domain_.contains(p.x[i], p.y[i]))
+      fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at (" +
+           fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable (reduce dt_max or cfl)");
+    if (speed > config_.max_speed)
+      fail("particle " + std::to_string(i) + " moves at " + fmt(speed) + " m/s, above max_speed " +
+           fmt(config_.max_speed) + " m/s (reduce dt_max or cfl)");
+    if (p.kind[i] == Kind::fluid && info_.dt * speed > max_move)
+      fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
+           " l0 in one step, above the limit of " + fmt(config_.max_displacement) +
+           " l0: velocity blow-up (reduce dt_max or cfl)");
+  }
+}
+
+}  // namespace mps

@@ -1,0 +1,117 @@
+#pragma once
+// The semi-implicit MPS step (design §3), time-step control and the stability guard:
+// neighbours -> predictor (viscosity, body force) -> n*, div u* -> PPE -> solve -> pressure-gradient corrector.
+#include <functional>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "mps/kernel.hpp"
+#include "mps/neighbors.hpp"
+#include "mps/operators.hpp"
+#include "mps/particles.hpp"
+#include "mps/ppe.hpp"
+#include "mps/solvers/solver.hpp"
+
+namespace mps {
+
+struct SimulationConfig {
+  double l0 = 0;  // initial particle spacing [m]
+  // Kernel radii in units of l0. Seed 004 uses 2.1 for number density and gradient and 4.1 for the
+  // Laplacian. We measure the PPE source's number density at the Laplacian's radius (radius_density):
+  // with n* at 2.1 and the Laplacian at 4.1, a band of short waves (k ~ 0.8 pi/l0) is corrected with the
+  // wrong sign, growing by ~(1 + 0.03 gamma) per step whatever dt is; at 4.1 every mode is damped for any
+  // gamma <= 1 (README, "Numerics"). Free-surface detection keeps the 2.1 number density (radius_surface).
+  double radius_density = 2.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;
+  Weight weight = Weight::bounded;
+  double rho = 1000.0;          // density [kg/m^3]
+  double nu = 1e-6;             // kinematic viscosity [m^2/s]
+  double fx = 0.0, fy = 0.0;    // body force per unit mass [m/s^2]
+  double gamma = 0.99;          // mixed source weight: 1 = number density error only, 0 = divergence only
+  double beta = 0.97;           // free surface: n* < beta n0
+  double dt_max = 0;            // the time step when neither limit below binds [s]
+  double cfl = 0.2;             // dt <= cfl l0 / |u|max
+  double viscous_number = 0.2;  // dt <= viscous_number l0^2 / nu (explicit viscosity)
+  GradientVariant pressure_gradient = GradientVariant::min_reference;
+  bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
+  // Collision model (Koshizuka et al. 1998): fluid pairs closer than collision_distance l0 that still
+  // approach lose (1 + e)/2 of their approach speed (all of (1 + e) against a wall or dummy). 0 = off.
+  double collision_distance = 0.0;
+  double collision_restitution = 0.2;
+  int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
+  double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
+  double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
+  std::string solver = "eigen-cg";
+
+  void validate() const;  // throws std::invalid_argument naming the bad parameter and its valid range
+};
+
+struct StepInfo {
+  int step = 0;                 // steps completed
+  double time = 0, dt = 0;
+  std::string dt_limit;         // which bound set dt: "dt_max", "cfl" or "viscous"
+  SolveReport solve;
+  std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;
+  double max_speed = 0;
+};
+
+struct PhaseTimes {
+  double neighbors = 0, predict = 0, assemble = 0, solver_setup = 0, solve = 0, correct = 0;
+  [[nodiscard]] double total() const { return neighbors + predict + assemble + solver_setup + solve + correct; }
+};
+
+// A step that could not be completed: unstable motion, a failed solve. The simulation's state is that of
+// the last good step.
+class SimulationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Simulation {
+ public:
+  Simulation(Particles particles, Domain domain, SimulationConfig config);
+  Simulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
+
+  // Advances one step or throws SimulationError and keeps the previous state.
+  const StepInfo& step();
+
+  // Called after the predictor with the particles and the new time: sets wall/dummy positions and
+  // velocities of moving boundaries.
+  using BoundaryMotion = std::function<void(Particles&, double time)>;
+  void set_boundary_motion(BoundaryMotion motion) { motion_ = std::move(motion); }
+
+  [[nodiscard]] const Particles& particles() const { return particles_; }
+  [[nodiscard]] const Domain& domain() const { return domain_; }
+  [[nodiscard]] const SimulationConfig& config() const { return config_; }
+  [[nodiscard]] const LinearSolver& solver() const { return *solver_; }
+  [[nodiscard]] const StepInfo& last_step() const { return info_; }
+  [[nodiscard]] const PhaseTimes& times() const { return times_; }
+  [[nodiscard]] double time() const { return info_.time; }
+  [[nodiscard]] const Kernel& density_kernel() const { return k_density_; }
+  [[nodiscard]] const Kernel& surface_kernel() const { return k_surface_; }
+  [[nodiscard]] const Kernel& gradient_kernel() const { return k_gradient_; }
+  [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
+  [[nodiscard]] const std::vector<double>& number_density() const { return n_star_; }  // source n* of the last step
+  [[nodiscard]] const PpeSystem& last_ppe() const { return ppe_; }
+
+ private:
+  void advance();
+  void check_guard() const;
+  void collide(const NeighborList& neighbors, double dt);
+  [[nodiscard]] double choose_dt(std::string& limit) const;
+
+  Particles particles_;
+  Domain domain_;
+  SimulationConfig config_;
+  std::unique_ptr<LinearSolver> solver_;
+  Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
+  CellGrid grid_;
+  BoundaryMotion motion_;
+  StepInfo info_;
+  PhaseTimes times_;
+  std::vector<double> n_star_;
+  PpeSystem ppe_;
+};
+
+}  // namespace mps

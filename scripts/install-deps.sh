@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian packages SparseMPS builds and runs with, skipping what is already installed.
+# Everything comes from Debian: no downloads, no vendored third-party code.
+set -euo pipefail
+
+packages=(
+  cmake make g++ pkg-config
+  libeigen3-dev          # sparse matrices, CG/BiCGSTAB, incomplete Cholesky
+  libsuitesparse-dev     # CHOLMOD
+  libopenblas-dev        # optimised BLAS behind CHOLMOD's supernodal factorisation
+  libhypre-dev           # BoomerAMG
+  libopenmpi-dev openmpi-bin
+  libgtest-dev
+  libcli11-dev nlohmann-json3-dev
+  python3-matplotlib python3-numpy   # charts from bench/ and apps/
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "install-deps: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+  sudo=sudo
+fi
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,110 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "mps/geometry.hpp"
+#include "mps/neighbors.hpp"
+
+namespace {
+
+mps::Particles random_particles(std::size_t n, const mps::Domain& d, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(d.xmin, d.xmax), uy(d.ymin, d.ymax);
+  mps::Particles p;
+  for (std::size_t i = 0; i < n; ++i) p.add(ux(rng), uy(rng), i % 7 == 0 ? mps::Kind::wall : mps::Kind::fluid);
+  p.kind[5] = mps::Kind::ghost;  // ghosts neither have nor are neighbours
+  return p;
+}
+
+std::vector<std::vector<int>> brute_force(const mps::Particles& p, const mps::Domain& d, double radius) {
+  std::vector<std::vector<int>> out(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == mps::Kind::ghost) continue;
+    for (std::size_t j = 0; j < p.size(); ++j) {
+      if (i == j || p.kind[j] == mps::Kind::ghost) continue;
+      const auto r = d.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
+      if (r[0] * r[0] + r[1] * r[1] < radius * radius) out[i].push_back(static_cast<int>(j));
+    }
+  }
+  return out;
+}
+
+void expect_same_as_brute_force(const mps::Domain& d, double radius, unsigned seed) {
+  const mps::Particles p = random_particles(1500, d, seed);
+  const mps::NeighborList list = mps::find_neighbors(p, d, radius);
+  const auto expected = brute_force(p, d, radius);
+  ASSERT_EQ(list.particles(), p.size());
+  std::size_t pairs = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = list.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), expected[i]) << "particle " << i;
+    pairs += expected[i].size();
+  }
+  EXPECT_EQ(list.pairs(), pairs);
+  EXPECT_GT(pairs, 10 * p.size());  // the radius really finds neighbours
+}
+
+TEST(Neighbors, MatchBruteForceWithoutPeriodicity) { expect_same_as_brute_force({0, 1, 0, 0.7}, 0.08, 1); }
+
+TEST(Neighbors, MatchBruteForceWithPeriodicX) { expect_same_as_brute_force({0, 1, 0, 0.7, true, false}, 0.08, 2); }
+
+TEST(Neighbors, MatchBruteForceWithBothAxesPeriodic) { expect_same_as_brute_force({-1, 0, 2, 2.5, true, true}, 0.1, 3); }
+
+TEST(Neighbors, OneBinningServesSmallerRadii) {
+  const mps::Domain d{0, 1, 0, 1, true, false};
+  const mps::Particles p = random_particles(800, d, 4);
+  mps::CellGrid grid(d, 0.12);
+  grid.bin(p);
+  const auto list = grid.neighbors(p, 0.05);
+  const auto expected = brute_force(p, d, 0.05);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = list.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), expected[i]);
+  }
+  EXPECT_THROW((void)grid.neighbors(p, 0.2), std::invalid_argument);
+}
+
+TEST(Neighbors, CellOrderIsAPermutationThatKeepsNeighbourSets) {
+  const mps::Domain d{0, 1, 0, 1};
+  mps::Particles p = random_particles(600, d, 5);
+  mps::CellGrid grid(d, 0.1);
+  grid.bin(p);
+  std::vector<int> order = grid.cell_order();
+  std::vector<int> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], static_cast<int>(i));
+  const auto before = brute_force(p, d, 0.1);
+  p.permute(order);
+  EXPECT_EQ(p.kind.back(), mps::Kind::ghost);  // ghosts go last
+  const auto after = mps::find_neighbors(p, d, 0.1);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    std::vector<int> ids;
+    for (int j : after.of(i)) ids.push_back(p.id[static_cast<std::size_t>(j)]);
+    std::sort(ids.begin(), ids.end());
+    EXPECT_EQ(ids, before[static_cast<std::size_t>(p.id[i])]) << "particle id " << p.id[i];
+  }
+}
+
+TEST(Neighbors, RejectsBadGrids) {
+  EXPECT_THROW(mps::CellGrid({0, 1, 0, 1}, 0.0), std::invalid_argument);
+  EXPECT_THROW(mps::CellGrid({0, 1, 0, 1}, -0.1), std::invalid_argument);
+  EXPECT_THROW(mps::CellGrid({0, 0, 0, 1}, 0.1), std::invalid_argument);            // empty domain
+  EXPECT_THROW(mps::CellGrid({0, 0.25, 0, 1, true, false}, 0.1), std::invalid_argument);  // < 3 cells periodic
+}
+
+TEST(Domain, WrapAndMinimumImage) {
+  const mps::Domain d{0, 1, -1, 1, true, false};
+  double x = 1.25, y = 0.5;
+  d.wrap(x, y);
+  EXPECT_NEAR(x, 0.25, 1e-15);
+  x = -0.1;
+  d.wrap(x, y);
+  EXPECT_NEAR(x, 0.9, 1e-15);
+  const auto r = d.displacement(0.95, 0.0, 0.05, 0.0);
+  EXPECT_NEAR(r[0], 0.1, 1e-15);
+  EXPECT_FALSE(d.contains(0.5, 1.5));
+  EXPECT_TRUE(d.contains(7.0, 0.5));  // periodic x: any x is inside
+}
+
+}  // namespace

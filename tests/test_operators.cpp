@@ -1,0 +1,146 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "mps/geometry.hpp"
+#include "mps/operators.hpp"
+
+namespace {
+
+// A 40 x 40 perfect lattice; "interior" particles are at least 4.1 l0 from its edge.
+struct Lattice {
+  double l0 = 0.1;
+  mps::Particles p;
+  mps::Domain d{-1, 5, -1, 5};
+  Lattice() { mps::fill_rectangle(p, {0, 0, 4, 4}, l0, mps::Kind::fluid); }
+  bool interior(std::size_t i, double margin) const {
+    return p.x[i] > margin && p.x[i] < 4 - margin && p.y[i] > margin && p.y[i] < 4 - margin;
+  }
+};
+
+class OperatorsOnLattice : public ::testing::TestWithParam<mps::Weight> {};
+
+TEST_P(OperatorsOnLattice, LaplacianOfQuadraticIsExactInTheInterior) {
+  Lattice L;
+  const mps::Kernel k = mps::make_kernel(4.1, L.l0, GetParam());
+  const auto list = mps::find_neighbors(L.p, L.d, k.re);
+  const mps::Stencil s{L.p, L.d, list, k};
+  std::vector<double> phi(L.p.size()), lap(L.p.size());
+  // lap(3x^2 - xy + 2y^2 + x) = 6 + 4 = 10
+  for (std::size_t i = 0; i < phi.size(); ++i) {
+    const double x = L.p.x[i], y = L.p.y[i];
+    phi[i] = 3 * x * x - x * y + 2 * y * y + x;
+  }
+  mps::laplacian(s, phi, lap);
+  int checked = 0;
+  for (std::size_t i = 0; i < phi.size(); ++i)
+    if (L.interior(i, 4.2 * L.l0)) {
+      EXPECT_NEAR(lap[i], 10.0, 1e-9) << "at (" << L.p.x[i] << ", " << L.p.y[i] << ")";
+      ++checked;
+    }
+  EXPECT_GT(checked, 900);
+}
+
+TEST_P(OperatorsOnLattice, GradientAndDivergenceOfLinearFieldsAreExact) {
+  Lattice L;
+  const mps::Kernel k = mps::make_kernel(2.1, L.l0, GetParam());
+  const auto list = mps::find_neighbors(L.p, L.d, k.re);
+  const mps::Stencil s{L.p, L.d, list, k};
+  const std::size_t n = L.p.size();
+  std::vector<double> phi(n), gx(n), gy(n), u(n), v(n), div(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    phi[i] = 2.5 * L.p.x[i] - 1.5 * L.p.y[i] + 7;
+    u[i] = 0.3 * L.p.x[i] + 2 * L.p.y[i];  // div (u, v) = 0.3 - 1.1 = -0.8
+    v[i] = -L.p.x[i] - 1.1 * L.p.y[i];
+  }
+  mps::gradient(s, phi, gx, gy);
+  mps::divergence(s, u, v, div);
+  for (std::size_t i = 0; i < n; ++i)
+    if (L.interior(i, 2.2 * L.l0)) {
+      EXPECT_NEAR(gx[i], 2.5, 1e-12);
+      EXPECT_NEAR(gy[i], -1.5, 1e-12);
+      EXPECT_NEAR(div[i], -0.8, 1e-12);
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(BothWeights, OperatorsOnLattice, ::testing::Values(mps::Weight::bounded, mps::Weight::classic));
+
+TEST(Operators, MinimumReferenceGradientIsRepulsiveAndEqualsPlainForConstantShift) {
+  Lattice L;
+  const mps::Kernel k = mps::make_kernel(2.1, L.l0);
+  const auto list = mps::find_neighbors(L.p, L.d, k.re);
+  const mps::Stencil s{L.p, L.d, list, k};
+  const std::size_t n = L.p.size();
+  // A single pressure peak: every neighbour of the peak is pushed away from it (gradient points at it).
+  std::vector<double> phi(n, 0.0), gx(n), gy(n);
+  const std::size_t peak = 20 * 40 + 20;
+  phi[peak] = 1.0;
+  mps::gradient(s, phi, gx, gy, mps::GradientVariant::min_reference);
+  for (int j : list.of(peak)) {
+    const auto jj = static_cast<std::size_t>(j);
+    const double toward = gx[jj] * (L.p.x[peak] - L.p.x[jj]) + gy[jj] * (L.p.y[peak] - L.p.y[jj]);
+    EXPECT_GT(toward, 0.0);
+  }
+  // The peak itself: with the min reference (0) all neighbours are at the reference: no force.
+  EXPECT_NEAR(gx[peak], 0.0, 1e-14);
+}
+
+TEST(Operators, LoopsAndMatricesAgreeOnDisorderedParticles) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 2, 2}, 0.05, mps::Kind::fluid);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> jitter(0.0, 0.01);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.x[i] += jitter(rng);
+    p.y[i] += jitter(rng);
+  }
+  const mps::Domain d{-0.5, 2.5, -0.5, 2.5};
+  const std::size_t n = p.size();
+  std::vector<double> f(n), g(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    f[i] = std::sin(3 * p.x[i]) * std::cos(2 * p.y[i]);
+    g[i] = p.x[i] * p.y[i];
+  }
+  for (double radius : {2.1, 4.1}) {
+    const mps::Kernel k = mps::make_kernel(radius, 0.05);
+    const auto list = mps::find_neighbors(p, d, k.re);
+    const mps::Stencil s{p, d, list, k};
+    std::vector<double> loop(n), mat(n), gx(n), gy(n), mx(n), my(n), div(n), mdiv(n);
+    mps::laplacian(s, f, loop);
+    const mps::CsrMatrix lm = mps::laplacian_matrix(s);
+    lm.validate();
+    lm.multiply(f, mat);
+    EXPECT_TRUE(lm.is_symmetric(1e-14));  // the MPS Laplacian is symmetric as a matrix
+    mps::gradient(s, f, gx, gy);
+    const mps::GradientMatrices gm = mps::gradient_matrices(s);
+    gm.x.validate();
+    gm.x.multiply(f, mx);
+    gm.y.multiply(f, my);
+    mps::divergence(s, f, g, div);
+    std::vector<double> tmp(n);
+    gm.x.multiply(f, mdiv);
+    gm.y.multiply(g, tmp);
+    double scale = 0.0;
+    for (std::size_t i = 0; i < n; ++i) scale = std::max({scale, std::abs(loop[i]), std::abs(gx[i]), std::abs(div[i])});
+    for (std::size_t i = 0; i < n; ++i) {
+      EXPECT_NEAR(loop[i], mat[i], 1e-12 * scale);
+      EXPECT_NEAR(gx[i], mx[i], 1e-12 * scale);
+      EXPECT_NEAR(gy[i], my[i], 1e-12 * scale);
+      EXPECT_NEAR(div[i], mdiv[i] + tmp[i], 1e-12 * scale);
+    }
+  }
+}
+
+TEST(Operators, NumberDensityOfInteriorLatticeParticleIsN0) {
+  Lattice L;
+  const mps::Kernel k = mps::make_kernel(2.1, L.l0);
+  const auto list = mps::find_neighbors(L.p, L.d, k.re);
+  const auto n = mps::number_density({L.p, L.d, list, k});
+  for (std::size_t i = 0; i < n.size(); ++i)
+    if (L.interior(i, 2.2 * L.l0)) {
+      EXPECT_NEAR(n[i], k.n0, 1e-12);
+    }
+}
+
+}  // namespace

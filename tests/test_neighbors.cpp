@@ -108,3 +108,18 @@ TEST(Domain, WrapAndMinimumImage) {
 }
 
 }  // namespace
+
+namespace {
+TEST(Neighbors, RestrictingAListToASmallerRadiusEqualsSearchingWithIt) {
+  const mps::Domain d{0, 1, 0, 1, true, true};
+  const mps::Particles p = random_particles(900, d, 6);
+  const auto wide = mps::find_neighbors(p, d, 0.12);
+  const auto narrow = mps::restrict_radius(wide, p, d, 0.05);
+  const auto expected = brute_force(p, d, 0.05);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = narrow.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), expected[i]);
+  }
+  EXPECT_THROW((void)mps::restrict_radius(wide, p, d, 0.2), std::invalid_argument);
+}
+}  // namespace

@@ -20,7 +20,7 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight) {
   if (!(radius_over_l0 > 1.0) || !std::isfinite(radius_over_l0))
     throw std::invalid_argument("kernel: radius must exceed one particle spacing (re/l0 > 1), got " +
                                 std::to_string(radius_over_l0));
-  Kernel k{weight, radius_over_l0 * l0, 0.0, 0.0};
+  Kernel k{weight, radius_over_l0 * l0, 0.0, 0.0, 0};
   const int n = static_cast<int>(std::ceil(radius_over_l0));
   double sum_w = 0.0, sum_wr2 = 0.0;
   for (int j = -n; j <= n; ++j)
@@ -28,6 +28,7 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight) {
       if (i == 0 && j == 0) continue;
       const double r = l0 * std::hypot(i, j);
       const double w = k.w(r);
+      k.lattice_neighbors += w > 0.0;
       sum_w += w;
       sum_wr2 += w * r * r;
     }

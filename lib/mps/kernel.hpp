@@ -16,6 +16,7 @@ struct Kernel {
   double re = 0;      // effective radius
   double n0 = 0;      // sum of w over the neighbours of an interior particle of the perfect lattice
   double lambda = 0;  // sum w r^2 / sum w on that lattice (Laplacian normalisation)
+  int lattice_neighbors = 0;  // how many neighbours that interior particle has
 
   [[nodiscard]] double w(double r) const {
     if (r >= re) return 0.0;

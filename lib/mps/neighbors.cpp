@@ -81,12 +81,17 @@ void CellGrid::bin(const Particles& particles) {
 }
 
 NeighborList CellGrid::neighbors(const Particles& particles, double radius) const {
+  NeighborList list;
+  neighbors(particles, radius, list);
+  return list;
+}
+
+void CellGrid::neighbors(const Particles& particles, double radius, NeighborList& list) const {
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
   if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
     throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
   const double r2 = radius * radius;
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
-  NeighborList list;
   list.radius = radius;
   list.offsets.assign(particles.size() + 1, 0);
 
@@ -131,13 +136,50 @@ NeighborList CellGrid::neighbors(const Particles& particles, double radius) cons
     visit(i, [&](int j) { *out++ = j; });
     std::sort(begin, out);
   }
-  return list;
 }
 
 std::vector<int> CellGrid::cell_order() const {
   std::vector<int> order(cell_particles_);
   order.insert(order.end(), ghosts_.begin(), ghosts_.end());
   return order;
+}
+
+NeighborList restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius) {
+  NeighborList out;
+  restrict_radius(list, particles, domain, radius, out);
+  return out;
+}
+
+void restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius,
+                     NeighborList& out) {
+  if (!(radius > 0.0) || radius > list.radius * (1.0 + 1e-12))
+    throw std::invalid_argument("restrict_radius: radius must be in (0, the list's radius]");
+  if (&out == &list) throw std::invalid_argument("restrict_radius: out must not be the input list");
+  const double r2 = radius * radius;
+  const auto n = static_cast<std::ptrdiff_t>(list.particles());
+  out.radius = radius;
+  out.offsets.assign(list.offsets.size(), 0);
+  auto keep = [&](std::size_t i, int j) {
+    const auto d = domain.displacement(particles.x[i], particles.y[i], particles.x[static_cast<std::size_t>(j)],
+                                       particles.y[static_cast<std::size_t>(j)]);
+    return d[0] * d[0] + d[1] * d[1] < r2;
+  };
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    int count = 0;
+    for (int j : list.of(i)) count += keep(i, j);
+    out.offsets[i + 1] = count;
+  }
+  for (std::size_t i = 1; i < out.offsets.size(); ++i) out.offsets[i] += out.offsets[i - 1];
+  out.index.resize(static_cast<std::size_t>(out.offsets.back()));
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    int* dst = out.index.data() + out.offsets[i];
+    for (int j : list.of(i))
+      if (keep(i, j)) *dst++ = j;  // stays sorted: a subsequence of a sorted row
+  }
 }
 
 NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius) {

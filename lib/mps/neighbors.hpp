@@ -49,6 +49,9 @@ class CellGrid {
   CellGrid(const Domain& domain, double cell_size);
   void bin(const Particles& particles);
   [[nodiscard]] NeighborList neighbors(const Particles& particles, double radius) const;
+  // Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
+  // the kernel hand out (and zero) fresh pages every step.
+  void neighbors(const Particles& particles, double radius, NeighborList& out) const;
   // A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
   // neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
@@ -66,6 +69,11 @@ class CellGrid {
   std::vector<int> cell_particles_;  // particle indices, grouped by cell
   std::vector<int> ghosts_;
 };
+
+// The pairs of `list` closer than radius (<= list.radius): a smaller kernel's list without a second search.
+NeighborList restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius);
+void restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius,
+                     NeighborList& out);
 
 // One-off search (bins and searches once).
 NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius);

@@ -85,7 +85,9 @@ std::vector<double> number_density(const Stencil& s) {
 }
 
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
-              GradientVariant variant) {
+              GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt) {
+  if (!carriers.empty()) check_size(carriers.size(), s.particles.size(), "carriers");
+  const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
   const Index n = count(s);
   check_size(phi.size(), s.particles.size(), "phi");
   check_size(gx.size(), s.particles.size(), "gx");
@@ -94,17 +96,41 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
+    const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
     double ref = phi[i];
-    if (variant == GradientVariant::min_reference)
-      for_each_pair(s, i, [&](std::size_t j, double, double, double, double) { ref = std::min(ref, phi[j]); });
-    double sx = 0.0, sy = 0.0;
+    if (min_ref) {
+      // The tilted minimum removes the known linear part from the classic one, never going below it: where
+      // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
+      double classic = phi[i], tilted = phi[i];
+      for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double, double) {
+        if (!carries(j)) return;
+        classic = std::min(classic, phi[j]);
+        tilted = std::min(tilted, phi[j] - min_tilt[0] * dx - min_tilt[1] * dy);
+      });
+      ref = std::max(classic, tilted);
+    }
+    double sx = 0.0, sy = 0.0, mxx = 0.0, mxy = 0.0, myy = 0.0;
     for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
+      if (!carries(j)) return;
       const double f = (phi[j] - ref) * w / r2;
       sx += f * dx;
       sy += f * dy;
+      mxx += w * dx * dx / r2;
+      mxy += w * dx * dy / r2;
+      myy += w * dy * dy / r2;
     });
-    gx[i] = scale * sx;
-    gy[i] = scale * sy;
+    sx *= scale;
+    sy *= scale;
+    const double det = scale * scale * (mxx * myy - mxy * mxy);
+    // A neighbourhood too thin to span the plane (det near 0) keeps the uncorrected value.
+    if (corrected && det > 1e-3) {
+      gx[i] = scale * (myy * sx - mxy * sy) / det;
+      gy[i] = scale * (mxx * sy - mxy * sx) / det;
+    } else {
+      gx[i] = sx;
+      gy[i] = sy;
+    }
   }
 }
 

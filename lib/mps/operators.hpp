@@ -1,6 +1,7 @@
 #pragma once
 // The MPS particle operators (design §3), each as a loop over neighbour pairs and as a CSR matrix that
 // gives the same numbers. Sums run over every active neighbour (fluid, wall and dummy alike).
+#include <array>
 #include <span>
 #include <vector>
 
@@ -27,9 +28,20 @@ enum class GradientVariant {
   plain,          // (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij
   min_reference,  // phi_i replaced by the minimum over i and its neighbours (Koshizuka 1998): keeps the
                   // pressure gradient repulsive, which suppresses particle clustering
+  corrected,      // plain, multiplied by the corrective matrix [(d/n0) sum w r_ij r_ij^T/|r_ij|^2]^-1
+                  // (Randles & Libersky 1996; Khayyer & Gotoh 2011): exact for linear fields with any
+                  // neighbourhood, truncated ones at free surfaces and walls included
+  corrected_min_reference,  // the corrective matrix applied to the min_reference sum
 };
+// `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
+// the particles that hold a value of phi at all (for pressure: not dry walls, see set_dummy_pressure).
+// `min_tilt` (the min-reference variants): the minimum is taken of phi_j - min_tilt . r_ij, i.e. of phi less a
+// known linear part. For pressure under a body force f pass rho f: the hydrostatic drop across the kernel
+// then no longer counts as a dip. Counted, it makes the repulsion ~ 2 rho g l0 everywhere, which on a lattice
+// whose columns slide past each other pushes each column further along its slide (growth ~ sqrt(g/l0)).
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
-              GradientVariant variant = GradientVariant::plain);
+              GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
+              std::array<double, 2> min_tilt = {0.0, 0.0});
 
 // (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);

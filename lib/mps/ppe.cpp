@@ -36,15 +36,26 @@ std::vector<double> mixed_source(std::span<const double> n_star, double n0, std:
 }
 
 std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
-                                      double beta) {
+                                      double beta, const NeighborList* neighbors, int lattice_neighbors, double theta) {
   if (!(beta > 0.0 && beta < 1.0)) throw std::invalid_argument("free surface: beta must be in (0, 1)");
+  if (theta > 0.0 && !neighbors) throw std::invalid_argument("free surface: the count test needs the neighbour list");
+  const double max_count = theta * lattice_neighbors;
   std::vector<char> surface(particles.size(), 0);
   for (std::size_t i = 0; i < surface.size(); ++i)
-    surface[i] = in_ppe_sum(particles.kind[i]) && n_star[i] < beta * n0;
+    surface[i] = in_ppe_sum(particles.kind[i]) && n_star[i] < beta * n0 &&
+                 (theta <= 0.0 || particles.kind[i] == Kind::wall ||
+                  static_cast<double>(neighbors->of(i).size()) < max_count);
   return surface;
 }
 
 PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source) {
+  PpeSystem sys;
+  assemble_ppe(s, free_surface, source, sys);
+  return sys;
+}
+
+void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
+                  PpeSystem& sys) {
   const Particles& p = s.particles;
   const std::size_t n = p.size();
   if (free_surface.size() != n || source.size() != n)
@@ -71,11 +82,21 @@ PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std
     return diag;
   };
 
-  PpeSystem sys;
   sys.unknown.assign(n, -1);
+  sys.particle.clear();
+  sys.floating.clear();
+  auto has_partner = [&](std::size_t i) {
+    for (int jj : s.neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (!in_sum(j)) continue;
+      const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
+      if (s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1])) > 0.0) return true;
+    }
+    return false;
+  };
   for (std::size_t i = 0; i < n; ++i) {
     if (!in_ppe_sum(p.kind[i]) || free_surface[i]) continue;
-    if (ppe_weight(i, [](std::size_t, double) {}) <= 0.0) continue;
+    if (!has_partner(i)) continue;
     sys.unknown[i] = static_cast<int>(sys.particle.size());
     sys.particle.push_back(static_cast<int>(i));
   }
@@ -129,7 +150,9 @@ PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std
   std::iota(parent.begin(), parent.end(), 0);
   for (int r = 0; r < m; ++r)
     for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
-      const int ra = find_root(parent, r), rb = find_root(parent, a.col[static_cast<std::size_t>(k)]);
+      const int col = a.col[static_cast<std::size_t>(k)];
+      if (col >= r) break;  // the pattern is symmetric: the lower triangle holds every edge once
+      const int ra = find_root(parent, r), rb = find_root(parent, col);
       if (ra != rb) parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
     }
   std::vector<char> root_anchored(static_cast<std::size_t>(m), 0);
@@ -159,7 +182,6 @@ PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std
     const int g = sys.group[static_cast<std::size_t>(r)];
     if (g >= 0) sys.rhs[static_cast<std::size_t>(r)] -= sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean;
   }
-  return sys;
 }
 
 std::vector<double> PpeSystem::gather(const Particles& particles) const {
@@ -183,25 +205,30 @@ void PpeSystem::scatter(std::span<const double> solution, Particles& particles, 
   }
 }
 
-void set_dummy_pressure(const Stencil& s, Particles& p, double rho, double fx, double fy) {
+std::vector<char> set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> free_surface, double rho,
+                                     double fx, double fy) {
   const auto n = static_cast<Index>(p.size());
+  std::vector<char> carrier(p.size(), 0);
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] == Kind::fluid || (p.kind[i] == Kind::wall && !free_surface[i])) carrier[i] = 1;
     if (p.kind[i] != Kind::dummy) continue;
     double best_r2 = s.kernel.re * s.kernel.re, pressure = 0.0;
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
-      if (p.kind[j] != Kind::wall) continue;
+      if (p.kind[j] != Kind::wall || free_surface[j]) continue;
       const auto d = s.domain.displacement(p.x[j], p.y[j], p.x[i], p.y[i]);  // r_dummy - r_wall
       const double r2 = d[0] * d[0] + d[1] * d[1];
       if (r2 < best_r2) {  // strict: the lowest-numbered of equally near walls wins, whatever the threads do
         best_r2 = r2;
         pressure = p.p[j] + rho * (fx * d[0] + fy * d[1]);
+        carrier[i] = 1;
       }
     }
     p.p[i] = pressure;
   }
+  return carrier;
 }
 
 }  // namespace mps

@@ -28,9 +28,17 @@ namespace mps {
 std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
                                  double rho, double dt, double gamma);
 
-// Fluid and wall particles with n* < beta n0. Dummies and ghosts are never flagged.
+// Wall particles with n* < beta n0, and fluid particles with n* < beta n0 and fewer than theta N0 neighbours
+// (N0: the perfect lattice's count; theta <= 0 skips the count test). The count keeps the fluid flag from
+// flickering: the row under a free surface sits near n* = beta n0 (it lacks only far, light neighbours), so
+// small motions would toggle it between Dirichlet P = 0 and ~rho g l0 every few steps, a pressure jump that
+// feeds on itself, while its neighbour count (11 of 12 at 2.1 l0; 8 for the surface row) changes only when a
+// pair crosses re. Walls do not move and take the density test alone: a wall at the water line keeps most
+// of its neighbours (the wall goes on above) yet must be as dry as the surface fluid beside it, or its
+// pressure pushes the contact line off the wall. Dummies and ghosts are never flagged.
 std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
-                                      double beta);
+                                      double beta, const NeighborList* neighbors = nullptr, int lattice_neighbors = 0,
+                                      double theta = 0.0);
 
 struct FloatingGroup {
   int pinned = -1;              // unknown whose diagonal was doubled
@@ -60,10 +68,17 @@ struct PpeSystem {
 // `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
 // `source` are per particle.
 PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source);
+// Same, refilling `out` in place (reusing its memory across time steps).
+void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
+                  PpeSystem& out);
 
-// Dummy pressure from the nearest wall particle in its stencil, carried hydrostatically under body force f:
-// P_wall + rho f.(r_dummy - r_wall); 0 if no wall is in reach. The nearest wall, not an average: walls at
-// other heights mix in surface walls (P = 0) whose hydrostatic carry would invent pressure at the contact line.
-void set_dummy_pressure(const Stencil& s, Particles& particles, double rho, double fx, double fy);
+// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
+// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.
+// The nearest wall, not an average: walls at other heights would carry their pressure to the wrong depth.
+// Returns the pressure carriers: fluid particles, wet walls, and dummies that found a wet wall. Dry walls and
+// the dummies behind them hold no pressure and must stay out of the pressure gradient: counted there as
+// P = 0 neighbours, they change a contact-line particle's support from that of the open surface next to it.
+std::vector<char> set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface,
+                                     double rho, double fx, double fy);
 
 }  // namespace mps

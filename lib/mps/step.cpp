@@ -42,12 +42,10 @@ void SimulationConfig::validate() const {
   require(std::isfinite(fx) && std::isfinite(fy), "body force must be finite");
   require(gamma >= 0.0 && gamma <= 1.0, "gamma must be in [0, 1], got " + fmt(gamma));
   require(beta > 0.0 && beta < 1.0, "beta must be in (0, 1), got " + fmt(beta));
+  require(theta >= 0.0 && theta <= 1.0, "theta must be in [0, 1], got " + fmt(theta));
   require(positive(dt_max), "time step dt_max must be positive, got " + fmt(dt_max));
   require(positive(cfl), "cfl must be positive, got " + fmt(cfl));
   require(positive(viscous_number), "viscous_number must be positive, got " + fmt(viscous_number));
-  require(collision_distance >= 0.0 && collision_distance < radius_gradient,
-          "collision_distance must be in [0, radius_gradient) (in l0), got " + fmt(collision_distance));
-  require(collision_restitution >= 0.0 && collision_restitution <= 1.0, "collision_restitution must be in [0, 1]");
   require(reorder_every >= 0, "reorder_every must be >= 0");
   require(positive(max_displacement), "max_displacement must be positive (in l0)");
   require(max_speed > 0.0, "max_speed must be positive");
@@ -127,7 +125,8 @@ void Simulation::advance() {
     p.permute(grid_.cell_order());
   }
   grid_.bin(p);
-  const NeighborList near_now = grid_.neighbors(p, k_laplacian_.re);  // viscosity only
+  grid_.neighbors(p, k_laplacian_.re, near_now_);  // viscosity only
+  const NeighborList& near_now = near_now_;
   times_.neighbors += lap(t);
 
   // Predictor: explicit viscosity and body force; walls and dummies carry their (prescribed) velocity into
@@ -153,12 +152,14 @@ void Simulation::advance() {
 
   // Two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
   grid_.bin(p);
-  const NeighborList near_star = grid_.neighbors(p, grid_.cell_size());
+  grid_.neighbors(p, grid_.cell_size(), near_star_);
+  const NeighborList& near_star = near_star_;
   const Kernel* kernels[] = {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_};
   double small_radius = 0.0;
   for (const Kernel* k : kernels)
     if (k->re < grid_.cell_size() * (1.0 - 1e-12)) small_radius = std::max(small_radius, k->re);
-  const NeighborList close_star = small_radius > 0.0 ? grid_.neighbors(p, small_radius) : NeighborList{};
+  if (small_radius > 0.0) restrict_radius(near_star, p, domain_, small_radius, close_star_);
+  const NeighborList& close_star = close_star_;
   const auto list_for = [&](const Kernel& k) -> const NeighborList& {
     return k.re <= small_radius ? close_star : near_star;
   };
@@ -172,25 +173,29 @@ void Simulation::advance() {
                                             : mps::number_density({p, domain_, list_for(k_surface_), k_surface_});
   std::vector<double> div(p.size());
   divergence(grad, p.u, p.v, div);
-  const std::vector<char> surface = detect_free_surface(p, n_surface, k_surface_.n0, config_.beta);
+  const std::vector<char> surface = detect_free_surface(p, n_surface, k_surface_.n0, config_.beta,
+                                                        &list_for(k_surface_), k_surface_.lattice_neighbors, config_.theta);
   std::vector<double> source = mixed_source(n_star_, k_density_.n0, div, config_.rho, dt, config_.gamma);
-  if (k_surface_.re != k_density_.re) {
-    // Where the source kernel reaches past the free surface, its number density deficit is geometry, not
-    // expansion, and would ask for suction: there the surface-radius number density stands in.
-    const std::vector<double> near_surface_source =
-        mixed_source(n_surface, k_surface_.n0, div, config_.rho, dt, config_.gamma);
+  {
+    // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
+    // expansion: read as such it asks for suction that grows as 1/dt^2. There the divergence term alone
+    // (gamma = 0) drives the PPE.
     const NeighborList& reach = list_for(k_density_);
 #pragma omp parallel for schedule(static)
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
-      for (int j : reach.of(i))
-        if (surface[static_cast<std::size_t>(j)]) {
-          source[i] = near_surface_source[i];
+      for (int j : reach.of(i)) {
+        const auto jj = static_cast<std::size_t>(j);
+        if (!surface[jj]) continue;
+        const auto d = domain_.displacement(p.x[i], p.y[i], p.x[jj], p.y[jj]);
+        if (d[0] * d[0] + d[1] * d[1] < k_density_.re * k_density_.re) {
+          source[i] = config_.rho / dt * div[i];
           break;
         }
+      }
     }
   }
-  ppe_ = assemble_ppe(lapl, surface, source);
+  assemble_ppe(lapl, surface, source, ppe_);
   info_.unknowns = ppe_.size();
   info_.free_surface = static_cast<std::size_t>(std::count(surface.begin(), surface.end(), 1));
   info_.floating_groups = ppe_.floating.size();
@@ -202,9 +207,10 @@ void Simulation::advance() {
   times_.solve += lap(t) - info_.solve.setup_seconds;
 
   ppe_.scatter(pressure, p, config_.clamp_negative_pressure);
-  set_dummy_pressure(lapl, p, config_.rho, config_.fx, config_.fy);
+  const std::vector<char> carriers = set_dummy_pressure(lapl, p, surface, config_.rho, config_.fx, config_.fy);
   std::vector<double> gx(p.size()), gy(p.size());
-  gradient(grad, p.p, gx, gy, config_.pressure_gradient);
+  const double tilt = config_.min_reference_tilt ? config_.rho : 0.0;
+  gradient(grad, p.p, gx, gy, config_.pressure_gradient, carriers, {tilt * config_.fx, tilt * config_.fy});
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (p.kind[i] != Kind::fluid) continue;
     const double du = -dt / config_.rho * gx[i], dv = -dt / config_.rho * gy[i];
@@ -214,7 +220,6 @@ void Simulation::advance() {
     p.y[i] += dt * dv;
     domain_.wrap(p.x[i], p.y[i]);
   }
-  if (config_.collision_distance > 0.0) collide(grad.neighbors, dt);
   double umax2 = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
@@ -222,38 +227,6 @@ void Simulation::advance() {
   info_.time += dt;
   ++info_.step;
   times_.correct += lap(t);
-}
-
-void Simulation::collide(const NeighborList& neighbors, double dt) {
-  Particles& p = particles_;
-  const auto n = static_cast<Index>(p.size());
-  const double reach = config_.collision_distance * config_.l0, e = config_.collision_restitution;
-  // Velocity changes from the pre-collision velocities of both partners: symmetric and order-independent.
-  std::vector<double> du(p.size(), 0.0), dv(p.size(), 0.0);
-#pragma omp parallel for schedule(static)
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (p.kind[i] != Kind::fluid) continue;
-    for (int jj : neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      const auto d = domain_.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
-      const double r = std::hypot(d[0], d[1]);
-      if (r >= reach || r <= 0.0) continue;
-      const double nx = d[0] / r, ny = d[1] / r;
-      const double approach = (p.u[i] - p.u[j]) * nx + (p.v[i] - p.v[j]) * ny;
-      if (approach <= 0.0) continue;
-      const double share = (p.kind[j] == Kind::fluid ? 0.5 : 1.0) * (1.0 + e) * approach;
-      du[i] -= share * nx;
-      dv[i] -= share * ny;
-    }
-  }
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    p.u[i] += du[i];
-    p.v[i] += dv[i];
-    p.x[i] += dt * du[i];
-    p.y[i] += dt * dv[i];
-    domain_.wrap(p.x[i], p.y[i]);
-  }
 }
 
 void Simulation::check_guard() const {

@@ -18,27 +18,29 @@ namespace mps {
 
 struct SimulationConfig {
   double l0 = 0;  // initial particle spacing [m]
-  // Kernel radii in units of l0. Seed 004 uses 2.1 for number density and gradient and 4.1 for the
-  // Laplacian. We measure the PPE source's number density at the Laplacian's radius (radius_density):
-  // with n* at 2.1 and the Laplacian at 4.1, a band of short waves (k ~ 0.8 pi/l0) is corrected with the
-  // wrong sign, growing by ~(1 + 0.03 gamma) per step whatever dt is; at 4.1 every mode is damped for any
-  // gamma <= 1 (README, "Numerics"). Free-surface detection keeps the 2.1 number density (radius_surface).
-  double radius_density = 2.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;
+  // Kernel radii in units of l0. Seed 004: 2.1 for number density and gradient, 4.1 for the Laplacian.
+  // The PPE source's number density is measured at radius_density = 4.1, the Laplacian's: with n* at 2.1
+  // against a 4.1 Laplacian, short waves (k ~ 0.8 pi/l0) are corrected with the wrong sign and grow by
+  // ~(1 + 0.03 gamma) per step whatever dt is (a closed box jittered by 1 % blows up within ~60 steps at
+  // gamma = 0.99; with 4.1 it relaxes). Where that kernel reaches a free-surface particle its deficit is
+  // geometry, so those particles take the divergence source alone. Free-surface detection keeps the 2.1
+  // number density (radius_surface). README, "Numerics and stability".
+  double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;
   Weight weight = Weight::bounded;
   double rho = 1000.0;          // density [kg/m^3]
   double nu = 1e-6;             // kinematic viscosity [m^2/s]
   double fx = 0.0, fy = 0.0;    // body force per unit mass [m/s^2]
   double gamma = 0.99;          // mixed source weight: 1 = number density error only, 0 = divergence only
-  double beta = 0.97;           // free surface: n* < beta n0
+  double beta = 0.97;           // free surface: n* < beta n0 ...
+  double theta = 0.85;          // ... and fewer than theta N0 neighbours (0: density test only)
   double dt_max = 0;            // the time step when neither limit below binds [s]
   double cfl = 0.2;             // dt <= cfl l0 / |u|max
   double viscous_number = 0.2;  // dt <= viscous_number l0^2 / nu (explicit viscosity)
   GradientVariant pressure_gradient = GradientVariant::min_reference;
+  // Min-reference variants: take the minimum of P less its hydrostatic part rho f . r (true), or of P as
+  // published (false). The published form destabilises a liquid at rest under gravity (README, "Numerics").
+  bool min_reference_tilt = true;
   bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
-  // Collision model (Koshizuka et al. 1998): fluid pairs closer than collision_distance l0 that still
-  // approach lose (1 + e)/2 of their approach speed (all of (1 + e) against a wall or dummy). 0 = off.
-  double collision_distance = 0.0;
-  double collision_restitution = 0.2;
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
@@ -98,7 +100,6 @@ class Simulation {
  private:
   void advance();
   void check_guard() const;
-  void collide(const NeighborList& neighbors, double dt);
   [[nodiscard]] double choose_dt(std::string& limit) const;
 
   Particles particles_;
@@ -110,6 +111,8 @@ class Simulation {
   BoundaryMotion motion_;
   StepInfo info_;
   PhaseTimes times_;
+  // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.
+  NeighborList near_now_, near_star_, close_star_;
   std::vector<double> n_star_;
   PpeSystem ppe_;
 };

@@ -1,0 +1,169 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <random>
+
+#include "mps/geometry.hpp"
+#include "mps/ppe.hpp"
+
+namespace {
+
+// A PPE from a real particle arrangement: fluid in a walled box (open top unless `closed`), positions jittered
+// so that no lattice symmetry hides an asymmetry in the assembly.
+struct Box {
+  double l0 = 0.05;
+  mps::Particles p;
+  mps::Domain d{-0.5, 1.5, -0.5, 1.5};
+  mps::Kernel lap = mps::make_kernel(4.1, 0.05), small = mps::make_kernel(2.1, 0.05);
+  mps::NeighborList near, close;
+  std::vector<double> n;
+  std::vector<char> surface;
+  std::vector<double> source;
+
+  explicit Box(bool closed) {
+    mps::fill_rectangle(p, {0, 0, 1, closed ? 1.0 : 0.8}, l0, mps::Kind::fluid);
+    mps::add_rectangle_walls(p, {0, 0, 1, 1}, l0,
+                             closed ? (mps::left | mps::right | mps::bottom | mps::top) : (mps::left | mps::right | mps::bottom),
+                             1, 4);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> jitter(-0.05 * l0, 0.05 * l0);
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (p.kind[i] == mps::Kind::fluid) {
+        p.x[i] += jitter(rng);
+        p.y[i] += jitter(rng);
+      }
+    near = mps::find_neighbors(p, d, lap.re);
+    close = mps::find_neighbors(p, d, small.re);
+    n = mps::number_density({p, d, close, small});
+    surface = mps::detect_free_surface(p, n, small.n0, 0.97, &close, small.lattice_neighbors, 0.85);
+    source.resize(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) source[i] = std::sin(3 * p.x[i]) + p.y[i];
+  }
+  mps::PpeSystem assemble() const { return mps::assemble_ppe({p, d, near, lap}, surface, source); }
+};
+
+Eigen::MatrixXd dense(const mps::CsrMatrix& a) {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(a.rows, a.cols);
+  for (int i = 0; i < a.rows; ++i)
+    for (int k = a.row_ptr[static_cast<std::size_t>(i)]; k < a.row_ptr[static_cast<std::size_t>(i) + 1]; ++k)
+      m(i, a.col[static_cast<std::size_t>(k)]) = a.val[static_cast<std::size_t>(k)];
+  return m;
+}
+
+TEST(Ppe, FreeSurfaceTankMatrixIsSymmetricPositiveDefiniteWithZeroRowSumsAwayFromTheSurface) {
+  const Box box(false);
+  const mps::PpeSystem sys = box.assemble();
+  sys.matrix.validate();
+  ASSERT_GT(sys.size(), 300u);
+  EXPECT_TRUE(sys.floating.empty());  // the free surface anchors the pressure level
+  EXPECT_TRUE(sys.matrix.is_symmetric(1e-14));
+  // Rows whose Laplacian stencil holds no free-surface particle sum to zero (a Neumann interior).
+  int interior_rows = 0;
+  for (std::size_t r = 0; r < sys.size(); ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[r]);
+    bool touches_surface = false;
+    for (int j : box.near.of(i)) touches_surface = touches_surface || box.surface[static_cast<std::size_t>(j)];
+    if (touches_surface) continue;
+    double sum = 0.0, scale = 0.0;
+    for (int k = sys.matrix.row_ptr[r]; k < sys.matrix.row_ptr[r + 1]; ++k) {
+      sum += sys.matrix.val[static_cast<std::size_t>(k)];
+      scale = std::max(scale, std::abs(sys.matrix.val[static_cast<std::size_t>(k)]));
+    }
+    EXPECT_NEAR(sum, 0.0, 1e-12 * scale);
+    ++interior_rows;
+  }
+  EXPECT_GT(interior_rows, 100);
+  // A = -(discrete Laplacian) is positive definite, i.e. the Laplacian block is negative definite.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(dense(sys.matrix));
+  EXPECT_GT(eig.eigenvalues().minCoeff(), 1e-8 * eig.eigenvalues().maxCoeff());
+}
+
+TEST(Ppe, UnknownsAreExactlyTheWetFluidAndWallParticles) {
+  const Box box(false);
+  const mps::PpeSystem sys = box.assemble();
+  for (std::size_t i = 0; i < box.p.size(); ++i) {
+    const bool should = (box.p.kind[i] == mps::Kind::fluid || box.p.kind[i] == mps::Kind::wall) && !box.surface[i];
+    // (a candidate with no fluid/wall neighbour at all would be left out; this box has none)
+    EXPECT_EQ(sys.unknown[i] >= 0, should) << "particle " << i << " kind " << mps::to_string(box.p.kind[i]);
+  }
+  for (std::size_t r = 0; r < sys.size(); ++r) EXPECT_EQ(sys.unknown[static_cast<std::size_t>(sys.particle[r])], static_cast<int>(r));
+}
+
+TEST(Ppe, ClosedBoxGetsTheZeroMeanGaugeAndSolvesTheConsistentSingularSystem) {
+  const Box box(true);
+  const mps::PpeSystem sys = box.assemble();
+  ASSERT_EQ(sys.floating.size(), 1u);
+  EXPECT_EQ(sys.floating[0].size, static_cast<int>(sys.size()));
+  EXPECT_TRUE(sys.matrix.is_symmetric(1e-14));
+  // The right-hand side was projected onto the range of the singular operator (zero mean).
+  double mean_b = 0.0;
+  for (double b : sys.rhs) mean_b += b;
+  EXPECT_NEAR(mean_b / static_cast<double>(sys.size()), 0.0, 1e-12);
+  EXPECT_GT(std::abs(sys.floating[0].removed_rhs_mean), 1e-3);  // the raw source was inconsistent
+
+  const Eigen::MatrixXd a = dense(sys.matrix);
+  const Eigen::VectorXd b = Eigen::Map<const Eigen::VectorXd>(sys.rhs.data(), static_cast<Eigen::Index>(sys.size()));
+  const Eigen::VectorXd x = a.llt().solve(b);  // the pinned matrix is SPD: Cholesky succeeds
+  mps::Particles p = box.p;
+  sys.scatter(std::span<const double>(x.data(), static_cast<std::size_t>(x.size())), p);
+  // Level: zero mean over the unknowns. Equation: the unpinned singular operator L0 (A with the pinned
+  // diagonal halved back) satisfies L0 P = b for the scattered pressure.
+  Eigen::MatrixXd l0 = a;
+  l0(sys.floating[0].pinned, sys.floating[0].pinned) /= 2.0;
+  Eigen::VectorXd pressure(static_cast<Eigen::Index>(sys.size()));
+  double mean = 0.0;
+  for (std::size_t r = 0; r < sys.size(); ++r) {
+    pressure(static_cast<Eigen::Index>(r)) = p.p[static_cast<std::size_t>(sys.particle[r])];
+    mean += pressure(static_cast<Eigen::Index>(r));
+  }
+  EXPECT_NEAR(mean / static_cast<double>(sys.size()), 0.0, 1e-10);
+  EXPECT_LT((l0 * pressure - b).norm(), 1e-9 * b.norm());
+}
+
+TEST(Ppe, MixedSourceBlendsDivergenceAndDensityError) {
+  const std::vector<double> n{10.0, 10.5, 9.0}, div{0.0, 2.0, -1.0};
+  const double rho = 1000, dt = 0.01, n0 = 10.0;
+  const auto s0 = mps::mixed_source(n, n0, div, rho, dt, 0.0);
+  const auto s1 = mps::mixed_source(n, n0, div, rho, dt, 1.0);
+  const auto sh = mps::mixed_source(n, n0, div, rho, dt, 0.25);
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    EXPECT_DOUBLE_EQ(s0[i], rho / dt * div[i]);
+    EXPECT_DOUBLE_EQ(s1[i], -rho / (dt * dt) * (n[i] - n0) / n0);
+    EXPECT_NEAR(sh[i], 0.75 * s0[i] + 0.25 * s1[i], 1e-9 * (std::abs(s0[i]) + std::abs(s1[i]) + 1));
+  }
+  EXPECT_THROW((void)mps::mixed_source(n, n0, div, rho, dt, 1.5), std::invalid_argument);
+  EXPECT_THROW((void)mps::mixed_source(n, n0, div, rho, dt, -0.1), std::invalid_argument);
+  EXPECT_THROW((void)mps::mixed_source(n, n0, div, rho, 0.0, 0.5), std::invalid_argument);
+}
+
+TEST(Ppe, DummiesTakeTheNearestWetWallPressureCarriedHydrostatically) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 1, 1}, 0.1, mps::Kind::fluid);
+  mps::add_rectangle_walls(p, {0, 0, 1, 1}, 0.1, mps::bottom, 1, 2);
+  const mps::Domain d{-1, 2, -1, 2};
+  const mps::Kernel k = mps::make_kernel(4.1, 0.1);
+  const auto list = mps::find_neighbors(p, d, k.re);
+  std::vector<char> surface(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) p.p[i] = p.kind[i] == mps::Kind::wall ? 100.0 + p.x[i] : 0.0;
+  const double rho = 1000, g = 9.81;
+  const auto carriers = mps::set_dummy_pressure({p, d, list, k}, p, surface, rho, 0.0, -g);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_TRUE(carriers[i]) << i;
+    if (p.kind[i] != mps::Kind::dummy) continue;
+    const double below_wall = -0.05 - p.y[i];  // the wall row sits at y = -0.05, straight above
+    EXPECT_NEAR(p.p[i], 100.0 + p.x[i] + rho * g * below_wall, 1e-9);
+  }
+  // A dry wall (flagged free surface) passes on no pressure: its dummies hold none.
+  for (std::size_t i = 0; i < p.size(); ++i) surface[i] = p.kind[i] == mps::Kind::wall;
+  const auto dry = mps::set_dummy_pressure({p, d, list, k}, p, surface, rho, 0.0, -g);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] != mps::Kind::fluid) {
+      EXPECT_FALSE(dry[i]);
+      if (p.kind[i] == mps::Kind::dummy) {
+        EXPECT_EQ(p.p[i], 0.0);
+      }
+    }
+}
+
+}  // namespace

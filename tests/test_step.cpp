@@ -1,0 +1,202 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include "mps/geometry.hpp"
+#include "mps/step.hpp"
+#include "tank.hpp"
+
+namespace {
+
+mps::SimulationConfig base_config() {
+  mps::SimulationConfig c;
+  c.l0 = 0.01;
+  c.dt_max = 1e-3;
+  c.fy = -9.81;
+  return c;
+}
+
+TEST(Simulation, RejectsInvalidParametersWithAMessageNamingThem) {
+  tank::Params p;
+  const auto particles = tank::make_particles(p);
+  const auto domain = tank::make_domain(p);
+  auto expect_rejected = [&](mps::SimulationConfig c, const std::string& word) {
+    try {
+      mps::Simulation sim(particles, domain, c);
+      ADD_FAILURE() << "accepted a config with bad " << word;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  const std::vector<std::pair<std::function<void(mps::SimulationConfig&)>, std::string>> cases = {
+      {[](auto& c) { c.gamma = 1.2; }, "gamma"},          {[](auto& c) { c.gamma = -0.1; }, "gamma"},
+      {[](auto& c) { c.l0 = 0.0; }, "l0"},                {[](auto& c) { c.l0 = -0.01; }, "l0"},
+      {[](auto& c) { c.radius_laplacian = 0.0; }, "radius"}, {[](auto& c) { c.dt_max = 0.0; }, "dt_max"},
+      {[](auto& c) { c.dt_max = -1.0; }, "dt_max"},       {[](auto& c) { c.solver = "petsc-gmres"; }, "unknown solver"},
+  };
+  for (const auto& [spoil, word] : cases) {
+    auto c = base_config();
+    spoil(c);
+    expect_rejected(c, word);
+  }
+  EXPECT_THROW(mps::Simulation(mps::Particles{}, domain, base_config()), std::invalid_argument);  // empty domain
+  mps::Particles walls_only;
+  mps::add_rectangle_walls(walls_only, {0, 0, 0.1, 0.1}, 0.01, mps::left | mps::bottom, 1, 1);
+  EXPECT_THROW(mps::Simulation(walls_only, domain, base_config()), std::invalid_argument);  // no fluid
+  mps::Particles outside = particles;
+  outside.x[0] = 50.0;
+  EXPECT_THROW(mps::Simulation(outside, domain, base_config()), std::invalid_argument);
+  mps::Particles none;
+  EXPECT_THROW(mps::fill_rectangle(none, {0, 0, 1, 1}, 0.0, mps::Kind::fluid), std::invalid_argument);
+  EXPECT_THROW(mps::fill_rectangle(none, {0, 0, 1, 1}, -0.1, mps::Kind::fluid), std::invalid_argument);
+}
+
+TEST(Simulation, AbsurdTimeStepIsStoppedByTheGuardAndTheLastGoodStateIsKept) {
+  tank::Params p;
+  auto c = tank::make_config(p);
+  c.dt_max = 0.5;  // half a second: gravity alone moves the water 1.2 m in the first step
+  mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), c);
+  const mps::Particles before = sim.particles();
+  try {
+    sim.step();
+    FAIL() << "an absurd time step went through";
+  } catch (const mps::SimulationError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("step 1"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("dt"), std::string::npos) << msg;
+  }
+  EXPECT_EQ(sim.time(), 0.0);
+  EXPECT_EQ(sim.last_step().step, 0);
+  EXPECT_EQ(sim.particles().x, before.x);
+  EXPECT_EQ(sim.particles().y, before.y);
+  EXPECT_EQ(sim.particles().u, before.u);
+  for (std::size_t i = 0; i < before.size(); ++i) ASSERT_TRUE(std::isfinite(sim.particles().p[i]));
+}
+
+TEST(Simulation, TimeStepReportsWhichLimitBinds) {
+  tank::Params p;
+  auto c = tank::make_config(p);
+  mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), c);
+  sim.step();
+  EXPECT_EQ(sim.last_step().dt_limit, "dt_max");  // water at rest: neither CFL nor viscosity binds
+  auto viscous = c;
+  viscous.nu = 1.0;  // dt <= 0.2 l0^2 / nu = 2e-5 s
+  mps::Simulation honey(tank::make_particles(p), tank::make_domain(p), viscous);
+  honey.step();
+  EXPECT_EQ(honey.last_step().dt_limit, "viscous");
+  EXPECT_NEAR(honey.last_step().dt, 0.2 * 0.01 * 0.01 / 1.0, 1e-15);
+}
+
+TEST(Simulation, SameInputGivesTheSameNumbersAndReorderingChangesNothingButRoundOff) {
+  tank::Params p;
+  auto run = [&](int reorder_every) {
+    auto c = tank::make_config(p);
+    c.reorder_every = reorder_every;
+    mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), c);
+    for (int s = 0; s < 40; ++s) sim.step();
+    std::vector<double> by_id(sim.particles().size());
+    for (std::size_t i = 0; i < by_id.size(); ++i) by_id[static_cast<std::size_t>(sim.particles().id[i])] = sim.particles().p[i];
+    return by_id;
+  };
+  const auto a = run(10), b = run(10), c = run(0);
+  EXPECT_EQ(a, b);  // bitwise: no thread-order dependence
+  double scale = 0.0, diff = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    scale = std::max(scale, std::abs(a[i]));
+    diff = std::max(diff, std::abs(a[i] - c[i]));
+  }
+  EXPECT_GT(scale, 1000.0);
+  EXPECT_LT(diff, 1e-6 * scale);
+}
+
+// Hydrostatic tank, the first 0.3 s (window 0.1 s): band pressures against rho g (H - y). The 1 s run of the
+// issue is not yet stable (README, "Numerics and stability"); this asserts what holds today.
+class HydrostaticTank : public ::testing::TestWithParam<double> {};
+
+TEST_P(HydrostaticTank, BandPressureMatchesRhoGDepthWithinFivePercent) {
+  tank::Params p;
+  p.gamma = GetParam();
+  p.end_time = 0.3;
+  p.window = 0.1;
+  tank::Tank t(p);
+  while (!t.done()) t.step();
+  const tank::Result r = t.result();
+  ASSERT_GE(r.bands.size(), 8u);
+  for (std::size_t b = 0; b + 1 < r.bands.size(); ++b) {
+    EXPECT_GT(r.bands[b].samples, 0);
+    EXPECT_LT(r.bands[b].relative_error, 0.05) << "band at y = " << r.bands[b].y_center << ": "
+                                               << r.bands[b].mean_pressure << " Pa vs " << r.bands[b].exact_pressure;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(TwoGammas, HydrostaticTank, ::testing::Values(0.01, 0.99));
+
+// A periodic water column at rest: columns sliding vertically past each other (v alternating column by
+// column) are invisible to the PPE. With the published min-reference the hydrostatic drop across the
+// kernel feeds them (measured ~ +21 /s); with the reference taken of P - rho f . r they decay.
+double shear_growth_rate(bool tilt) {
+  const double l0 = 0.01, W = 0.14, H = 0.2;
+  mps::Particles start;
+  mps::fill_rectangle(start, {0, 0, W, H}, l0, mps::Kind::fluid);
+  mps::add_rectangle_walls(start, {0, 0, W, H}, l0, mps::bottom, 1, 4);
+  const mps::Domain d{0, W, -0.06, 0.5, true, false};
+  auto c = base_config();
+  c.gamma = 0.01;
+  c.reorder_every = 0;
+  c.min_reference_tilt = tilt;
+  mps::Simulation settle(start, d, c);
+  while (settle.time() < 0.4 - 1e-12) settle.step();
+  mps::Particles q = settle.particles();
+  auto sign = [&](const mps::Particles& s, std::size_t i) {
+    return (static_cast<int>(std::floor(start.x[static_cast<std::size_t>(s.id[i])] / l0)) % 2) ? -1.0 : 1.0;
+  };
+  for (std::size_t i = 0; i < q.size(); ++i)
+    if (q.kind[i] == mps::Kind::fluid) q.v[i] += 1e-4 * sign(q, i) * std::sin(M_PI * q.y[i] / H);
+  auto amplitude = [&](const mps::Particles& s) {
+    double a = 0.0;
+    for (std::size_t i = 0; i < s.size(); ++i)
+      if (s.kind[i] == mps::Kind::fluid) a += sign(s, i) * s.v[i];
+    return std::abs(a);
+  };
+  mps::Simulation sim(q, d, c);
+  const double a0 = amplitude(sim.particles());
+  while (sim.time() < 0.15 - 1e-12) sim.step();
+  return std::log(amplitude(sim.particles()) / a0) / sim.time();
+}
+
+TEST(Stability, ColumnShearModeGrowsWithPublishedMinReferenceAndDecaysWithTiltedOne) {
+  const double published = shear_growth_rate(false), tilted = shear_growth_rate(true);
+  EXPECT_GT(published, 10.0) << "the published reference no longer drives the mode: re-check README numbers";
+  EXPECT_LT(tilted, 0.0);
+}
+
+// A closed periodic box of liquid, jittered by 1 % of l0, gamma = 0.99: with the source's number density at
+// 2.1 l0 against the 4.1 l0 Laplacian the density correction amplifies short waves and the guard stops the
+// run; measured at 4.1 l0 the jitter relaxes.
+TEST(Stability, DensitySourceAtTheLaplacianRadiusDampsWhatTheSeedRadiusAmplifies) {
+  auto run = [](double radius_density) {
+    const double l0 = 0.01;
+    mps::Particles p;
+    mps::fill_rectangle(p, {0, 0, 0.3, 0.3}, l0, mps::Kind::fluid);
+    std::mt19937 rng(1);
+    std::normal_distribution<double> jitter(0.0, 0.01 * l0);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      p.x[i] += jitter(rng);
+      p.y[i] += jitter(rng);
+    }
+    auto c = base_config();
+    c.fy = 0.0;
+    c.radius_density = radius_density;
+    mps::Simulation sim(p, {0, 0.3, 0, 0.3, true, true}, c);
+    sim.step();
+    const double first = sim.last_step().max_speed;
+    for (int s = 0; s < 300; ++s) sim.step();  // throws SimulationError if the guard trips
+    return sim.last_step().max_speed / first;
+  };
+  EXPECT_THROW((void)run(2.1), mps::SimulationError);
+  EXPECT_LT(run(4.1), 0.2);
+}
+
+}  // namespace

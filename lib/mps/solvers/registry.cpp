@@ -7,7 +7,8 @@ namespace mps {
 namespace {
 
 const std::vector<SolverEntry>& registry() {
-  static const std::vector<SolverEntry> entries = {eigen_cg_entry()};
+  static const std::vector<SolverEntry> entries = {eigen_cg_entry(), eigen_bicgstab_entry(), cholmod_entry(),
+                                                   hypre_amg_entry(), hypre_pcg_entry()};
   return entries;
 }
 
@@ -49,7 +50,9 @@ SolverSpec parse_solver_spec(std::string_view spec) {
   return out;
 }
 
-std::unique_ptr<LinearSolver> make_solver(std::string_view spec) {
+std::unique_ptr<LinearSolver> make_solver(std::string_view spec) { return make_solver(spec, SolverContext{}); }
+
+std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverContext& context) {
   const SolverSpec parsed = parse_solver_spec(spec);
   for (const auto& entry : registry()) {
     if (entry.name != parsed.name) continue;
@@ -64,7 +67,7 @@ std::unique_ptr<LinearSolver> make_solver(std::string_view spec) {
       }
       values[key] = value;
     }
-    return entry.make(SolverOptions(entry.name, std::move(values)));
+    return entry.make(SolverOptions(entry.name, std::move(values)), context);
   }
   throw std::invalid_argument("unknown solver '" + parsed.name + "'; valid solvers: " + join_names(solver_names()));
 }

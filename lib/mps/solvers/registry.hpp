@@ -40,10 +40,14 @@ struct SolverEntry {
   std::string name;
   std::string summary;
   std::vector<SolverKey> keys;
-  std::function<std::unique_ptr<LinearSolver>(const SolverOptions&)> make;
+  std::function<std::unique_ptr<LinearSolver>(const SolverOptions&, const SolverContext&)> make;
 };
 
 // One function per backend file; the registry lists them.
-SolverEntry eigen_cg_entry();
+SolverEntry eigen_cg_entry();        // eigen.cpp
+SolverEntry eigen_bicgstab_entry();  // eigen.cpp
+SolverEntry cholmod_entry();         // cholmod.cpp
+SolverEntry hypre_amg_entry();       // hypre.cpp
+SolverEntry hypre_pcg_entry();       // hypre.cpp
 
 }  // namespace mps

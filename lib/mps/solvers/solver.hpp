@@ -3,6 +3,7 @@
 // "name[:key=value,...]" (e.g. "eigen-cg:precond=ic,tol=1e-10"), parsed and validated in one place.
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -19,8 +20,10 @@ struct SolveReport {
   double relative_residual = 0;  // ||b - A x|| / ||b||, measured on the returned x
   double setup_seconds = 0;      // preconditioner / factorisation
   double solve_seconds = 0;
-  bool setup_reused = false;
-  std::vector<double> residual_history;  // relative residual per iteration, where the backend provides it
+  bool setup_reused = false;     // hypre: AMG hierarchy kept (reuse=N); cholmod: symbolic analysis kept
+  // Relative residuals, first entry at the initial guess: every iteration for hypre-pcg and hypre-amg; the
+  // initial and the final one for the Eigen solvers (Eigen keeps no history); the final one for cholmod.
+  std::vector<double> residual_history;
 };
 
 // A solve that failed: no convergence, a matrix the method cannot handle, or NaN in or out. The report
@@ -39,7 +42,11 @@ class LinearSolver {
  public:
   virtual ~LinearSolver() = default;
   // Solves A x = b for a symmetric positive definite A (the PPE after its sign flip); x is the initial
-  // guess on entry (warm start) and the solution on return. Throws SolverError on failure.
+  // guess on entry (warm start; a guess with NaN or Inf is replaced by zeros) and the solution on return.
+  // Throws SolverError when the iterations reach max_iter above tol, when A or b hold NaN or Inf, when x
+  // comes out with NaN or Inf, or when the method cannot handle A (cholmod: not positive definite or not
+  // symmetric). One solver object keeps state between solves (a factorisation, an AMG hierarchy): use one
+  // per thread.
   virtual SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) = 0;
   // The spec that rebuilds this solver, every key spelled out with its value.
   [[nodiscard]] virtual std::string spec() const = 0;
@@ -52,8 +59,20 @@ struct SolverSpec {
 // Syntax only; names and keys are checked by make_solver.
 SolverSpec parse_solver_spec(std::string_view spec);
 
+// What a host program may hand a solver besides its spec. Only the hypre backends read it today.
+struct SolverContext {
+  // The MPI communicator the hypre backends run on, as its Fortran handle so that this header needs no
+  // <mpi.h>: set it with MPI_Comm_c2f(comm) after MPI_Init, and keep the communicator alive as long as the
+  // solver. Unset means MPI_COMM_SELF (a serial solve; MPI is then initialised on first use if the host
+  // has not done it). On a communicator of P ranks every rank calls solve together, passing its own
+  // contiguous block of rows (blocks in rank order) with global column indices, a.cols being the global
+  // size, and its block of b and x.
+  std::optional<int> mpi_comm;
+};
+
 // Throws std::invalid_argument naming what is valid for unknown names, unknown keys and bad values.
 std::unique_ptr<LinearSolver> make_solver(std::string_view spec);
+std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverContext& context);
 // Every registered solver with its keys, defaults and a line on when to use it (for --list-solvers).
 std::string describe_solvers();
 std::vector<std::string> solver_names();

@@ -1,0 +1,453 @@
+// The solver backends behind the registry: spec parsing, agreement of every backend on PPEs assembled by
+// the library (a free-surface tank and a closed box), the failure paths, setup reuse and warm starts.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "mps/geometry.hpp"
+#include "mps/kernel.hpp"
+#include "mps/neighbors.hpp"
+#include "mps/operators.hpp"
+#include "mps/ppe.hpp"
+#include "mps/solvers/solver.hpp"
+#include "tank.hpp"
+
+namespace {
+
+// A PPE as the time loop builds it: a jittered lattice (cell-sorted), neighbours at 4.1 l0, number density
+// at 2.1 l0, free surface at n < 0.97 n0.
+struct Scene {
+  mps::Particles particles;
+  mps::PpeSystem ppe;
+};
+
+Scene make_scene(int nx, int ny, bool closed, unsigned seed = 7) {
+  const double l0 = 0.01, w = nx * l0, h = ny * l0;
+  Scene s;
+  mps::Particles& p = s.particles;
+  mps::fill_rectangle(p, {0.0, 0.0, w, h}, l0, mps::Kind::fluid);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.02 * l0,
+                                                0.02 * l0);  // more would flag interior particles as free surface
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.x[i] += jitter(rng);
+    p.y[i] += jitter(rng);
+    p.u[i] = 0.01 * std::sin(M_PI * p.x[i] / w) * std::cos(M_PI * p.y[i] / h);
+    p.v[i] = -0.01 * std::cos(M_PI * p.x[i] / w) * std::sin(2.0 * M_PI * p.y[i] / h);
+  }
+  const mps::Rect inner{0.0, 0.0, w, closed ? h : 1.2 * h};
+  mps::add_rectangle_walls(
+      p, inner, l0, closed ? (mps::left | mps::right | mps::bottom | mps::top) : (mps::left | mps::right | mps::bottom),
+      1, 4);
+  const mps::Domain d{-6 * l0, w + 6 * l0, -6 * l0, 1.2 * h + 6 * l0};
+  mps::CellGrid grid(d, 4.1 * l0);
+  grid.bin(p);
+  p.permute(grid.cell_order());
+
+  const auto list = mps::find_neighbors(p, d, 4.1 * l0);
+  const mps::Kernel lap = mps::make_kernel(4.1, l0), den = mps::make_kernel(2.1, l0);
+  const std::vector<double> n = mps::number_density({p, d, list, den});
+  std::vector<double> div(p.size());
+  mps::divergence({p, d, list, den}, p.u, p.v, div);
+  std::vector<char> surface(p.size(), 0);
+  if (!closed) surface = mps::detect_free_surface(p, n, den.n0, 0.97);
+  // The mixed source of the lattice's density noise plus a smooth large-scale part (a uniform compression
+  // varying over the domain), so the pressure has both the smooth and the rough content of a real step.
+  std::vector<double> source = mps::mixed_source(n, den.n0, div, 1000.0, 1e-3, 0.99);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    source[i] -= 1e3 * (1.0 + 0.5 * std::cos(M_PI * p.x[i] / w) * std::cos(M_PI * p.y[i] / h));
+  s.ppe = mps::assemble_ppe({p, d, list, lap}, surface, source);
+  return s;
+}
+
+const Scene& tank() {
+  static const Scene s = make_scene(60, 40, false);
+  return s;
+}
+const Scene& box() {
+  static const Scene s = make_scene(48, 48, true);
+  return s;
+}
+
+double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double d = 0.0, n = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    d += (a[i] - b[i]) * (a[i] - b[i]);
+    n += b[i] * b[i];
+  }
+  return std::sqrt(d / n);
+}
+
+// Every backend, with tight tolerances for the iterative ones.
+const std::vector<std::string>& all_backends() {
+  static const std::vector<std::string> specs = {
+      "cholmod",
+      "eigen-cg:precond=ic,tol=1e-13",
+      "eigen-cg:precond=jacobi,tol=1e-13",
+      "eigen-bicgstab:precond=ilut,tol=1e-13",
+      "eigen-bicgstab:precond=jacobi,tol=1e-13",
+      "hypre-amg:tol=1e-13",
+      "hypre-pcg:tol=1e-13",
+  };
+  return specs;
+}
+
+std::vector<double> solve_with(const std::string& spec, const mps::CsrMatrix& a, const std::vector<double>& b,
+                               mps::SolveReport* report = nullptr) {
+  auto solver = mps::make_solver(spec);
+  std::vector<double> x(b.size(), 0.0);
+  const mps::SolveReport r = solver->solve(a, b, x);
+  if (report) *report = r;
+  return x;
+}
+
+// A copy of `a` with one diagonal entry made negative: symmetric and indefinite.
+mps::CsrMatrix indefinite(const mps::CsrMatrix& a, int row) {
+  mps::CsrMatrix m = a;
+  for (int k = m.row_ptr[static_cast<std::size_t>(row)]; k < m.row_ptr[static_cast<std::size_t>(row) + 1]; ++k)
+    if (m.col[static_cast<std::size_t>(k)] == row)
+      m.val[static_cast<std::size_t>(k)] = -m.val[static_cast<std::size_t>(k)];
+  return m;
+}
+
+// D A D with D = diag(1 + eps sin(...)): same pattern, symmetric positive definite, slightly different values.
+mps::CsrMatrix perturbed(const mps::CsrMatrix& a, int step, double eps) {
+  mps::CsrMatrix m = a;
+  std::vector<double> d(static_cast<std::size_t>(a.rows));
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = 1.0 + eps * std::sin(0.37 * static_cast<double>(i) + step);
+  for (int r = 0; r < m.rows; ++r)
+    for (int k = m.row_ptr[static_cast<std::size_t>(r)]; k < m.row_ptr[static_cast<std::size_t>(r) + 1]; ++k)
+      m.val[static_cast<std::size_t>(k)] *=
+          d[static_cast<std::size_t>(r)] * d[static_cast<std::size_t>(m.col[static_cast<std::size_t>(k)])];
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(SolverSpec, ParsesNameAndOptions) {
+  const mps::SolverSpec s = mps::parse_solver_spec("hypre-pcg:tol=1e-8, reuse=10");
+  EXPECT_EQ(s.name, "hypre-pcg");
+  ASSERT_EQ(s.options.size(), 2u);
+  EXPECT_EQ(s.options.at("tol"), "1e-8");
+  EXPECT_EQ(s.options.at("reuse"), "10");
+  EXPECT_TRUE(mps::parse_solver_spec("cholmod").options.empty());
+  auto solver = mps::make_solver("hypre-pcg:tol=1e-9,reuse=10,p_max=5");
+  EXPECT_NE(solver->spec().find("reuse=10"), std::string::npos);
+  EXPECT_NE(solver->spec().find("p_max=5"), std::string::npos);
+  EXPECT_NE(solver->spec().find("coarsen_type=10"), std::string::npos) << "defaults are spelled out";
+}
+
+TEST(SolverSpec, EverySolverIsRegisteredAndItsSpecRebuildsIt) {
+  const std::vector<std::string> names = mps::solver_names();
+  for (const char* expected : {"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg"})
+    EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
+  const std::string listing = mps::describe_solvers();
+  for (const auto& name : names) {
+    EXPECT_NE(listing.find(name), std::string::npos) << name;
+    const std::string spec = mps::make_solver(name)->spec();
+    EXPECT_EQ(mps::make_solver(spec)->spec(), spec);
+  }
+}
+
+TEST(SolverSpec, UnknownNameListsTheValidSolvers) {
+  try {
+    (void)mps::make_solver("hypre-gmres:tol=1e-8");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("hypre-gmres"), std::string::npos) << what;
+    for (const char* valid : {"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg"})
+      EXPECT_NE(what.find(valid), std::string::npos) << what;
+  }
+}
+
+TEST(SolverSpec, UnknownKeyListsTheValidKeys) {
+  try {
+    (void)mps::make_solver("hypre-pcg:tolerance=1e-8");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("tolerance"), std::string::npos) << what;
+    for (const char* valid : {"tol", "max_iter", "reuse", "coarsen_type", "strong_threshold"})
+      EXPECT_NE(what.find(valid), std::string::npos) << what;
+  }
+  EXPECT_THROW((void)mps::make_solver("cholmod:tol=1e-8"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver("eigen-bicgstab:ordering=amd"), std::invalid_argument);
+}
+
+TEST(SolverSpec, BadValuesSayWhatIsAllowed) {
+  for (const char* spec : {"eigen-cg:tol=abc", "eigen-cg:tol=2", "hypre-pcg:max_iter=-3", "hypre-pcg:reuse=1.5",
+                           "hypre-amg:coarsen_type=7", "eigen-bicgstab:precond=ic", "cholmod:ordering=rcm",
+                           "hypre-pcg:strong_threshold=1.5", "eigen-cg:precond="}) {
+    try {
+      (void)mps::make_solver(spec);
+      ADD_FAILURE() << spec << ": no exception";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_GT(std::string(e.what()).size(), 20u) << spec;
+    }
+  }
+  try {
+    (void)mps::make_solver("eigen-bicgstab:precond=ic");
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ilut"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("jacobi"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SolverSpec, DuplicateAndMalformedOptionsAreRejected) {
+  EXPECT_THROW((void)mps::make_solver("hypre-pcg:tol=1e-8,tol=1e-9"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver("hypre-pcg:tol"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver(":tol=1e-8"), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(SolverAgreement, EveryBackendGivesTheSamePressureOnAFreeSurfaceTank) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  ASSERT_GT(ppe.size(), 2000u);
+  ASSERT_TRUE(ppe.floating.empty()) << "the tank is anchored by its free surface";
+  std::vector<std::vector<double>> x;
+  for (const auto& spec : all_backends()) {
+    mps::SolveReport r;
+    x.push_back(solve_with(spec, ppe.matrix, ppe.rhs, &r));
+    EXPECT_LT(r.relative_residual, 1e-12) << spec;
+    EXPECT_FALSE(r.residual_history.empty()) << spec;
+  }
+  for (std::size_t i = 0; i < x.size(); ++i)
+    for (std::size_t j = 0; j < x.size(); ++j)
+      EXPECT_LT(relative_difference(x[i], x[j]), 1e-8) << all_backends()[i] << " vs " << all_backends()[j];
+}
+
+TEST(SolverAgreement, EveryBackendGivesTheSamePressureLevelInAClosedBox) {
+  const Scene& s = box();
+  ASSERT_GT(s.ppe.size(), 2000u);
+  ASSERT_EQ(s.ppe.floating.size(), 1u) << "a closed box is one floating group carrying the gauge";
+  std::vector<std::vector<double>> pressure;
+  for (const auto& spec : all_backends()) {
+    const std::vector<double> x = solve_with(spec, s.ppe.matrix, s.ppe.rhs);
+    mps::Particles p = s.particles;
+    s.ppe.scatter(x, p);
+    std::vector<double> unknowns;
+    double mean = 0.0;
+    for (int i : s.ppe.particle) {
+      unknowns.push_back(p.p[static_cast<std::size_t>(i)]);
+      mean += unknowns.back();
+    }
+    mean /= static_cast<double>(unknowns.size());
+    double scale = 0.0;
+    for (double v : unknowns) scale = std::max(scale, std::abs(v));
+    EXPECT_LT(std::abs(mean), 1e-10 * scale) << spec << ": the gauge gives zero mean pressure";
+    pressure.push_back(std::move(unknowns));
+  }
+  for (std::size_t i = 0; i < pressure.size(); ++i)
+    for (std::size_t j = 0; j < pressure.size(); ++j)
+      EXPECT_LT(relative_difference(pressure[i], pressure[j]), 1e-8)
+          << all_backends()[i] << " vs " << all_backends()[j];
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(SolverFailure, HittingMaxIterationsThrowsWithTheResidualHistory) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  for (const char* spec : {"eigen-cg:max_iter=3", "eigen-bicgstab:precond=jacobi,max_iter=2", "hypre-pcg:max_iter=2",
+                           "hypre-amg:max_iter=1"}) {
+    auto solver = mps::make_solver(spec);
+    std::vector<double> x(ppe.size(), 0.0);
+    try {
+      (void)solver->solve(ppe.matrix, ppe.rhs, x);
+      ADD_FAILURE() << spec << ": no exception";
+    } catch (const mps::SolverError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("no convergence"), std::string::npos) << spec << ": " << what;
+      EXPECT_GE(e.report().residual_history.size(), 2u) << spec;
+      EXPECT_GT(e.report().relative_residual, 1e-8) << spec;
+    }
+  }
+  // hypre records every iteration: the initial residual plus one per iteration.
+  auto pcg = mps::make_solver("hypre-pcg:max_iter=2");
+  std::vector<double> x(ppe.size(), 0.0);
+  try {
+    (void)pcg->solve(ppe.matrix, ppe.rhs, x);
+    ADD_FAILURE() << "no exception";
+  } catch (const mps::SolverError& e) {
+    ASSERT_EQ(e.report().residual_history.size(), 3u);
+    EXPECT_DOUBLE_EQ(e.report().residual_history[0], 1.0);
+    EXPECT_LT(e.report().residual_history[2], e.report().residual_history[0]);
+    EXPECT_EQ(e.report().iterations, 2);
+  }
+}
+
+TEST(SolverFailure, NanInTheInputIsAnError) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  std::vector<double> bad_rhs = ppe.rhs;
+  bad_rhs[5] = std::nan("");
+  mps::CsrMatrix bad_matrix = ppe.matrix;
+  bad_matrix.val[17] = INFINITY;
+  for (const auto& spec : all_backends()) {
+    auto solver = mps::make_solver(spec);
+    std::vector<double> x(ppe.size(), 0.0);
+    EXPECT_THROW((void)solver->solve(ppe.matrix, bad_rhs, x), mps::SolverError) << spec;
+    EXPECT_THROW((void)solver->solve(bad_matrix, ppe.rhs, x), mps::SolverError) << spec;
+    // A broken warm start is not the caller's input error: it is replaced by zeros.
+    std::vector<double> nan_guess(ppe.size(), std::nan(""));
+    const mps::SolveReport r = solver->solve(ppe.matrix, ppe.rhs, nan_guess);
+    EXPECT_LT(r.relative_residual, 1e-12) << spec;
+  }
+}
+
+TEST(SolverFailure, CholmodRejectsAMatrixThatIsNotPositiveDefinite) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  auto solver = mps::make_solver("cholmod");
+  std::vector<double> x(ppe.size(), 0.0);
+  try {
+    (void)solver->solve(indefinite(ppe.matrix, 100), ppe.rhs, x);
+    FAIL() << "no exception";
+  } catch (const mps::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("not positive definite"), std::string::npos) << e.what();
+  }
+  // The solver recovers: the next, healthy matrix is solved.
+  EXPECT_LT(solver->solve(ppe.matrix, ppe.rhs, x).relative_residual, 1e-12);
+  // A nonsymmetric matrix would be factorised from one triangle only: refused too.
+  mps::CsrMatrix skew = ppe.matrix;
+  skew.val[static_cast<std::size_t>(skew.row_ptr[10])] *= 1.5;
+  if (skew.col[static_cast<std::size_t>(skew.row_ptr[10])] == 10)
+    skew.val[static_cast<std::size_t>(skew.row_ptr[10]) + 1] *= 1.5;
+  EXPECT_THROW((void)solver->solve(skew, ppe.rhs, x), mps::SolverError);
+}
+
+TEST(SolverFailure, CholmodChecksSymmetryOfValuesAndPattern) {
+  // [[4, 1, 0], [1, 4, 1], [0, 1, 4]] with one entry changed or added on one side only
+  auto make = [](std::vector<int> row_ptr, std::vector<int> col, std::vector<double> val) {
+    mps::CsrMatrix m;
+    m.rows = m.cols = 3;
+    m.row_ptr = std::move(row_ptr);
+    m.col = std::move(col);
+    m.val = std::move(val);
+    m.validate();
+    return m;
+  };
+  const mps::CsrMatrix good = make({0, 2, 5, 7}, {0, 1, 0, 1, 2, 1, 2}, {4, 1, 1, 4, 1, 1, 4});
+  const mps::CsrMatrix value_skew = make({0, 2, 5, 7}, {0, 1, 0, 1, 2, 1, 2}, {4, 1, 1, 4, 1, 1.5, 4});
+  const mps::CsrMatrix pattern_skew = make({0, 3, 6, 8}, {0, 1, 2, 0, 1, 2, 1, 2}, {4, 1, 0.5, 1, 4, 1, 1, 4});
+  const mps::CsrMatrix explicit_zero = make({0, 3, 6, 8}, {0, 1, 2, 0, 1, 2, 1, 2}, {4, 1, 0.0, 1, 4, 1, 1, 4});
+  const std::vector<double> b{1, 2, 3};
+  auto solver = mps::make_solver("cholmod");
+  std::vector<double> x(3, 0.0);
+  EXPECT_LT(solver->solve(good, b, x).relative_residual, 1e-14);
+  EXPECT_THROW((void)solver->solve(value_skew, b, x), mps::SolverError);
+  EXPECT_THROW((void)solver->solve(pattern_skew, b, x), mps::SolverError);
+  EXPECT_LT(solver->solve(explicit_zero, b, x).relative_residual, 1e-14) << "a stored zero needs no partner";
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(SolverReuse, AKeptAmgHierarchySolvesPerturbedSystemsLikeAFreshSetup) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  for (const char* method : {"hypre-pcg", "hypre-amg"}) {
+    auto kept = mps::make_solver(std::string(method) + ":tol=1e-13,reuse=10");
+    auto fresh = mps::make_solver(std::string(method) + ":tol=1e-13");
+    std::vector<double> x_kept(ppe.size(), 0.0);
+    for (int step = 0; step < 4; ++step) {
+      const mps::CsrMatrix a = perturbed(ppe.matrix, step, 0.02);
+      std::vector<double> b = ppe.rhs;
+      for (std::size_t i = 0; i < b.size(); ++i) b[i] *= 1.0 + 0.05 * std::cos(0.1 * static_cast<double>(i) + step);
+      const mps::SolveReport r = kept->solve(a, b, x_kept);  // warm start from the previous step
+      EXPECT_EQ(r.setup_reused, step > 0) << method << " step " << step;
+      std::vector<double> x_fresh(ppe.size(), 0.0);
+      const mps::SolveReport rf = fresh->solve(a, b, x_fresh);
+      EXPECT_FALSE(rf.setup_reused);
+      EXPECT_LT(relative_difference(x_kept, x_fresh), 1e-9) << method << " step " << step;
+      EXPECT_LT(relative_difference(x_kept, solve_with("cholmod", a, b)), 1e-9) << method << " step " << step;
+    }
+  }
+}
+
+TEST(SolverReuse, TheHierarchyIsRebuiltAfterReuseSolvesAndWhenTheCountChanges) {
+  const mps::PpeSystem& t = tank().ppe;
+  const mps::PpeSystem& c = box().ppe;
+  ASSERT_NE(t.size(), c.size());
+  auto solver = mps::make_solver("hypre-pcg:reuse=2");
+  std::vector<bool> reused;
+  auto step = [&](const mps::PpeSystem& ppe, int k) {
+    std::vector<double> x(ppe.size(), 0.0);
+    const mps::SolveReport r = solver->solve(perturbed(ppe.matrix, k, 0.01), ppe.rhs, x);
+    EXPECT_LT(r.relative_residual, 1e-8);
+    reused.push_back(r.setup_reused);
+  };
+  for (int k = 0; k < 4; ++k) step(t, k);  // set up, reuse, reuse, reuse budget spent: set up
+  step(c, 0);                              // another unknown count: set up
+  step(c, 1);
+  EXPECT_EQ(reused, (std::vector<bool>{false, true, true, false, false, true}));
+}
+
+TEST(SolverReuse, CholmodReusesItsSymbolicAnalysisWhileThePatternHolds) {
+  const mps::PpeSystem& t = tank().ppe;
+  auto solver = mps::make_solver("cholmod");
+  std::vector<double> x(t.size(), 0.0);
+  EXPECT_FALSE(solver->solve(t.matrix, t.rhs, x).setup_reused);
+  const mps::CsrMatrix a = perturbed(t.matrix, 1, 0.05);
+  const mps::SolveReport r = solver->solve(a, t.rhs, x);
+  EXPECT_TRUE(r.setup_reused);
+  EXPECT_LT(r.relative_residual, 1e-12) << "refactorised with the new values";
+  EXPECT_FALSE(solver->solve(box().ppe.matrix, box().ppe.rhs, x = std::vector<double>(box().ppe.size())).setup_reused);
+}
+
+TEST(SolverWarmStart, IterativeBackendsStartFromTheGivenX) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  const std::vector<double> exact = solve_with("cholmod", ppe.matrix, ppe.rhs);
+  for (const char* spec :
+       {"eigen-cg:tol=1e-8", "eigen-bicgstab:precond=jacobi,tol=1e-8", "hypre-amg:tol=1e-8", "hypre-pcg:tol=1e-8"}) {
+    mps::SolveReport cold, warm;
+    const std::vector<double> x_cold = solve_with(spec, ppe.matrix, ppe.rhs, &cold);
+    auto solver = mps::make_solver(spec);
+    std::vector<double> x = exact;
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] *= 1.0 + 1e-7 * std::sin(static_cast<double>(i));
+    warm = solver->solve(ppe.matrix, ppe.rhs, x);
+    EXPECT_GT(cold.iterations, 3) << spec;
+    EXPECT_LT(warm.iterations, cold.iterations / 2 + 1) << spec;
+    EXPECT_LT(warm.residual_history.front(), 1e-5) << spec << ": the history starts at the guess's residual";
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+// The hydrostatic validation of the time loop holds whichever backend solves the PPE (a coarse tank, so
+// that it stays quick): band pressures within 5 % of rho g (H - y), with hypre reusing its hierarchy.
+class SolverInTheTimeLoop : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(SolverInTheTimeLoop, HydrostaticTankMatchesRhoGDepth) {
+  tank::Params p;
+  p.l0 = 0.02;
+  p.end_time = 0.3;
+  p.window = 0.1;
+  p.solver = GetParam();
+  tank::Tank t(p);
+  int reused = 0;
+  while (!t.done()) {
+    t.step();
+    reused += t.sim().last_step().solve.setup_reused ? 1 : 0;
+  }
+  const tank::Result r = t.result();
+  ASSERT_GE(r.bands.size(), 4u);
+  for (std::size_t b = 0; b + 1 < r.bands.size(); ++b)
+    EXPECT_LT(r.bands[b].relative_error, 0.05) << GetParam() << ", band at y = " << r.bands[b].y_center << ": "
+                                               << r.bands[b].mean_pressure << " Pa vs " << r.bands[b].exact_pressure;
+  if (std::string(GetParam()).find("reuse") != std::string::npos) {
+    EXPECT_GT(reused, r.steps / 2) << "the AMG hierarchy is kept across most steps";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(SolverBackends, SolverInTheTimeLoop, ::testing::Values("hypre-pcg:reuse=10", "cholmod"),
+                         [](const ::testing::TestParamInfo<const char*>& param_info) {
+                           std::string name = param_info.param;
+                           for (char& ch : name)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return name;
+                         });
+
+}  // namespace

@@ -1,11 +1,11 @@
 # The two commands a newcomer needs (both install missing Debian packages first):
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
-# Further: make bench (core + solver benchmarks), make test-sanitize (ASan+UBSan build of the tests).
+# Further: make bench, make bench-solvers (benchmarks, CSV + PNG in bench/results/), make test-sanitize.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/hydrostatic
 
-.PHONY: deps demo test test-sanitize bench clean
+.PHONY: deps demo test test-sanitize bench bench-solvers clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -26,12 +26,19 @@ test-sanitize: deps
 	cmake -S . -B build/sanitize -DCMAKE_BUILD_TYPE=Debug -DSPARSEMPS_WERROR=ON -DSPARSEMPS_SANITIZE=ON
 	cmake --build build/sanitize -j$(JOBS)
 	cd build/sanitize && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-	  ctest --output-on-failure -j$(JOBS) -LE slow
+	  ctest --output-on-failure -j$(JOBS) -LE install
 
 bench: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
 	./build/release/bench/bench_core --out bench/results/core.csv
 	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
+
+SOLVER_SIZES ?= 1e4,1e5,1e6
+bench-solvers: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_solvers
+	./build/release/bench/bench_solvers --sizes $(SOLVER_SIZES) --limit "eigen-bicgstab=200000" \
+	  --out bench/results/solvers.csv data/*.mtx
+	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
 
 clean:
 	rm -rf build runs

@@ -1,0 +1,34 @@
+"""Cost per particle of each core phase against N, from bench_core's CSV (log-log).
+Usage: /usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png"""
+import csv
+import datetime
+import platform
+import subprocess
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+PHASES = ["bin", "neighbors_4.1", "neighbors_2.1", "number_density", "assemble_ppe", "reorder"]
+
+rows = list(csv.DictReader(open(sys.argv[1])))
+fig, ax = plt.subplots(figsize=(6.4, 4.2))
+for k, name in enumerate(PHASES):
+    pts = [(float(r["particles"]), float(r["ns_per_particle"])) for r in rows if int(float(r["phase_index"])) == k]
+    if pts:
+        ax.loglog(*zip(*pts), "o-", label=name)
+ax.set_xlabel("particles N")
+ax.set_ylabel("time per particle [ns] (flat = O(N))")
+try:
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+except OSError:
+    commit = "?"
+ax.set_title(f"SparseMPS core phases, {platform.node() or 'machine'} 2 cores, "
+             f"{datetime.date.today()}, {commit}", fontsize=9)
+ax.grid(True, which="both", alpha=0.3)
+ax.legend(fontsize=8)
+fig.tight_layout()
+fig.savefig(sys.argv[2], dpi=90)
+print("wrote", sys.argv[2])

@@ -20,7 +20,8 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
           {"width_m", p.width}, {"water_height_m", p.water_height}, {"l0_m", p.l0}, {"gamma", p.gamma},
           {"beta", c.beta}, {"dt_max_s", p.dt}, {"end_time_s", p.end_time}, {"window_s", p.window},
           {"band_l0", p.band}, {"g", p.g}, {"rho", c.rho}, {"nu", c.nu},
-          {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient}, {"laplacian", c.radius_laplacian}}},
+          {"radii_l0", {{"density", c.radius_density}, {"surface", c.radius_surface}, {"gradient", c.radius_gradient},
+                        {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
           {"physics_on", {"gravity", "viscosity (explicit)", "free surface"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "mps/geometry.hpp"
+#include "solver_cli.hpp"
 #include "mps/io.hpp"
 #include "mps/kernel.hpp"
 #include "mps/neighbors.hpp"
@@ -361,13 +362,8 @@ int main(int argc, char** argv) {
   app.add_option("--export-samples", export_dir, "write the small sample PPEs (Matrix Market) to DIR and exit");
   app.add_option("matrices", files,
                  "Matrix Market matrices to time as well (b from NAME_rhs.mtx if present, else A*1)");
-  bool list = false;
-  app.add_flag("--list-solvers", list, "print the available solvers with their keys and exit");
+  add_list_solvers_flag(app);
   CLI11_PARSE(app, argc, argv);
-  if (list) {
-    std::cout << mps::describe_solvers();
-    return 0;
-  }
   if (!export_dir.empty()) {
     export_samples(export_dir);
     return 0;

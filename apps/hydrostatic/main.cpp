@@ -7,7 +7,7 @@
 #include <iostream>
 
 #include "mps/io.hpp"
-#include "mps/solvers/solver.hpp"
+#include "solver_cli.hpp"
 #include "tank.hpp"
 
 namespace fs = std::filesystem;
@@ -49,17 +49,11 @@ int main(int argc, char** argv) {
   app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--band", p.band, "height of averaging bands, in l0")->capture_default_str();
-  app.add_option("--solver", p.solver, "linear solver spec name[:key=value,...] (see --list-solvers)")->capture_default_str();
+  add_solver_options(app, p.solver);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")->capture_default_str();
   app.add_option("--out", out, "output directory")->capture_default_str();
-  bool list = false;
-  app.add_flag("--list-solvers", list, "print the available solvers with their keys and exit");
   CLI11_PARSE(app, argc, argv);
-  if (list) {
-    std::cout << mps::describe_solvers();
-    return 0;
-  }
 
   try {
     tank::Tank scene(p);

@@ -144,3 +144,30 @@ TEST(Operators, NumberDensityOfInteriorLatticeParticleIsN0) {
 }
 
 }  // namespace
+
+namespace {
+// The corrective matrix makes the gradient exact for linear fields where the neighbourhood is cut off (a
+// free-surface row), which the plain MPS gradient is not.
+TEST(Operators, CorrectedGradientIsExactForLinearFieldsAtATruncatedSurface) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 2, 1}, 0.1, mps::Kind::fluid);
+  const mps::Domain d{-1, 3, -1, 2};
+  const mps::Kernel k = mps::make_kernel(2.1, 0.1);
+  const auto list = mps::find_neighbors(p, d, k.re);
+  const mps::Stencil s{p, d, list, k};
+  const std::size_t n = p.size();
+  std::vector<double> phi(n), gx(n), gy(n), px(n), py(n);
+  for (std::size_t i = 0; i < n; ++i) phi[i] = 3.0 * p.x[i] - 7.0 * p.y[i];
+  mps::gradient(s, phi, gx, gy, mps::GradientVariant::corrected);
+  mps::gradient(s, phi, px, py, mps::GradientVariant::plain);
+  int top_row = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (p.x[i] < 0.3 || p.x[i] > 1.7 || p.y[i] < 0.9) continue;  // the top row, away from the side edges
+    EXPECT_NEAR(gx[i], 3.0, 1e-10);
+    EXPECT_NEAR(gy[i], -7.0, 1e-10);
+    EXPECT_GT(std::abs(py[i] + 7.0), 1.0);  // the plain gradient is off there by a lot
+    ++top_row;
+  }
+  EXPECT_GT(top_row, 10);
+}
+}  // namespace

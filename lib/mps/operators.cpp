@@ -93,11 +93,11 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
   check_size(gx.size(), s.particles.size(), "gx");
   check_size(gy.size(), s.particles.size(), "gy");
   const double scale = kDim / s.kernel.n0;
+  const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
+  const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
-    const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
     double ref = phi[i];
     if (min_ref) {
       // The tilted minimum removes the known linear part from the classic one, never going below it: where
@@ -116,6 +116,7 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
       const double f = (phi[j] - ref) * w / r2;
       sx += f * dx;
       sy += f * dy;
+      if (!corrected) return;
       mxx += w * dx * dx / r2;
       mxy += w * dx * dy / r2;
       myy += w * dy * dy / r2;

@@ -5,7 +5,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/hydrostatic
 
-.PHONY: deps demo test test-sanitize bench bench-solvers clean
+.PHONY: deps demo test test-sanitize bench bench-solvers poiseuille clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -39,6 +39,14 @@ bench-solvers: deps build/release/CMakeCache.txt
 	./build/release/bench/bench_solvers --sizes $(SOLVER_SIZES) --limit "eigen-bicgstab=200000" \
 	  --out bench/results/solvers.csv data/*.mtx
 	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
+
+# The periodic channel in both modes at the app's defaults (a few minutes each), with profile plots.
+poiseuille: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target poiseuille
+	./build/release/apps/poiseuille/poiseuille --mode body-force --out runs/poiseuille/body-force
+	./build/release/apps/poiseuille/poiseuille --mode couette --out runs/poiseuille/couette
+	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/body-force/profile.csv runs/poiseuille/body-force/profile.png
+	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/couette/profile.csv runs/poiseuille/couette/profile.png
 
 clean:
 	rm -rf build runs

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "mps/io.hpp"
+#include "run_json.hpp"
 #include "solver_cli.hpp"
 #include "tank.hpp"
 
@@ -25,12 +26,6 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
           {"physics_on", {"gravity", "viscosity (explicit)", "free surface"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};
-}
-
-nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::size_t particles) {
-  return {{"neighbors_s", t.neighbors}, {"predict_s", t.predict}, {"assemble_s", t.assemble},
-          {"solver_setup_s", t.solver_setup}, {"solve_s", t.solve}, {"correct_s", t.correct}, {"total_s", t.total()},
-          {"particle_steps_per_second", t.total() > 0 ? static_cast<double>(particles) * steps / t.total() : 0.0}};
 }
 
 }  // namespace

@@ -90,33 +90,16 @@ void CellGrid::neighbors(const Particles& particles, double radius, NeighborList
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
   if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
     throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
-  const double r2 = radius * radius;
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   list.radius = radius;
   list.offsets.assign(particles.size() + 1, 0);
 
   // Two passes (count, then fill) keep the result in one allocation and independent of thread scheduling.
   auto visit = [&](std::ptrdiff_t i, auto&& on_neighbor) {
-    const double xi = particles.x[static_cast<std::size_t>(i)], yi = particles.y[static_cast<std::size_t>(i)];
-    const auto [cx, cy] = cell_of(xi, yi);
-    for (int oy = -1; oy <= 1; ++oy) {
-      int ky = cy + oy;
-      if (domain_.periodic_y) ky = (ky + ny_) % ny_;
-      else if (ky < 0 || ky >= ny_) continue;
-      for (int ox = -1; ox <= 1; ++ox) {
-        int kx = cx + ox;
-        if (domain_.periodic_x) kx = (kx + nx_) % nx_;
-        else if (kx < 0 || kx >= nx_) continue;
-        const int c = cell_index(kx, ky);
-        for (int k = cell_start_[static_cast<std::size_t>(c)]; k < cell_start_[static_cast<std::size_t>(c) + 1]; ++k) {
-          const int j = cell_particles_[static_cast<std::size_t>(k)];
-          if (j == i) continue;
-          const auto d = domain_.displacement(xi, yi, particles.x[static_cast<std::size_t>(j)],
-                                              particles.y[static_cast<std::size_t>(j)]);
-          if (d[0] * d[0] + d[1] * d[1] < r2) on_neighbor(j);
-        }
-      }
-    }
+    const auto si = static_cast<std::size_t>(i);
+    for_each_near(particles, particles.x[si], particles.y[si], radius, [&](int j, double, double) {
+      if (j != i) on_neighbor(j);
+    });
   };
 
 #pragma omp parallel for schedule(static)

@@ -56,6 +56,30 @@ class CellGrid {
   // neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
   [[nodiscard]] double cell_size() const { return cell_size_; }
+  // Calls f(j, dx, dy) for every binned particle j closer than radius (<= cell size) to the point (x, y),
+  // with (dx, dy) = r_j - (x, y) by the minimum image. `particles` are those last passed to bin().
+  template <class F>
+  void for_each_near(const Particles& particles, double x, double y, double radius, F&& f) const {
+    const double r2 = radius * radius;
+    const auto [cx, cy] = cell_of(x, y);
+    for (int oy = -1; oy <= 1; ++oy) {
+      int ky = cy + oy;
+      if (domain_.periodic_y) ky = (ky + ny_) % ny_;
+      else if (ky < 0 || ky >= ny_) continue;
+      for (int ox = -1; ox <= 1; ++ox) {
+        int kx = cx + ox;
+        if (domain_.periodic_x) kx = (kx + nx_) % nx_;
+        else if (kx < 0 || kx >= nx_) continue;
+        const auto c = static_cast<std::size_t>(cell_index(kx, ky));
+        for (int k = cell_start_[c]; k < cell_start_[c + 1]; ++k) {
+          const int j = cell_particles_[static_cast<std::size_t>(k)];
+          const auto d = domain_.displacement(x, y, particles.x[static_cast<std::size_t>(j)],
+                                              particles.y[static_cast<std::size_t>(j)]);
+          if (d[0] * d[0] + d[1] * d[1] < r2) f(j, d[0], d[1]);
+        }
+      }
+    }
+  }
 
  private:
   [[nodiscard]] int cell_index(int cx, int cy) const { return cy * nx_ + cx; }

@@ -75,6 +75,16 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
                                   fmt(particles_.y[i]) + ") starts outside the domain");
 }
 
+void Simulation::add_mirror_wall(const MirrorWall& wall) {
+  wall.validate();
+  mirror_walls_.push_back(wall);
+}
+
+void Simulation::apply_mirror_walls() {
+  for (const MirrorWall& wall : mirror_walls_)
+    apply_mirror_velocity(wall, grid_, k_gradient_.re, particles_);
+}
+
 double Simulation::choose_dt(std::string& limit) const {
   double umax2 = 0.0;
   for (std::size_t i = 0; i < particles_.size(); ++i)
@@ -126,6 +136,7 @@ void Simulation::advance() {
   }
   grid_.bin(p);
   grid_.neighbors(p, k_laplacian_.re, near_now_);  // viscosity only
+  apply_mirror_walls();
   const NeighborList& near_now = near_now_;
   times_.neighbors += lap(t);
 
@@ -152,6 +163,7 @@ void Simulation::advance() {
 
   // Two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
   grid_.bin(p);
+  apply_mirror_walls();
   grid_.neighbors(p, grid_.cell_size(), near_star_);
   const NeighborList& near_star = near_star_;
   const Kernel* kernels[] = {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_};

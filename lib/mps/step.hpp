@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "mps/boundary.hpp"
 #include "mps/kernel.hpp"
 #include "mps/neighbors.hpp"
 #include "mps/operators.hpp"
@@ -83,6 +84,11 @@ class Simulation {
   using BoundaryMotion = std::function<void(Particles&, double time)>;
   void set_boundary_motion(BoundaryMotion motion) { motion_ = std::move(motion); }
 
+  // No-slip by mirror velocities on a flat wall (see MirrorWall): its particles' velocities are set from
+  // the fluid before the viscous term and again from u* before the PPE source is taken.
+  void add_mirror_wall(const MirrorWall& wall);
+  [[nodiscard]] const std::vector<MirrorWall>& mirror_walls() const { return mirror_walls_; }
+
   [[nodiscard]] const Particles& particles() const { return particles_; }
   [[nodiscard]] const Domain& domain() const { return domain_; }
   [[nodiscard]] const SimulationConfig& config() const { return config_; }
@@ -100,6 +106,7 @@ class Simulation {
  private:
   void advance();
   void check_guard() const;
+  void apply_mirror_walls();
   [[nodiscard]] double choose_dt(std::string& limit) const;
 
   Particles particles_;
@@ -109,6 +116,7 @@ class Simulation {
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
   CellGrid grid_;
   BoundaryMotion motion_;
+  std::vector<MirrorWall> mirror_walls_;
   StepInfo info_;
   PhaseTimes times_;
   // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.

@@ -1,0 +1,152 @@
+// Plane channel flows against their exact transient solutions: a periodic channel driven by a body force
+// (Poiseuille start-up) or by a sliding top wall (Couette start-up). Writes frames (.vtp/.pvd), profile.csv,
+// centerline.csv and summary.json to --out; plot_profile.py turns profile.csv into profile.png.
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "channel.hpp"
+#include "mps/io.hpp"
+#include "run_json.hpp"
+#include "solver_cli.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& sim, double end_time) {
+  const auto& c = sim.config();
+  return {{"scene", "periodic channel"}, {"mode", poiseuille::to_string(p.mode)},
+          {"D_m", p.D}, {"Re", p.re}, {"U_m_per_s", p.U()}, {"l0_m", p.l0()}, {"particles_across", p.across},
+          {"periodic_length_l0", p.length_l0}, {"rho", p.rho}, {"nu", p.nu}, {"gamma", p.gamma},
+          {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
+          {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+          {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
+                        {"laplacian", c.radius_laplacian}}},
+          {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"physics_on", {p.mode == poiseuille::Mode::body_force ? "body force" : "sliding top wall",
+                          "viscosity (explicit)", "mirror no-slip walls", "periodic x", "closed-domain PPE gauge"}},
+          {"wall_layers", 1}, {"dummy_layers", 4}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  poiseuille::Params p;
+  std::string mode = "body-force", out = "runs/poiseuille";
+  double end_time = 20.0;  // in D/U: half a diffusion time D^2/nu at Re = 40
+  int profiles = 5, frames = 10;
+  double tolerance = 0.02;
+  CLI::App app{"SparseMPS plane channel: body-force Poiseuille or Couette start-up against the exact series"};
+  app.add_option("--mode", mode, "body-force | couette")->capture_default_str();
+  app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--across", p.across, "particles across the channel (l0 = D / across; 50: dx = 0.004 m)")
+      ->capture_default_str();
+  app.add_option("--length", p.length_l0, "periodic length in l0 (>= 13)")->capture_default_str();
+  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
+  add_solver_options(app, p.solver);
+  app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error is below this")->capture_default_str();
+  app.add_option("--out", out, "output directory")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    p.mode = poiseuille::parse_mode(mode);
+    p.validate();
+    mps::Simulation sim = poiseuille::make_simulation(p);
+    const nlohmann::json params = params_json(p, sim, end_time);
+    std::cout << "channel: " << params.dump() << "\n";
+    const fs::path dir(out);
+    fs::create_directories(dir / "frames");
+    mps::PvdSeries series(dir / "channel.pvd");
+    const double t_end = end_time * p.convective_time();
+    auto write_frame = [&](int k) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frames/channel_%04d.vtp", k);
+      mps::write_vtp(dir / name, sim.particles());
+      series.add(sim.time(), dir / name);
+    };
+    int frame = 0, profile = 0;
+    if (frames > 0) write_frame(frame++);
+    std::vector<std::string> header{"y_over_D"};
+    std::vector<std::vector<double>> columns(1);
+    poiseuille::Profile last;
+    try {
+      while (profile < profiles) {
+        const double t_profile = t_end * (profile + 1) / profiles;
+        while (sim.time() < t_profile - 1e-9 * t_end) {
+          sim.step();
+          if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
+        }
+        last = poiseuille::measure_profile(p, sim);
+        const double tu = sim.time() / p.convective_time();
+        if (columns[0].empty())
+          for (double y : last.y) columns[0].push_back(y / p.D);
+        char name[64];
+        std::snprintf(name, sizeof name, "u_over_U_t%.4g", tu);
+        header.push_back(name);
+        std::snprintf(name, sizeof name, "exact_t%.4g", tu);
+        header.push_back(name);
+        columns.emplace_back();
+        columns.emplace_back();
+        for (std::size_t k = 0; k < last.y.size(); ++k) {
+          columns[columns.size() - 2].push_back(last.u[k] / p.U());
+          columns.back().push_back(last.exact[k] / p.U());
+        }
+        std::printf("t = %7.3f D/U  step %6d  dt %.2e s (%s)  profile L2 error %.3f %%  peak %.3f %%  flow rate %.3f %%\n",
+                    tu, sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(), 100 * last.l2_error,
+                    100 * last.peak_error, 100 * last.flow_rate_error);
+        ++profile;
+      }
+    } catch (const mps::SimulationError& e) {
+      mps::write_vtp(dir / "last_good.vtp", sim.particles());
+      mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
+                                             {"time_s", sim.time()}, {"steps", sim.last_step().step}});
+      std::cerr << "error: " << e.what() << "\nlast good state written to " << (dir / "last_good.vtp").string() << "\n";
+      return 1;
+    }
+    mps::write_csv(dir / "profile.csv", header, columns);
+    // The axis: u of the fluid nearest y = D/2, against x (uniform in a periodic channel at steady state).
+    std::vector<double> cx, cu, ce;
+    const mps::Particles& s = sim.particles();
+    for (std::size_t i = 0; i < s.size(); ++i)
+      if (s.kind[i] == mps::Kind::fluid && std::abs(s.y[i] - 0.5 * p.D) < 0.5 * p.l0()) {
+        cx.push_back(s.x[i] / p.D);
+        cu.push_back(s.u[i] / p.U());
+        ce.push_back(poiseuille::exact_velocity(p, s.y[i], sim.time()) / p.U());
+      }
+    mps::write_csv(dir / "centerline.csv", {"x_over_D", "u_over_U", "exact"}, {cx, cu, ce});
+    const int steps = sim.last_step().step;
+    const bool pass = last.l2_error <= tolerance;
+    mps::write_json(dir / "summary.json",
+                    {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
+                     {"particles", s.size()}, {"steps", steps}, {"time_s", sim.time()},
+                     {"time_D_over_U", sim.time() / p.convective_time()},
+                     {"peak_velocity_error", last.peak_error}, {"profile_l2_error", last.l2_error},
+                     {"flow_rate_error", last.flow_rate_error}, {"max_transverse_speed_over_U", last.max_abs_v / p.U()},
+                     {"tolerance", tolerance},
+                     {"particle_steps_per_second", timings_json(sim.times(), steps, s.size())["particle_steps_per_second"]},
+                     {"timings", timings_json(sim.times(), steps, s.size())}});
+    std::printf("\ncheck: %s channel at t = %.3f D/U: profile L2 error %.3f %% (limit %.1f %%): %s\n"
+                "       peak velocity error %.3f %%, flow rate error %.3f %%, max |v| %.2e U\n",
+                mode.c_str(), sim.time() / p.convective_time(), 100 * last.l2_error, 100 * tolerance,
+                pass ? "PASS" : "FAIL", 100 * last.peak_error, 100 * last.flow_rate_error, last.max_abs_v / p.U());
+    std::printf("outputs: %s (ParaView), %s, %s, %s\n", series.path().string().c_str(),
+                (dir / "profile.csv").string().c_str(), (dir / "centerline.csv").string().c_str(),
+                (dir / "summary.json").string().c_str());
+    return pass ? 0 : 2;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -81,12 +81,7 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
-      // The simulation holds the last good state: keep it beside the frames and say what went wrong.
-      mps::write_vtp(dir / "last_good.vtp", sim.particles());
-      mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
-                                             {"time_s", sim.time()}, {"steps", sim.last_step().step}});
-      std::cerr << "error: " << e.what() << "\nlast good state written to " << (dir / "last_good.vtp").string() << "\n";
-      return 1;
+      return report_guard_stop(dir, e, params, sim);
     }
 
     const tank::Result r = scene.result();

@@ -109,11 +109,7 @@ int main(int argc, char** argv) {
         ++profile;
       }
     } catch (const mps::SimulationError& e) {
-      mps::write_vtp(dir / "last_good.vtp", sim.particles());
-      mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
-                                             {"time_s", sim.time()}, {"steps", sim.last_step().step}});
-      std::cerr << "error: " << e.what() << "\nlast good state written to " << (dir / "last_good.vtp").string() << "\n";
-      return 1;
+      return report_guard_stop(dir, e, params, sim);
     }
     mps::write_csv(dir / "profile.csv", header, columns);
     // The axis: u of the fluid nearest y = D/2, against x (uniform in a periodic channel at steady state).

@@ -5,7 +5,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/hydrostatic
 
-.PHONY: deps demo test test-sanitize bench bench-solvers poiseuille clean
+.PHONY: deps demo test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -49,6 +49,21 @@ poiseuille: deps build/release/CMakeCache.txt
 	./build/release/apps/poiseuille/poiseuille --mode couette --out runs/poiseuille/couette
 	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/body-force/profile.csv runs/poiseuille/body-force/profile.png
 	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/couette/profile.csv runs/poiseuille/couette/profile.png
+
+# Acoustic scenes (seed 001) at the paper's settings, then the README's map and centreline panels.
+acoustic: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target acoustic
+	for c in free hard mur two-pulse flow; do ./build/release/apps/acoustic/acoustic --case $$c --frames 0 || exit 1; done
+	/usr/bin/python3 bench/plot_acoustic.py maps runs/acoustic bench/results/acoustic_maps.png
+	/usr/bin/python3 bench/plot_acoustic.py centreline runs/acoustic bench/results/acoustic_centreline.png
+
+# Error against CFL and against spacing (seed 001 Fig. 2-3): ~7 min on 2 cores.
+bench-acoustic: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target acoustic
+	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic cfl --out bench/results/acoustic_cfl.csv
+	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic spacing --out bench/results/acoustic_spacing.csv
+	/usr/bin/python3 bench/plot_acoustic.py cfl bench/results/acoustic_cfl.csv bench/results/acoustic_cfl.png
+	/usr/bin/python3 bench/plot_acoustic.py spacing bench/results/acoustic_spacing.csv bench/results/acoustic_spacing.png
 
 clean:
 	rm -rf build runs

@@ -243,9 +243,13 @@ void Simulation::advance() {
 
 void Simulation::check_guard() const {
   const Particles& p = particles_;
+  // The advice names the knob of the limit that set dt: lowering dt_max does nothing while cfl binds.
+  const std::string advice = info_.dt_limit == "viscous" ? " (reduce viscous_number, the viscous limit set dt)"
+                             : info_.dt_limit == "cfl"   ? " (reduce cfl, the CFL limit set dt)"
+                                                         : " (reduce dt_max)";
   auto fail = [&](const std::string& what) {
     throw SimulationError("step " + std::to_string(info_.step) + " (t = " + fmt(info_.time) + " s, dt = " +
-                          fmt(info_.dt) + " s, dt limit " + info_.dt_limit + "): " + what);
+                          fmt(info_.dt) + " s, dt limit " + info_.dt_limit + "): " + what + advice);
   };
   // A fluid particle moves by exactly dt |u^{n+1}| in a step, so the displacement bound is a speed bound.
   const double max_move = config_.max_displacement * config_.l0;
@@ -253,18 +257,17 @@ void Simulation::check_guard() const {
     if (p.kind[i] == Kind::ghost) continue;
     const double speed = std::hypot(p.u[i], p.v[i]);
     if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
-      fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up "
-           "(reduce dt_max or cfl)");
+      fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up");
     if (!domain_.contains(p.x[i], p.y[i]))
       fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at (" +
-           fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable (reduce dt_max or cfl)");
+           fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable");
     if (speed > config_.max_speed)
       fail("particle " + std::to_string(i) + " moves at " + fmt(speed) + " m/s, above max_speed " +
-           fmt(config_.max_speed) + " m/s (reduce dt_max or cfl)");
+           fmt(config_.max_speed) + " m/s");
     if (p.kind[i] == Kind::fluid && info_.dt * speed > max_move)
       fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
            " l0 in one step, above the limit of " + fmt(config_.max_displacement) +
-           " l0: velocity blow-up (reduce dt_max or cfl)");
+           " l0: velocity blow-up");
   }
 }
 

@@ -120,3 +120,63 @@ TEST(ChannelParams, BadInputIsRejectedWithTheParameterNamed) {
   EXPECT_THROW(p.validate(), std::invalid_argument);
   EXPECT_THROW(poiseuille::parse_mode("inlett"), std::invalid_argument);
 }
+
+TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
+  // A plate of two wall rows (plus a dummy behind), fluid ahead of it, two ghosts in the pool.
+  const double l0 = 0.1, U = 0.5;
+  mps::Particles p;
+  for (double y : {0.05, 0.15}) {
+    p.add(-0.05, y, mps::Kind::wall, 3);
+    p.add(-0.15, y, mps::Kind::dummy, 3);
+    p.add(0.05, y, mps::Kind::fluid, 0, U);
+    p.add(0.95, y, mps::Kind::fluid, 0, U);
+  }
+  p.add(2.0, 0.05, mps::Kind::ghost);
+  p.add(2.0, 0.15, mps::Kind::ghost);
+  mps::PushingPlate plate(p, 3, U, l0, 1.0);
+  plate(p, 0.1);  // advanced 0.05 = l0/2: no gap yet
+  EXPECT_NEAR(p.x[0], 0.0, 1e-12);
+  EXPECT_NEAR(p.x[1], -0.1, 1e-12);
+  EXPECT_EQ(p.count(mps::Kind::fluid), 4u);
+  p.x[3] = p.x[7] = 1.01;  // these two leave through the outlet
+  plate(p, 0.25);          // advanced 0.125: stepped back once, now 0.025 ahead of the start
+  EXPECT_NEAR(p.x[0], -0.025, 1e-12);
+  EXPECT_EQ(plate.columns_added(), 1);
+  EXPECT_EQ(plate.particles_removed(), 2);
+  int filled = 0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == mps::Kind::fluid && std::abs(p.x[i] - 0.075) < 1e-12) {
+      ++filled;
+      EXPECT_EQ(p.u[i], U);
+      EXPECT_TRUE(std::abs(p.y[i] - 0.05) < 1e-12 || std::abs(p.y[i] - 0.15) < 1e-12);
+    }
+  EXPECT_EQ(filled, 2);  // one per plate wall particle, one spacing ahead of the plate
+  plate(p, 0.45);        // the next gap takes the last two ghosts
+  EXPECT_EQ(plate.columns_added(), 2);
+  EXPECT_THROW(plate(p, 0.65), mps::SimulationError);  // the pool is empty now
+  EXPECT_THROW(mps::PushingPlate(p, 7, U, l0, 1.0), std::invalid_argument);  // no such plate group
+}
+
+TEST(InletChannel, DevelopedPeakAndFlowRateMatchTheParabolaAndMassIsConserved) {
+  // The paper's set-up, coarse (20 across) and shortened (6 D, station at 4 D): the plate pushes U D, the
+  // developed profile at the station must carry it with the parabola's peak.
+  poiseuille::Params p = coarse(poiseuille::Mode::inlet);
+  p.length_D = 6;
+  p.station_D = 4;
+  mps::Simulation sim = poiseuille::make_simulation(p);
+  const std::size_t fluid_at_start = sim.particles().count(mps::Kind::fluid);
+  const double t_end = 4 * p.convective_time();
+  poiseuille::ProfileSampler sampler(p);
+  while (sim.time() < t_end * (1 - 1e-9)) {
+    sim.step();
+    if (sim.time() > t_end - p.convective_time()) sampler.add(sim);
+    // Inflow and outflow balance: the fluid never gains or loses more than the plate's column and the outlet's.
+    const auto fluid = static_cast<double>(sim.particles().count(mps::Kind::fluid));
+    ASSERT_NEAR(fluid, static_cast<double>(fluid_at_start), 2 * p.across) << "t = " << sim.time();
+  }
+  const poiseuille::Profile pr = sampler.result(sim.time());
+  EXPECT_GT(pr.samples, 100);
+  EXPECT_LT(pr.peak_error, 0.03);
+  EXPECT_LT(pr.flow_rate_error, 0.02);
+  EXPECT_LT(pr.max_abs_v, 0.5 * p.U());
+}

@@ -1,10 +1,15 @@
 #pragma once
-// Plane channel flows of width D between no-slip walls (seed 004; design §6 "Poiseuille"), periodic along x:
-//  body-force: fluid at rest driven by a uniform force F from t = 0; the transient series solution
-//              (Morris et al. 1997) tends to the parabola with mean velocity U, u_max = 1.5 U;
-//  couette:    fluid at rest, the top wall sliding at U from t = 0; the start-up series tends to U y / D.
-// Walls are one wall layer and four dummy layers with mirror velocities (mps::MirrorWall). The channel is
-// closed (no free surface): the PPE takes the library's all-Neumann treatment.
+// Plane channel flows of width D between no-slip walls (seed 004; design §6 "Poiseuille"):
+//  inlet:      the paper's set-up. A channel of length L with a pushing plate at x = 0 moving at U (ghost
+//              recycling, mps::PushingPlate) and an open outlet at x = L; the flow develops into the parabola
+//              with mean velocity U, u_max = 1.5 U, measured at the station x = 10 D;
+//  body-force: periodic along x, fluid at rest driven by a uniform force F from t = 0; the transient series
+//              solution (Morris et al. 1997) tends to the same parabola;
+//  couette:    periodic along x, fluid at rest, the top wall sliding at U from t = 0; the start-up series
+//              tends to U y / D.
+// Walls are one wall layer and four dummy layers with mirror velocities (mps::MirrorWall). The periodic
+// channels are closed (no free surface): the PPE takes the library's all-Neumann treatment; the inlet
+// channel's outlet is free surface (P = 0).
 #include <string>
 #include <vector>
 
@@ -12,16 +17,18 @@
 
 namespace poiseuille {
 
-enum class Mode { body_force, couette };
-Mode parse_mode(const std::string& name);  // "body-force" | "couette"; throws std::invalid_argument otherwise
+enum class Mode { inlet, body_force, couette };
+Mode parse_mode(const std::string& name);  // "inlet" | "body-force" | "couette"; throws std::invalid_argument otherwise
 std::string to_string(Mode mode);
 
 struct Params {
-  Mode mode = Mode::body_force;
+  Mode mode = Mode::inlet;
   double D = 0.2;          // channel width [m]
   double re = 40;          // Reynolds number U D / nu
   double across = 50;      // particles across the channel: l0 = D / across (50: the paper's dx = 0.004 m)
-  double length_l0 = 16;   // periodic length in l0 (at least 13: three cells of the 4.1 l0 search)
+  double length_l0 = 16;   // periodic modes: the periodic length in l0 (at least 13: three cells of the 4.1 l0 search)
+  double length_D = 15;    // inlet: channel length in D (the paper's 15 D) ...
+  double station_D = 10;   // ... and the measuring station x, in D from the plate's start
   double rho = 1000, nu = 1e-6;
   double gamma = 0.99;
   double dt_factor = 1;    // multiplies both time-step limits (CFL 0.2, viscous number 0.2); > 1 probes stability
@@ -31,27 +38,52 @@ struct Params {
   [[nodiscard]] double U() const { return re * nu / D; }          // mean velocity (body-force) or wall speed
   [[nodiscard]] double force() const { return 12.0 * nu * U() / (D * D); }  // F giving mean velocity U
   [[nodiscard]] double diffusion_time() const { return D * D / nu; }
+  [[nodiscard]] bool periodic() const { return mode != Mode::inlet; }
   [[nodiscard]] double convective_time() const { return D / U(); }
   void validate() const;  // throws std::invalid_argument naming the bad parameter
 };
 
-// The exact velocity u(y, t) of the mode, y from the bottom wall line (0 <= y <= D). The series is summed
-// until its terms fall below 1e-14 of the scale velocity (at most 100000 terms).
+// The exact velocity u(y, t) of the mode, y from the bottom wall line (0 <= y <= D): for inlet the developed
+// parabola 6 U (y/D)(1 - y/D) whatever t; for the periodic modes the start-up series, summed until its terms
+// fall below 1e-14 of the scale velocity (at most 100000 terms).
 double exact_velocity(const Params& p, double y, double t);
 
-mps::Particles make_particles(const Params& p);  // fluid group 0, bottom wall group 1, top wall group 2
+// Fluid group 0, bottom wall group 1, top wall group 2; inlet: plate group 3 and a pool of ghosts.
+mps::Particles make_particles(const Params& p);
 mps::Simulation make_simulation(const Params& p);
 
 // Velocity profile across the channel: fluid particles binned into rows of height l0 (their lattice rows),
-// averaged over x; and errors against the exact solution at the same time.
+// averaged over x (inlet: over the two columns nearest the station) and over the samples taken; and errors
+// against the exact solution.
 struct Profile {
   double time = 0;
+  int samples = 0;
   std::vector<double> y, u, exact;
   double l2_error = 0;     // ||u - exact|| / ||exact|| over the rows
   double peak_error = 0;   // |max u - max exact| / max exact
   double flow_rate_error = 0;  // |sum u l0 - integral of exact| / integral of exact
-  double max_abs_v = 0;    // largest transverse speed of any fluid particle [m/s]
+  double max_abs_v = 0;    // largest transverse speed of any sampled fluid particle [m/s]
 };
+
+// Accumulates samples of the profile. The inlet channel's developed profile is averaged over many steps:
+// one snapshot holds two particles per row, and their velocities scatter by a few per cent.
+class ProfileSampler {
+ public:
+  explicit ProfileSampler(const Params& p);
+  void add(const mps::Simulation& sim);
+  [[nodiscard]] Profile result(double time) const;  // compared with the exact solution at `time`
+  [[nodiscard]] int samples() const { return samples_; }
+  void clear();
+
+ private:
+  Params p_;
+  std::vector<double> sum_;
+  std::vector<long> count_;
+  int samples_ = 0;
+  double max_abs_v_ = 0;
+};
+
+// One sample at the simulation's time.
 Profile measure_profile(const Params& p, const mps::Simulation& sim);
 
 }  // namespace poiseuille

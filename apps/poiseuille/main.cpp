@@ -1,5 +1,6 @@
-// Plane channel flows against their exact transient solutions: a periodic channel driven by a body force
-// (Poiseuille start-up) or by a sliding top wall (Couette start-up). Writes frames (.vtp/.pvd), profile.csv,
+// Plane channel flows against exact solutions: the paper's pushing-plate inlet channel against the developed
+// parabola at its measuring station, or a periodic channel driven by a body force (Poiseuille start-up) or by
+// a sliding top wall (Couette start-up) against the transient series. Writes frames (.vtp/.pvd), profile.csv,
 // centerline.csv and summary.json to --out; plot_profile.py turns profile.csv into profile.png.
 #include <CLI/CLI.hpp>
 #include <cmath>
@@ -18,16 +19,21 @@ namespace {
 
 nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& sim, double end_time) {
   const auto& c = sim.config();
-  return {{"scene", "periodic channel"}, {"mode", poiseuille::to_string(p.mode)},
+  nlohmann::json length = p.periodic() ? nlohmann::json{{"periodic_length_l0", p.length_l0}}
+                                       : nlohmann::json{{"length_D", p.length_D}, {"station_D", p.station_D}};
+  const char* drive = p.mode == poiseuille::Mode::inlet        ? "pushing-plate inlet, open outlet"
+                      : p.mode == poiseuille::Mode::body_force ? "body force, periodic x"
+                                                               : "sliding top wall, periodic x";
+  return {{"scene", p.periodic() ? "periodic channel" : "inlet channel"}, {"mode", poiseuille::to_string(p.mode)},
           {"D_m", p.D}, {"Re", p.re}, {"U_m_per_s", p.U()}, {"l0_m", p.l0()}, {"particles_across", p.across},
-          {"periodic_length_l0", p.length_l0}, {"rho", p.rho}, {"nu", p.nu}, {"gamma", p.gamma},
+          {"length", length}, {"rho", p.rho}, {"nu", p.nu}, {"gamma", p.gamma},
           {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
           {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
                         {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
-          {"physics_on", {p.mode == poiseuille::Mode::body_force ? "body force" : "sliding top wall",
-                          "viscosity (explicit)", "mirror no-slip walls", "periodic x", "closed-domain PPE gauge"}},
+          {"physics_on", {drive, "viscosity (explicit)", "mirror no-slip walls",
+                          p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};
 }
 
@@ -35,18 +41,22 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
 
 int main(int argc, char** argv) {
   poiseuille::Params p;
-  std::string mode = "body-force", out = "runs/poiseuille";
-  double end_time = 20.0;  // in D/U: half a diffusion time D^2/nu at Re = 40
+  std::string mode = "inlet", out = "runs/poiseuille";
+  double end_time = 10.0;  // in D/U: the paper's; a quarter of a diffusion time D^2/nu at Re = 40
   int profiles = 5, frames = 10;
+  double average = 1.0;  // inlet: profiles averaged over the last AVERAGE D/U before their time
   double tolerance = 0.02;
-  CLI::App app{"SparseMPS plane channel: body-force Poiseuille or Couette start-up against the exact series"};
-  app.add_option("--mode", mode, "body-force | couette")->capture_default_str();
+  CLI::App app{"SparseMPS plane channel: the pushing-plate inlet channel against the developed parabola, or the "
+               "periodic body-force Poiseuille / Couette start-up against the exact series"};
+  app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str();
   app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
       ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--across", p.across, "particles across the channel (l0 = D / across; 50: dx = 0.004 m)")
       ->capture_default_str();
-  app.add_option("--length", p.length_l0, "periodic length in l0 (>= 13)")->capture_default_str();
+  app.add_option("--length", p.length_l0, "periodic modes: periodic length in l0 (>= 13)")->capture_default_str();
+  app.add_option("--channel-length", p.length_D, "inlet: channel length in D")->capture_default_str();
+  app.add_option("--station", p.station_D, "inlet: measuring station x in D")->capture_default_str();
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
@@ -54,9 +64,12 @@ int main(int argc, char** argv) {
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
   app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
+                 "compare snapshots with the transient series)")->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error is below this")->capture_default_str();
+  app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error (inlet: peak velocity "
+                 "error) is below this")->capture_default_str();
   app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -64,7 +77,8 @@ int main(int argc, char** argv) {
     p.mode = poiseuille::parse_mode(mode);
     p.validate();
     mps::Simulation sim = poiseuille::make_simulation(p);
-    const nlohmann::json params = params_json(p, sim, end_time);
+    nlohmann::json params = params_json(p, sim, end_time);
+    if (!p.periodic()) params["profile_average_D_over_U"] = average;
     std::cout << "channel: " << params.dump() << "\n";
     const fs::path dir(out);
     fs::create_directories(dir / "frames");
@@ -81,14 +95,19 @@ int main(int argc, char** argv) {
     std::vector<std::string> header{"y_over_D"};
     std::vector<std::vector<double>> columns(1);
     poiseuille::Profile last;
+    poiseuille::ProfileSampler sampler(p);
+    const double window = p.periodic() ? 0.0 : average * p.convective_time();
     try {
       while (profile < profiles) {
         const double t_profile = t_end * (profile + 1) / profiles;
+        sampler.clear();
         while (sim.time() < t_profile - 1e-9 * t_end) {
           sim.step();
           if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
+          if (sim.time() > t_profile - window) sampler.add(sim);
         }
-        last = poiseuille::measure_profile(p, sim);
+        if (sampler.samples() == 0) sampler.add(sim);
+        last = sampler.result(sim.time());
         const double tu = sim.time() / p.convective_time();
         if (columns[0].empty())
           for (double y : last.y) columns[0].push_back(y / p.D);
@@ -123,20 +142,30 @@ int main(int argc, char** argv) {
       }
     mps::write_csv(dir / "centerline.csv", {"x_over_D", "u_over_U", "exact"}, {cx, cu, ce});
     const int steps = sim.last_step().step;
-    const bool pass = last.l2_error <= tolerance;
+    // The inlet channel is judged as the paper judges it, by the peak velocity at the station.
+    const double checked = p.periodic() ? last.l2_error : last.peak_error;
+    const bool pass = checked <= tolerance;
     const nlohmann::json timings = timings_json(sim.times(), steps, s.size());
     mps::write_json(dir / "summary.json",
                     {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
                      {"particles", s.size()}, {"steps", steps}, {"time_s", sim.time()},
+                     {"dt_limit", sim.last_step().dt_limit},
                      {"time_D_over_U", sim.time() / p.convective_time()},
                      {"peak_velocity_error", last.peak_error}, {"profile_l2_error", last.l2_error},
                      {"flow_rate_error", last.flow_rate_error}, {"max_transverse_speed_over_U", last.max_abs_v / p.U()},
                      {"tolerance", tolerance},
                      {"particle_steps_per_second", timings["particle_steps_per_second"]}, {"timings", timings}});
-    std::printf("\ncheck: %s channel at t = %.3f D/U: profile L2 error %.3f %% (limit %.1f %%): %s\n"
-                "       peak velocity error %.3f %%, flow rate error %.3f %%, max |v| %.2e U\n",
-                mode.c_str(), sim.time() / p.convective_time(), 100 * last.l2_error, 100 * tolerance,
-                pass ? "PASS" : "FAIL", 100 * last.peak_error, 100 * last.flow_rate_error, last.max_abs_v / p.U());
+    if (p.periodic())
+      std::printf("\ncheck: %s channel at t = %.3f D/U: profile L2 error %.3f %% (limit %.1f %%): %s\n"
+                  "       peak velocity error %.3f %%, flow rate error %.3f %%, max |v| %.2e U\n",
+                  mode.c_str(), sim.time() / p.convective_time(), 100 * last.l2_error, 100 * tolerance,
+                  pass ? "PASS" : "FAIL", 100 * last.peak_error, 100 * last.flow_rate_error, last.max_abs_v / p.U());
+    else
+      std::printf("\ncheck: inlet channel at x = %g D, t = %.3f D/U (profile averaged over %d steps): peak velocity "
+                  "error %.3f %% against 1.5 U (limit %.1f %%): %s\n"
+                  "       profile L2 error %.3f %%, flow rate error %.3f %%, max |v| %.2e U\n",
+                  p.station_D, sim.time() / p.convective_time(), last.samples, 100 * last.peak_error, 100 * tolerance,
+                  pass ? "PASS" : "FAIL", 100 * last.l2_error, 100 * last.flow_rate_error, last.max_abs_v / p.U());
     std::printf("outputs: %s (ParaView), %s, %s, %s\n", series.path().string().c_str(),
                 (dir / "profile.csv").string().c_str(), (dir / "centerline.csv").string().c_str(),
                 (dir / "summary.json").string().c_str());

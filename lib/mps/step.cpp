@@ -163,7 +163,15 @@ void Simulation::advance() {
 
   // Two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
   grid_.bin(p);
-  apply_mirror_walls();
+  // The projection sees a mirror wall at its own velocity: mirrored values there would put the fluid's
+  // streamwise changes into div u* wherever the flow develops or the wall changes speed, and an inlet channel
+  // was driven into a growing period-2 pressure oscillation from its outlet and conveyor ends.
+  for (const MirrorWall& wall : mirror_walls_)
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall.group) {
+        p.u[i] = wall.u;
+        p.v[i] = wall.v;
+      }
   grid_.neighbors(p, grid_.cell_size(), near_star_);
   const NeighborList& near_star = near_star_;
   const Kernel* kernels[] = {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_};

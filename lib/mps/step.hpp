@@ -64,13 +64,6 @@ struct PhaseTimes {
   [[nodiscard]] double total() const { return neighbors + predict + assemble + solver_setup + solve + correct; }
 };
 
-// A step that could not be completed: unstable motion, a failed solve. The simulation's state is that of
-// the last good step.
-class SimulationError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 class Simulation {
  public:
   Simulation(Particles particles, Domain domain, SimulationConfig config);
@@ -85,7 +78,7 @@ class Simulation {
   void set_boundary_motion(BoundaryMotion motion) { motion_ = std::move(motion); }
 
   // No-slip by mirror velocities on a flat wall (see MirrorWall): its particles' velocities are set from
-  // the fluid before the viscous term and again from u* before the PPE source is taken.
+  // the fluid before the viscous term; the PPE's divergence then sees them at the wall's own velocity.
   void add_mirror_wall(const MirrorWall& wall);
   [[nodiscard]] const std::vector<MirrorWall>& mirror_walls() const { return mirror_walls_; }
 

@@ -1,0 +1,123 @@
+"""Seed 004's Poiseuille table, reproduced: the pushing-plate inlet channel (15 D, station at 10 D) at
+Re = 4, 40, 400 with dx = 0.004 m and Re = 400 with dx = 0.0055 / 0.004 / 0.0025 m, to the paper's end time
+U t / D = 10, with IC-CG; then the particle-steps per second of each solver over a short stretch of each case.
+Writes CSV and Markdown (with date and machine) and keeps every run's outputs under --runs.
+
+usage: /usr/bin/python3 bench/poiseuille_table.py --app build/release/apps/poiseuille/poiseuille
+           [--cases re40-dx0.004,re400-dx0.004] [--end-time 10] [--speed-time 0.5]
+           [--solvers eigen-cg,hypre-pcg] [--out bench/results/poiseuille_table]
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+
+D = 0.2
+# (name, Re, particles across, the paper's peak-velocity error in %)
+CASES = [
+    ("re4-dx0.004", 4, 50, 2.6),
+    ("re40-dx0.004", 40, 50, 2.1),
+    ("re400-dx0.0055", 400, 36, 12.7),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
+    ("re400-dx0.004", 400, 50, 4.0),
+    ("re400-dx0.0025", 400, 80, 5.9),
+]
+
+
+def run(app, out, re, across, end_time, solver, threads, extra=()):
+    cmd = [app, "--mode", "inlet", "--re", str(re), "--across", str(across), "--end-time", str(end_time),
+           "--solver", solver, "--frames", "0", "--profiles", "5", "--out", out, *extra]
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    print("$", " ".join(cmd), flush=True)
+    done = subprocess.run(cmd, env=env)
+    # 0 / 2: ran to the end (2: missed --tolerance); 1: stopped by the guard (summary.json says "failed")
+    try:
+        with open(os.path.join(out, "summary.json")) as f:
+            summary = json.load(f)
+    except OSError:
+        sys.exit(f"{out}: the run wrote no summary.json (status {done.returncode}): bad input?")
+    if done.returncode not in (0, 2) and summary.get("status") != "failed":
+        sys.exit(f"{out}: the run failed with status {done.returncode}")
+    return summary
+
+
+def machine():
+    model = platform.processor() or "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{model}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--app", required=True)
+    ap.add_argument("--cases", default=",".join(c[0] for c in CASES))
+    ap.add_argument("--end-time", type=float, default=10.0, help="U t / D of the accuracy runs (paper: 10)")
+    ap.add_argument("--speed-time", type=float, default=0.5, help="U t / D of each solver's timing run")
+    ap.add_argument("--solvers", default="eigen-cg,hypre-pcg")
+    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap.add_argument("--runs", default="runs/poiseuille-table")
+    ap.add_argument("--out", default="bench/results/poiseuille_table")
+    args = ap.parse_args()
+    wanted = args.cases.split(",")
+    unknown = [w for w in wanted if w not in [c[0] for c in CASES]]
+    if unknown:
+        sys.exit(f"unknown case(s) {unknown}; choose from {[c[0] for c in CASES]}")
+    solvers = args.solvers.split(",")
+    rows = []
+    for name, re, across, paper in CASES:
+        if name not in wanted:
+            continue
+        acc = run(args.app, os.path.join(args.runs, name), re, across, args.end_time, solvers[0], args.threads)
+        stopped = acc.get("status") == "failed"
+        nan = float("nan")
+        row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
+               "end_time_D_over_U": acc["time_s"] * (re * 1e-6 / D) / D, "steps": acc["steps"],
+               "outcome": "guard stop" if stopped else "ran to the end",
+               "peak_velocity_error_pct": nan if stopped else 100 * acc["peak_velocity_error"],
+               "paper_peak_velocity_error_pct": paper,
+               "profile_l2_error_pct": nan if stopped else 100 * acc["profile_l2_error"],
+               "flow_rate_error_pct": nan if stopped else 100 * acc["flow_rate_error"],
+               "viscosity": "explicit"}
+        for solver in solvers:
+            speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, args.speed_time,
+                        solver, args.threads)
+            row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
+        rows.append(row)
+        write(rows, args, solvers)
+    write(rows, args, solvers)
+
+
+def write(rows, args, solvers):
+    os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
+    keys = list(rows[0].keys())
+    with open(args.out + ".csv", "w") as f:
+        f.write(",".join(keys) + "\n")
+        for r in rows:
+            f.write(",".join(f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + "\n")
+    stamp = datetime.date.today().isoformat()
+    with open(args.out + ".md", "w") as f:
+        f.write(f"Measured {stamp} on {machine()}, {args.threads} OpenMP threads. Inlet channel 15 D, station at "
+                f"x = 10 D, profile averaged over the last 1 D/U, IC-CG (`{solvers[0]}`) for accuracy.\n\n")
+        f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
+                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity |\n")
+        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|\n")
+        for r in rows:
+            f.write(f"| {r['case']} | {r['Re']} | {r['dx_m']:.5f} | {r['end_time_D_over_U']:.2f} | {r['outcome']} | "
+                    f"{r['peak_velocity_error_pct']:.2f} % | {r['paper_peak_velocity_error_pct']} % | "
+                    f"{r['profile_l2_error_pct']:.2f} % | {r['flow_rate_error_pct']:.2f} % | "
+                    + " | ".join(f"{r[s + '_particle_steps_per_s']:.3g}" for s in solvers)
+                    + f" | {r['viscosity']} |\n")
+    print(f"wrote {args.out}.csv and {args.out}.md", flush=True)
+
+
+if __name__ == "__main__":
+    main()

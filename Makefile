@@ -5,7 +5,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille poiseuille-table acoustic bench-acoustic clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic clean
 
 deps:
 	@bash scripts/install-deps.sh

@@ -44,10 +44,9 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
   }
 }
 
-
 PushingPlate::PushingPlate(const Particles& initial, int plate_group, double speed, double l0, double outlet_x,
                            int fluid_group)
-    : plate_group_(plate_group), fluid_group_(fluid_group), speed_(speed), l0_(l0), outlet_x_(outlet_x) {
+    : fluid_group_(fluid_group), speed_(speed), l0_(l0), outlet_x_(outlet_x) {
   if (!(speed > 0.0) || !std::isfinite(speed)) throw std::invalid_argument("pushing plate: speed must be positive");
   if (!(l0 > 0.0) || !std::isfinite(l0)) throw std::invalid_argument("pushing plate: spacing l0 must be positive");
   if (!std::isfinite(outlet_x)) throw std::invalid_argument("pushing plate: outlet_x must be finite");
@@ -76,7 +75,7 @@ void PushingPlate::operator()(Particles& p, double time) {
   std::vector<std::size_t> plate_walls;
   for (std::size_t i = 0; i < p.size(); ++i) {
     const auto id = static_cast<std::size_t>(p.id[i]);
-    if (id >= start_x_.size() || std::isnan(start_x_[id]) || p.group[i] != plate_group_) continue;
+    if (id >= start_x_.size() || std::isnan(start_x_[id])) continue;
     p.x[i] = start_x_[id] + advance;
     p.u[i] = speed_;
     p.v[i] = 0.0;

@@ -36,7 +36,6 @@ struct MirrorWall {
 // a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
 void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
 
-
 // The constant-flow inlet and open outlet of a channel along +x (seed 004, Fig. 1). The plate, the wall and
 // dummy particles of `plate_group`, moves at `speed` from its starting position; whenever it has advanced one
 // spacing l0 it steps back by l0 and, one spacing ahead of its wall layer, a column of ghosts becomes fluid
@@ -52,7 +51,7 @@ class PushingPlate {
   [[nodiscard]] long particles_removed() const { return removed_; }
 
  private:
-  int plate_group_, fluid_group_;
+  int fluid_group_;
   double speed_, l0_, outlet_x_;
   std::vector<double> start_x_;  // by particle id: the plate's particles' starting x (NaN for others)
   int columns_ = 0;

@@ -3,7 +3,7 @@ Re = 4, 40, 400 with dx = 0.004 m and Re = 400 with dx = 0.0055 / 0.004 / 0.0025
 U t / D = 10, with IC-CG; then the particle-steps per second of each solver over a short stretch of each case.
 Writes CSV and Markdown (with date and machine) and keeps every run's outputs under --runs.
 
-usage: /usr/bin/python3 bench/poiseuille_table.py --app build/release/apps/poiseuille/poiseuille
+usage: /usr/bin/python3 bench/poiseuille_table.py --app build/release/apps/poiseuille/poiseuille [--reuse]
            [--cases re40-dx0.004,re400-dx0.004] [--end-time 10] [--speed-time 0.5]
            [--solvers eigen-cg,hypre-pcg] [--out bench/results/poiseuille_table]
 """
@@ -26,7 +26,18 @@ CASES = [
 ]
 
 
-def run(app, out, re, across, end_time, solver, threads):
+def run(app, out, re, across, end_time, solver, threads, reuse):
+    if reuse:
+        try:
+            with open(os.path.join(out, "summary.json")) as f:
+                summary = json.load(f)
+            p = summary["parameters"]
+            if (p["Re"], p["particles_across"], p["end_time_D_over_U"], p["solver"].split(":")[0]) == \
+                    (re, across, end_time, solver.split(":")[0]):
+                print(f"reusing {out}", flush=True)
+                return summary
+        except (OSError, KeyError, ValueError):
+            pass
     cmd = [app, "--mode", "inlet", "--re", str(re), "--across", str(across), "--end-time", str(end_time),
            "--solver", solver, "--frames", "0", "--profiles", "5", "--out", out]
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
@@ -66,6 +77,9 @@ def main():
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--runs", default="runs/poiseuille-table")
     ap.add_argument("--out", default="bench/results/poiseuille_table")
+    ap.add_argument("--reuse", action="store_true",
+                    help="take a run's summary.json from --runs when it has the same case, end time and solver "
+                         "(cases run in parallel by separate calls, then tabulated together)")
     args = ap.parse_args()
     wanted = args.cases.split(",")
     unknown = [w for w in wanted if w not in [c[0] for c in CASES]]
@@ -76,7 +90,7 @@ def main():
     for name, re, across, paper in CASES:
         if name not in wanted:
             continue
-        acc = run(args.app, os.path.join(args.runs, name), re, across, args.end_time, solvers[0], args.threads)
+        acc = run(args.app, os.path.join(args.runs, name), re, across, args.end_time, solvers[0], args.threads, args.reuse)
         stopped = acc.get("status") == "failed"
         nan = float("nan")
         row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
@@ -89,7 +103,7 @@ def main():
                "viscosity": "explicit"}
         for solver in solvers:
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, args.speed_time,
-                        solver, args.threads)
+                        solver, args.threads, args.reuse)
             row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
         rows.append(row)
         write(rows, args, solvers)  # after every case: a long table keeps what it has if stopped

@@ -193,8 +193,11 @@ void Simulation::advance() {
                                             : mps::number_density({p, domain_, list_for(k_surface_), k_surface_});
   std::vector<double> div(p.size());
   divergence(grad, p.u, p.v, div);
-  const std::vector<char> surface = detect_free_surface(p, n_surface, k_surface_.n0, config_.beta,
-                                                        &list_for(k_surface_), k_surface_.lattice_neighbors, config_.theta);
+  std::vector<char> surface = detect_free_surface(p, n_surface, k_surface_.n0, config_.beta, &list_for(k_surface_),
+                                                  k_surface_.lattice_neighbors, config_.theta);
+  if (surface_region_)
+    for (std::size_t i = 0; i < surface.size(); ++i)
+      if (surface[i] && !surface_region_(p.x[i], p.y[i])) surface[i] = 0;
   std::vector<double> source = mixed_source(n_star_, k_density_.n0, div, config_.rho, dt, config_.gamma);
   {
     // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not

@@ -80,6 +80,12 @@ class Simulation {
   // No-slip by mirror velocities on a flat wall (see MirrorWall): its particles' velocities are set from
   // the fluid before the viscous term; the PPE's divergence then sees them at the wall's own velocity.
   void add_mirror_wall(const MirrorWall& wall);
+
+  // Where a free surface may exist (unset: everywhere). Outside it no particle is flagged free surface,
+  // whatever its number density: in a confined liquid a low n* is a void to be closed by the source term,
+  // and P = 0 there, with no ambient pressure around it to collapse the void, keeps it open.
+  using SurfaceRegion = std::function<bool(double x, double y)>;
+  void set_free_surface_region(SurfaceRegion region) { surface_region_ = std::move(region); }
   [[nodiscard]] const std::vector<MirrorWall>& mirror_walls() const { return mirror_walls_; }
 
   [[nodiscard]] const Particles& particles() const { return particles_; }
@@ -109,6 +115,7 @@ class Simulation {
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
   CellGrid grid_;
   BoundaryMotion motion_;
+  SurfaceRegion surface_region_;
   std::vector<MirrorWall> mirror_walls_;
   StepInfo info_;
   PhaseTimes times_;

@@ -36,6 +36,11 @@ TEST(Simulation, RejectsInvalidParametersWithAMessageNamingThem) {
       {[](auto& c) { c.l0 = 0.0; }, "l0"},                {[](auto& c) { c.l0 = -0.01; }, "l0"},
       {[](auto& c) { c.radius_laplacian = 0.0; }, "radius"}, {[](auto& c) { c.dt_max = 0.0; }, "dt_max"},
       {[](auto& c) { c.dt_max = -1.0; }, "dt_max"},       {[](auto& c) { c.solver = "petsc-gmres"; }, "unknown solver"},
+      {[](auto& c) {
+         c.implicit_viscosity = true;
+         c.viscosity_solver = "petsc-gmres";
+       },
+       "unknown solver"},
   };
   for (const auto& [spoil, word] : cases) {
     auto c = base_config();

@@ -127,6 +127,10 @@ mps::Simulation make_simulation(const Params& p) {
   // The CFL and viscous limits set dt; dt_max, ten times the larger, never binds (were it equal, the guard
   // would name it instead of the limit that really set dt).
   c.dt_max = 10.0 * p.dt_factor * std::max(c.cfl * l0 / (1.5 * p.U()), c.viscous_number * l0 * l0 / p.nu);
+  // Implicit viscosity leaves the CFL limit alone, and a channel starting at rest sets none: dt_max is then
+  // that limit at the developed peak speed 1.5 U.
+  c.implicit_viscosity = p.implicit_viscosity;
+  if (p.implicit_viscosity) c.dt_max = p.dt_factor * c.cfl * l0 / (1.5 * p.U());
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;

@@ -29,10 +29,11 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
           {"length", length}, {"rho", p.rho}, {"nu", p.nu}, {"gamma", p.gamma},
           {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
           {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+          {"viscosity", c.implicit_viscosity ? "implicit" : "explicit"},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
                         {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
-          {"physics_on", {drive, "viscosity (explicit)", "mirror no-slip walls",
+          {"physics_on", {drive, c.implicit_viscosity ? "viscosity (implicit)" : "viscosity (explicit)", "mirror no-slip walls",
                           p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};
 }
@@ -61,6 +62,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(0.0, 1.0));
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_flag("--implicit-viscosity", p.implicit_viscosity,
+               "solve the viscous term implicitly (no viscous time-step limit; for low Re)");
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
   app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(CLI::PositiveNumber);

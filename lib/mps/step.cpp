@@ -68,6 +68,7 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
                                             config_.radius_laplacian})) {
   config_.validate();
   if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
+  if (config_.implicit_viscosity) viscosity_solver_ = make_solver(config_.viscosity_solver);
   if (particles_.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: the domain holds no fluid particles");
   for (std::size_t i = 0; i < particles_.size(); ++i)
     if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
@@ -78,6 +79,58 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
 void Simulation::add_mirror_wall(const MirrorWall& wall) {
   wall.validate();
   mirror_walls_.push_back(wall);
+}
+
+// The boundary velocities are lagged by a step. For the mode a wall's mirror values feed back on (u beside
+// the wall, its mirror -u) that gives the factor (1 - a)/(1 + a), a > 0: stable for any dt.
+void Simulation::implicit_viscous_predictor(const Stencil& s, double dt) {
+  Particles& p = particles_;
+  const CsrMatrix lap = laplacian_matrix(s);
+  std::vector<int> row(p.size(), -1);
+  std::vector<std::size_t> fluid;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid) {
+      row[i] = static_cast<int>(fluid.size());
+      fluid.push_back(i);
+    }
+  const double a = dt * config_.nu;
+  CsrMatrix m;
+  m.rows = m.cols = static_cast<int>(fluid.size());
+  m.row_ptr.assign(fluid.size() + 1, 0);
+  std::vector<double> bu(fluid.size()), bv(fluid.size()), u(fluid.size()), v(fluid.size());
+  for (std::size_t r = 0; r < fluid.size(); ++r) {
+    const std::size_t i = fluid[r];
+    bu[r] = p.u[i] + dt * config_.fx;
+    bv[r] = p.v[i] + dt * config_.fy;
+    u[r] = p.u[i];
+    v[r] = p.v[i];
+    for (auto k = static_cast<std::size_t>(lap.row_ptr[i]); k < static_cast<std::size_t>(lap.row_ptr[i + 1]); ++k) {
+      const auto j = static_cast<std::size_t>(lap.col[k]);
+      if (row[j] >= 0) {
+        m.col.push_back(row[j]);
+        m.val.push_back((j == i ? 1.0 : 0.0) - a * lap.val[k]);
+      } else {
+        bu[r] += a * lap.val[k] * p.u[j];
+        bv[r] += a * lap.val[k] * p.v[j];
+      }
+    }
+    m.row_ptr[r + 1] = static_cast<int>(m.col.size());
+  }
+  try {
+    info_.viscosity_iterations = viscosity_solver_->solve(m, bu, u).iterations;
+    info_.viscosity_iterations += viscosity_solver_->solve(m, bv, v).iterations;
+  } catch (const SolverError& e) {
+    throw SimulationError("step " + std::to_string(info_.step + 1) + " (t = " + fmt(info_.time) +
+                          " s): implicit viscosity solve failed: " + e.what());
+  }
+  for (std::size_t r = 0; r < fluid.size(); ++r) {
+    const std::size_t i = fluid[r];
+    p.u[i] = u[r];
+    p.v[i] = v[r];
+    p.x[i] += dt * u[r];
+    p.y[i] += dt * v[r];
+    domain_.wrap(p.x[i], p.y[i]);
+  }
 }
 
 void Simulation::apply_mirror_walls() {
@@ -97,7 +150,8 @@ double Simulation::choose_dt(std::string& limit) const {
     dt = config_.cfl * config_.l0 / umax;
     limit = "cfl";
   }
-  if (config_.nu > 0.0 && config_.viscous_number * config_.l0 * config_.l0 / config_.nu < dt) {
+  if (!config_.implicit_viscosity && config_.nu > 0.0 &&
+      config_.viscous_number * config_.l0 * config_.l0 / config_.nu < dt) {
     dt = config_.viscous_number * config_.l0 * config_.l0 / config_.nu;
     limit = "viscous";
   }
@@ -140,9 +194,11 @@ void Simulation::advance() {
   const NeighborList& near_now = near_now_;
   times_.neighbors += lap(t);
 
-  // Predictor: explicit viscosity and body force; walls and dummies carry their (prescribed) velocity into
-  // the viscous sum, which is the no-slip condition.
-  {
+  // Predictor: viscosity and body force; walls and dummies carry their (prescribed or mirrored) velocity
+  // into the viscous sum, which is the no-slip condition.
+  if (config_.implicit_viscosity) {
+    implicit_viscous_predictor({p, domain_, near_now, k_laplacian_}, dt);
+  } else {
     const Stencil s{p, domain_, near_now, k_laplacian_};
     std::vector<double> lu(p.size()), lv(p.size());
     laplacian(s, p.u, lu);

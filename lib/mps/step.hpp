@@ -37,6 +37,11 @@ struct SimulationConfig {
   double dt_max = 0;            // the time step when neither limit below binds [s]
   double cfl = 0.2;             // dt <= cfl l0 / |u|max
   double viscous_number = 0.2;  // dt <= viscous_number l0^2 / nu (explicit viscosity)
+  // Implicit viscosity: the predictor solves (I - dt nu L) u* = u^n + dt f over the fluid, wall and dummy
+  // velocities (mirror values included) taken as known, with `viscosity_solver`; the viscous limit on dt
+  // is then dropped. For slow flows (seed 004's Re = 4) whose explicit dt would be far below the CFL bound.
+  bool implicit_viscosity = false;
+  std::string viscosity_solver = "eigen-cg:precond=jacobi";
   GradientVariant pressure_gradient = GradientVariant::min_reference;
   // Min-reference variants: take the minimum of P less its hydrostatic part rho f . r (true), or of P as
   // published (false). The published form destabilises a liquid at rest under gravity (README, "Numerics").
@@ -55,6 +60,7 @@ struct StepInfo {
   double time = 0, dt = 0;
   std::string dt_limit;         // which bound set dt: "dt_max", "cfl" or "viscous"
   SolveReport solve;
+  int viscosity_iterations = 0;  // implicit viscosity: CG iterations of both components
   std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;
   double max_speed = 0;
 };
@@ -106,12 +112,14 @@ class Simulation {
   void advance();
   void check_guard() const;
   void apply_mirror_walls();
+  void implicit_viscous_predictor(const Stencil& s, double dt);
   [[nodiscard]] double choose_dt(std::string& limit) const;
 
   Particles particles_;
   Domain domain_;
   SimulationConfig config_;
   std::unique_ptr<LinearSolver> solver_;
+  std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
   CellGrid grid_;
   BoundaryMotion motion_;

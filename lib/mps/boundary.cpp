@@ -12,7 +12,9 @@ namespace mps {
 void MirrorWall::validate() const {
   if (!std::isfinite(px) || !std::isfinite(py) || !std::isfinite(u) || !std::isfinite(v))
     throw std::invalid_argument("mirror wall: point and velocity must be finite");
-  if (!(std::abs(std::hypot(nx, ny) - 1.0) < 1e-9))
+  if (!(radius >= 0.0) || !std::isfinite(radius) || !std::isfinite(omega))
+    throw std::invalid_argument("mirror wall: radius must be >= 0 (0: a line) and omega finite");
+  if (radius == 0.0 && !(std::abs(std::hypot(nx, ny) - 1.0) < 1e-9))
     throw std::invalid_argument("mirror wall: the normal (nx, ny) must have unit length");
 }
 
@@ -27,8 +29,19 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if ((p.kind[i] != Kind::wall && p.kind[i] != Kind::dummy) || p.group[i] != wall.group) continue;
-    const double depth = (p.x[i] - wall.px) * wall.nx + (p.y[i] - wall.py) * wall.ny;  // < 0 behind the wall
-    const double mx = p.x[i] - 2.0 * depth * wall.nx, my = p.y[i] - 2.0 * depth * wall.ny;
+    double nx = wall.nx, ny = wall.ny, depth = 0.0;  // depth < 0 behind the wall
+    if (wall.radius > 0.0) {
+      const double dx = p.x[i] - wall.px, dy = p.y[i] - wall.py, r = std::hypot(dx, dy);
+      if (r == 0.0) continue;  // the centre has no radial direction (and no business being a wall particle)
+      const double sign = wall.fluid_inside ? -1.0 : 1.0;
+      nx = sign * dx / r;
+      ny = sign * dy / r;
+      depth = sign * (r - wall.radius);
+    } else {
+      depth = (p.x[i] - wall.px) * nx + (p.y[i] - wall.py) * ny;
+    }
+    const double mx = p.x[i] - 2.0 * depth * nx, my = p.y[i] - 2.0 * depth * ny;
+    const auto U = wall.velocity_at(p.x[i] - depth * nx, p.y[i] - depth * ny);  // at the foot on the wall
     double sw = 0.0, su = 0.0, sv = 0.0;
     grid.for_each_near(p, mx, my, radius, [&](int j, double dx, double dy) {
       const auto jj = static_cast<std::size_t>(j);
@@ -38,9 +51,59 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
       su += w * p.u[jj];
       sv += w * p.v[jj];
     });
-    const double um = sw > 0.0 ? su / sw : wall.u, vm = sw > 0.0 ? sv / sw : wall.v;
-    p.u[i] = 2.0 * wall.u - um;
-    p.v[i] = 2.0 * wall.v - vm;
+    const double um = sw > 0.0 ? su / sw : U[0], vm = sw > 0.0 ? sv / sw : U[1];
+    p.u[i] = 2.0 * U[0] - um;
+    p.v[i] = 2.0 * U[1] - vm;
+  }
+}
+
+RigidPath steady_path(double omega, double vx, double vy) {
+  if (!std::isfinite(omega) || !std::isfinite(vx) || !std::isfinite(vy))
+    throw std::invalid_argument("steady_path: omega and velocity must be finite");
+  return [=](double t) { return RigidPose{omega * t, omega, vx * t, vy * t, vx, vy}; };
+}
+
+RigidMotion::RigidMotion(const Particles& initial, int group, double cx, double cy, RigidPath path)
+    : group_(group), cx_(cx), cy_(cy), path_(std::move(path)), velocity_path_(path_) {
+  if (!path_) throw std::invalid_argument("rigid motion: no path given");
+  if (!std::isfinite(cx) || !std::isfinite(cy)) throw std::invalid_argument("rigid motion: centre must be finite");
+  int max_id = -1;
+  for (std::size_t i = 0; i < initial.size(); ++i) max_id = std::max(max_id, initial.id[i]);
+  x0_.assign(static_cast<std::size_t>(max_id + 1), std::nan(""));
+  y0_ = x0_;
+  for (std::size_t i = 0; i < initial.size(); ++i) {
+    if (initial.group[i] != group || (initial.kind[i] != Kind::wall && initial.kind[i] != Kind::dummy)) continue;
+    x0_[static_cast<std::size_t>(initial.id[i])] = initial.x[i];
+    y0_[static_cast<std::size_t>(initial.id[i])] = initial.y[i];
+    ++moved_;
+  }
+  if (moved_ == 0)
+    throw std::invalid_argument("rigid motion: group " + std::to_string(group) + " has no wall or dummy particles");
+}
+
+RigidMotion& RigidMotion::velocity_from(RigidPath path) {
+  if (!path) throw std::invalid_argument("rigid motion: no velocity path given");
+  velocity_path_ = std::move(path);
+  return *this;
+}
+
+void RigidMotion::operator()(Particles& p, double time) const {
+  const RigidPose at = path_(time), vel = velocity_path_(time);
+  if (!std::isfinite(at.angle) || !std::isfinite(at.dx) || !std::isfinite(at.dy) || !std::isfinite(vel.omega) ||
+      !std::isfinite(vel.vx) || !std::isfinite(vel.vy))
+    throw SimulationError("rigid motion of group " + std::to_string(group_) + ": the path is not finite at t = " +
+                          std::to_string(time) + " s");
+  const double c = std::cos(at.angle), s = std::sin(at.angle);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto id = static_cast<std::size_t>(p.id[i]);
+    if (id >= x0_.size() || std::isnan(x0_[id])) continue;
+    const double rx = x0_[id] - cx_, ry = y0_[id] - cy_;
+    p.x[i] = cx_ + at.dx + c * rx - s * ry;
+    p.y[i] = cy_ + at.dy + s * rx + c * ry;
+    // The velocity path's centre has moved with its own shift, not necessarily with the positions'.
+    const double qx = p.x[i] - cx_ - vel.dx, qy = p.y[i] - cy_ - vel.dy;
+    p.u[i] = vel.vx - vel.omega * qy;
+    p.v[i] = vel.vy + vel.omega * qx;
   }
 }
 

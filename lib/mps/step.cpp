@@ -225,8 +225,9 @@ void Simulation::advance() {
   for (const MirrorWall& wall : mirror_walls_)
     for (std::size_t i = 0; i < p.size(); ++i)
       if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall.group) {
-        p.u[i] = wall.u;
-        p.v[i] = wall.v;
+        const auto U = wall.velocity_at(p.x[i], p.y[i]);
+        p.u[i] = U[0];
+        p.v[i] = U[1];
       }
   grid_.neighbors(p, grid_.cell_size(), near_star_);
   const NeighborList& near_star = near_star_;

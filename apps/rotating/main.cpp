@@ -1,0 +1,284 @@
+// Rotating boundaries (seed 000): Taylor-Couette flow against its exact profile, and the screw channel in the
+// moving- and fixed-boundary models. Writes frames (.vtp/.pvd, with the relative velocity), the curves
+// (couette.csv, or line1.csv, arc2.csv, barrel_pressure.csv) at each --times entry, and summary.json to --out;
+// plot_rotating.py draws them. --model both runs the two channel models into out/moving and out/fixed and
+// compares them.
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <numbers>
+
+#include "mps/io.hpp"
+#include "rotor.hpp"
+#include "run_json.hpp"
+#include "solver_cli.hpp"
+
+namespace fs = std::filesystem;
+using rotating::Curve;
+using Line = rotating::LineSampler::Line;
+
+namespace {
+
+nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim, const std::vector<double>& times,
+                           double average) {
+  const auto& c = sim.config();
+  const bool couette = p.scene == rotating::Scene::couette;
+  const mps::Particles& s = sim.particles();
+  return {{"scene", rotating::to_string(p.scene)}, {"model", couette ? "moving" : rotating::to_string(p.model)},
+          {"R1", p.R1}, {"R2", p.R2}, {"span_rad", couette ? 2 * std::numbers::pi : p.span}, {"omega_rad_per_s", p.omega},
+          {"sense", couette ? "inner cylinder counter-clockwise" : "channel clockwise"},
+          {"rho", p.rho}, {"nu", p.nu}, {"Re", p.reynolds()}, {"U_scale", p.U()}, {"particles_across", p.across},
+          {"l0", p.l0()}, {"fluid_particles", s.count(mps::Kind::fluid)},
+          {"boundary_particles", s.count(mps::Kind::wall) + s.count(mps::Kind::dummy)},
+          {"gamma", p.gamma}, {"gradient", p.gradient == mps::GradientVariant::min_reference ? "min-reference"
+                                                                                              : "corrected-min-reference"},
+          {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+          {"sample_times_s", times}, {"average_fraction", average},
+          {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient}, {"laplacian", c.radius_laplacian}}},
+          {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"walls", p.mirror ? "mirror velocities on the circles" : "plain (wall velocity)"},
+          {"physics_on", {"viscosity (explicit)", "wall + 4 dummy layers", "rigid wall motion", "closed-domain PPE gauge",
+                          "no gravity"}}};
+}
+
+struct Curves {
+  double time = 0;
+  Curve couette, line1, arc2, barrel;
+};
+
+struct RunResult {
+  int status = 0;  // 0 ran to the end; 1 stopped by the guard
+  std::vector<Curves> at;
+  nlohmann::json summary;
+};
+
+// One simulation to the last of `times`, sampling each curve over the last `average` fraction of each time.
+RunResult run(const rotating::Params& p, const std::vector<double>& times, double average, int frames,
+              const fs::path& dir) {
+  const bool couette = p.scene == rotating::Scene::couette;
+  mps::Simulation sim = rotating::make_simulation(p);
+  const nlohmann::json params = params_json(p, sim, times, average);
+  std::cout << "rotating: " << params.dump() << "\n";
+  fs::create_directories(dir / "frames");
+  mps::PvdSeries series(dir / (rotating::to_string(p.scene) + ".pvd"));
+  const double t_end = times.back();
+  std::vector<double> ur, vr;
+  auto write_frame = [&](int k) {
+    char name[40];
+    std::snprintf(name, sizeof name, "frames/frame_%04d.vtp", k);
+    rotating::relative_velocity(p, sim.particles(), ur, vr);
+    mps::write_vtp(dir / name, sim.particles(), {{"u_relative", ur}, {"v_relative", vr}});
+    series.add(sim.time(), dir / name);
+  };
+  const std::size_t fluid0 = sim.particles().count(mps::Kind::fluid);
+  rotating::LineSampler s_couette(p, Line::couette), s_line1(p, Line::line1), s_arc2(p, Line::arc2),
+      s_barrel(p, Line::barrel);
+  std::vector<rotating::LineSampler*> samplers{&s_couette};
+  if (!couette) samplers = {&s_line1, &s_arc2, &s_barrel};
+  RunResult out;
+  long escaped_max = 0;
+  int frame = 0;
+  const auto start = std::chrono::steady_clock::now();
+  if (frames > 0) write_frame(frame++);
+  try {
+    for (double t_sample : times) {
+      for (auto* s : samplers) s->clear();
+      while (sim.time() < t_sample - 1e-9 * t_end) {
+        sim.step();
+        escaped_max = std::max(escaped_max, rotating::escaped_particles(p, sim));
+        if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
+        if (sim.time() > t_sample * (1.0 - average))
+          for (auto* s : samplers) s->add(sim);
+      }
+      if (s_couette.samples() + s_line1.samples() == 0)
+        for (auto* s : samplers) s->add(sim);
+      Curves c{sim.time(), s_couette.result(), s_line1.result(), s_arc2.result(), s_barrel.result()};
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (couette)
+        std::printf("t = %6.3f s  step %6d  dt %.2e s (%s)  max |u_theta - exact| = %.3f %% of omega R1  [%.0f s]\n",
+                    sim.time(), sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(),
+                    100 * rotating::couette_max_error(c.couette) / p.U(), wall);
+      else
+        std::printf("t = %6.3f s  step %6d  dt %.2e s (%s)  line 1 max %.3f  arc 2 odd defect %.3f  barrel p range "
+                    "%.3g  escaped %ld  [%.0f s]\n",
+                    sim.time(), sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(),
+                    c.line1.value.empty() ? 0.0 : *std::max_element(c.line1.value.begin(), c.line1.value.end()),
+                    rotating::odd_defect(c.arc2, 0.5 * p.span), rotating::range(c.barrel, 0.4), escaped_max, wall);
+      out.at.push_back(std::move(c));
+    }
+  } catch (const mps::SimulationError& e) {
+    out.status = report_guard_stop(dir, e, params, sim);
+    return out;
+  }
+  // The curves: one column per sample time, beside the axis.
+  auto write = [&](const std::string& file, const std::string& axis, const std::string& name,
+                   Curve Curves::*member) {
+    std::vector<std::string> header{axis};
+    std::vector<std::vector<double>> cols{(out.at.front().*member).axis};
+    for (const Curves& c : out.at) {
+      char h[64];
+      std::snprintf(h, sizeof h, "%s_t%.4g", name.c_str(), c.time);
+      header.push_back(h);
+      cols.push_back((c.*member).value);
+      if (couette) {
+        std::snprintf(h, sizeof h, "exact_t%.4g", c.time);
+        header.push_back(h);
+        cols.push_back((c.*member).exact);
+      }
+    }
+    mps::write_csv(dir / file, header, cols);
+  };
+  if (couette) {
+    write("couette.csv", "r", "u_theta", &Curves::couette);
+  } else {
+    write("line1.csv", "r", "u_theta_rel_over_wR", &Curves::line1);
+    write("arc2.csv", "phi_rad", "u_r_rel_over_wR", &Curves::arc2);
+    write("barrel_pressure.csv", "phi_rad", "p_minus_mean", &Curves::barrel);
+  }
+  const int steps = sim.last_step().step;
+  const Curves& last = out.at.back();
+  nlohmann::json checks;
+  const long escaped = escaped_max;
+  const bool count_kept = sim.particles().count(mps::Kind::fluid) == fluid0;
+  if (couette) {
+    checks = {{"max_abs_error_over_omega_R1", rotating::couette_max_error(last.couette) / p.U()}};
+  } else {
+    const double prange = rotating::range(last.barrel, 0.4);
+    checks = {{"arc2_odd_defect", rotating::odd_defect(last.arc2, 0.5 * p.span)},
+              {"barrel_pressure_odd_defect_over_range", prange > 0 ? rotating::odd_defect(last.barrel, 0.4) / prange : 0.0},
+              {"barrel_pressure_range_abs_phi_le_0.4", prange}};
+  }
+  checks["escaped_fluid_particles_max"] = escaped;
+  checks["fluid_count_kept"] = count_kept;
+  const nlohmann::json timings = timings_json(sim.times(), steps, sim.particles().size());
+  out.summary = {{"status", "ran"}, {"parameters", params}, {"particles", sim.particles().size()}, {"steps", steps},
+                 {"time_s", sim.time()}, {"dt_limit", sim.last_step().dt_limit}, {"checks", checks},
+                 {"particle_steps_per_second", timings["particle_steps_per_second"]}, {"timings", timings}};
+  mps::write_json(dir / "summary.json", out.summary);
+  return out;
+}
+
+std::vector<double> parse_times(const std::string& list) {
+  std::vector<double> t;
+  std::size_t at = 0;
+  while (at <= list.size()) {
+    const std::size_t comma = std::min(list.find(',', at), list.size());
+    const std::string item = list.substr(at, comma - at);
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || !(v > 0) || (!t.empty() && v <= t.back()))
+      throw std::invalid_argument("--times must be a comma-separated list of increasing positive times, got '" + list + "'");
+    t.push_back(v);
+    at = comma + 1;
+  }
+  return t;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rotating::Params p;
+  std::string scene = "channel", model = "moving", times_list, gradient = "min-reference", walls = "mirror", out = "runs/rotating";
+  double average = 0.1, tolerance = 0.02, agreement = 0.03;
+  int frames = 10;
+  p.across = 0;
+  CLI::App app{"SparseMPS rotating boundaries (seed 000): Taylor-Couette flow against the exact profile, and the "
+               "screw channel in the moving- and fixed-boundary models"};
+  app.add_option("--scene", scene, "couette | channel")->capture_default_str();
+  app.add_option("--model", model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
+                 "compares them)")->capture_default_str();
+  app.add_option("--across", p.across, "particles across the gap R2 - R1 (0: the scene's default, channel 49 = seed "
+                 "000's 3,626 fluid particles, couette 20)")->capture_default_str();
+  app.add_option("--omega", p.omega, "angular speed [rad/s] (couette: inner cylinder ccw; channel: channel cw)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--span", p.span, "channel opening angle [rad]")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  app.add_option("--walls", walls, "circular walls: mirror (mirror velocities across the circle) | plain (wall "
+                 "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str();
+  app.add_option("--gradient", gradient, "pressure gradient: min-reference | corrected-min-reference (with the "
+                 "corrective matrix)")->capture_default_str();
+  app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  add_solver_options(app, p.solver);
+  app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")
+      ->capture_default_str();
+  app.add_option("--average", average, "each curve is averaged over the last AVERAGE fraction of its time")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--tolerance", tolerance, "couette: pass if max |u - exact| <= TOLERANCE omega R1")->capture_default_str();
+  app.add_option("--agreement", agreement, "channel: pass if arc 2 is odd (and, with --model both, the models agree "
+                 "on line 1 and arc 2) within AGREEMENT omega R2")->capture_default_str();
+  app.add_option("--out", out, "output directory")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    p.scene = rotating::parse_scene(scene);
+    const bool both = model == "both";
+    if (!both) p.model = rotating::parse_model(model);
+    if (both && p.scene == rotating::Scene::couette) throw std::invalid_argument("--model both applies to the channel");
+    if (gradient == "min-reference") p.gradient = mps::GradientVariant::min_reference;
+    else if (gradient == "corrected-min-reference") p.gradient = mps::GradientVariant::corrected_min_reference;
+    else throw std::invalid_argument("--gradient must be min-reference or corrected-min-reference, got '" + gradient + "'");
+    if (walls != "mirror" && walls != "plain") throw std::invalid_argument("--walls must be mirror or plain, got '" + walls + "'");
+    p.mirror = walls == "mirror";
+    const bool couette = p.scene == rotating::Scene::couette;
+    if (p.across == 0) p.across = couette ? 20 : 49;
+    if (times_list.empty()) times_list = couette ? "0.1,1" : "0.05,0.5";
+    const std::vector<double> times = parse_times(times_list);
+    p.validate();
+    const fs::path dir(out);
+    std::vector<std::pair<std::string, RunResult>> runs;
+    for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{model}) {
+      if (!couette) p.model = rotating::parse_model(m);
+      runs.emplace_back(m, run(p, times, average, frames, both ? dir / m : dir));
+      if (runs.back().second.status != 0) return runs.back().second.status;
+    }
+    const nlohmann::json& checks = runs.front().second.summary["checks"];
+    bool pass = checks["escaped_fluid_particles_max"].get<long>() == 0 && checks["fluid_count_kept"].get<bool>();
+    std::printf("\n");
+    if (couette) {
+      const double e = checks["max_abs_error_over_omega_R1"];
+      pass = pass && e <= tolerance;
+      std::printf("check: couette at t = %.3g s, %g across: max |u_theta - exact| = %.3f %% of omega R1 (limit %.1f %%), "
+                  "fluid escaped %ld: %s\n", times.back(), p.across, 100 * e, 100 * tolerance,
+                  checks["escaped_fluid_particles_max"].get<long>(), pass ? "PASS" : "FAIL");
+    } else {
+      nlohmann::json compare;
+      for (auto& [m, r] : runs) {
+        const nlohmann::json& c = r.summary["checks"];
+        pass = pass && c["arc2_odd_defect"].get<double>() <= agreement && c["escaped_fluid_particles_max"].get<long>() == 0;
+        std::printf("check: channel (%s) at t = %.3g s: arc 2 odd defect %.4f (limit %.3f), barrel pressure odd defect "
+                    "%.3f of its range over |phi| <= 0.4, fluid escaped %ld, count kept %s\n",
+                    m.c_str(), times.back(), c["arc2_odd_defect"].get<double>(), agreement,
+                    c["barrel_pressure_odd_defect_over_range"].get<double>(), c["escaped_fluid_particles_max"].get<long>(),
+                    c["fluid_count_kept"].get<bool>() ? "yes" : "NO");
+      }
+      if (both) {
+        for (std::size_t k = 0; k < times.size(); ++k) {
+          const Curves &a = runs[0].second.at[k], &b = runs[1].second.at[k];
+          const double d1 = rotating::max_difference(a.line1, b.line1), d2 = rotating::max_difference(a.arc2, b.arc2);
+          compare.push_back({{"time_s", a.time}, {"line1_max_diff", d1}, {"arc2_max_diff", d2}});
+          if (k + 1 == times.size()) pass = pass && d1 <= agreement && d2 <= agreement;
+          std::printf("check: moving vs fixed at t = %.3g s: line 1 max diff %.4f, arc 2 max diff %.4f (of omega R2; "
+                      "limit %.3f at the last time)\n", a.time, d1, d2, agreement);
+        }
+        mps::write_json(dir / "compare.json", {{"agreement_limit", agreement}, {"comparisons", compare}});
+      }
+    }
+    std::printf("result: %s; outputs in %s\n", pass ? "PASS" : "FAIL", dir.string().c_str());
+    return pass ? 0 : 2;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -74,6 +74,23 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
     if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
       throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at (" + fmt(particles_.x[i]) + ", " +
                                   fmt(particles_.y[i]) + ") starts outside the domain");
+  if (config_.initial_reference_density) {
+    grid_.bin(particles_);
+    const NeighborList near = grid_.neighbors(particles_, k_density_.re);
+    const std::vector<double> n = mps::number_density({particles_, domain_, near, k_density_});
+    double fluid_sum = 0.0;
+    int max_id = 0;
+    for (std::size_t i = 0; i < particles_.size(); ++i) {
+      if (particles_.kind[i] == Kind::fluid) fluid_sum += n[i];
+      max_id = std::max(max_id, particles_.id[i]);
+    }
+    // Fluid particles travel, so they share one reference; ghosts that become fluid take it too.
+    n_reference_.assign(static_cast<std::size_t>(max_id) + 1,
+                        fluid_sum / static_cast<double>(particles_.count(Kind::fluid)));
+    for (std::size_t i = 0; i < particles_.size(); ++i)
+      if (particles_.kind[i] == Kind::wall || particles_.kind[i] == Kind::dummy)
+        n_reference_[static_cast<std::size_t>(particles_.id[i])] = n[i];
+  }
 }
 
 void Simulation::add_mirror_wall(const MirrorWall& wall) {
@@ -255,7 +272,13 @@ void Simulation::advance() {
   if (surface_region_)
     for (std::size_t i = 0; i < surface.size(); ++i)
       if (surface[i] && !surface_region_(p.x[i], p.y[i])) surface[i] = 0;
-  std::vector<double> source = mixed_source(n_star_, k_density_.n0, div, config_.rho, dt, config_.gamma);
+  std::vector<double> n_source = n_star_;
+  if (!n_reference_.empty())
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const auto id = static_cast<std::size_t>(p.id[i]);
+      if (id < n_reference_.size()) n_source[i] *= k_density_.n0 / n_reference_[id];  // (n* - n_ref)/n_ref below
+    }
+  std::vector<double> source = mixed_source(n_source, k_density_.n0, div, config_.rho, dt, config_.gamma);
   {
     // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
     // expansion: read as such it asks for suction that grows as 1/dt^2. There the divergence term alone

@@ -42,6 +42,14 @@ struct SimulationConfig {
   // is then dropped. For slow flows (seed 004's Re = 4) whose explicit dt would be far below the CFL bound.
   bool implicit_viscosity = false;
   std::string viscosity_solver = "eigen-cg:precond=jacobi";
+  // The density source's reference number density: the lattice n0 for every particle (false), or each wall
+  // particle's own number density at t = 0 and the fluid's mean at t = 0 (true). Packings other than the square
+  // lattice (seed 000's concentric rings) differ from the lattice n0 by a few per cent, by an amount that varies
+  // with the curvature. Walls cannot move to remove that error, so read as compression it drives a standing
+  // pressure ~ gamma rho/dt^2 (n - n0)/n0, which grows as the spacing shrinks and outweighs a slow flow's
+  // pressure (README, "Rotating boundary"). Wall groups must keep their layout relative to the fluid (rigid
+  // walls, not a free surface drying them).
+  bool initial_reference_density = false;
   GradientVariant pressure_gradient = GradientVariant::min_reference;
   // Min-reference variants: take the minimum of P less its hydrostatic part rho f . r (true), or of P as
   // published (false). The published form destabilises a liquid at rest under gravity (README, "Numerics").
@@ -130,6 +138,7 @@ class Simulation {
   // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.
   NeighborList near_now_, near_star_, close_star_;
   std::vector<double> n_star_;
+  std::vector<double> n_reference_;  // by particle id, with initial_reference_density
   PpeSystem ppe_;
 };
 

@@ -3,6 +3,7 @@
 // moving- and fixed-boundary models, and the guard on an unstable time step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -111,6 +112,33 @@ TEST(RotatingCouette, SteadyProfileWithinTwoPercentOfExactAtTwentyAcross) {
   EXPECT_LT(rotating::couette_max_error(c), 0.02 * p.omega * p.R1);
 }
 
+TEST(RotatingCouette, InitialReferenceDensityTakesTheRingPackingAsTheWallsRestState) {
+  // The concentric rings are denser than the square lattice by 2-4 %, by an amount that varies with the radius.
+  // Against the lattice n0 the walls read that as compression they can never relieve; against their own initial
+  // number density their PPE rows carry no source at rest (all alike: only the gauge's mean removal).
+  rotating::Params p;
+  p.scene = rotating::Scene::couette;
+  p.across = 12;
+  p.omega = 1e-12;  // at rest to round-off
+  p.gamma = 0.5;
+  auto wall_source_spread = [&](bool initial) {
+    p.initial_reference = initial;
+    mps::Simulation sim = rotating::make_simulation(p);
+    sim.step();
+    const mps::PpeSystem& ppe = sim.last_ppe();
+    double lo = 1e300, hi = -1e300;
+    for (std::size_t r = 0; r < ppe.rhs.size(); ++r)
+      if (sim.particles().kind[static_cast<std::size_t>(ppe.particle[r])] == mps::Kind::wall) {
+        lo = std::min(lo, ppe.rhs[r]);
+        hi = std::max(hi, ppe.rhs[r]);
+      }
+    return hi - lo;
+  };
+  const double lattice = wall_source_spread(false);
+  EXPECT_GT(lattice, 100.0);  // measured 887
+  EXPECT_LT(wall_source_spread(true), 1e-9 * lattice);
+}
+
 namespace {
 
 struct ChannelRun {
@@ -123,7 +151,6 @@ ChannelRun run_channel(rotating::Model model) {
   rotating::Params p;
   p.model = model;
   p.across = 16;
-  p.gamma = 0.5;
   mps::Simulation sim = rotating::make_simulation(p);
   const std::size_t fluid = sim.particles().count(mps::Kind::fluid);
   rotating::LineSampler l1(p, Line::line1), a2(p, Line::arc2), barrel(p, Line::barrel);
@@ -163,9 +190,12 @@ TEST(RotatingChannel, SteadyFlowIsSymmetricAtReOne) {
   EXPECT_LT(rotating::odd_defect(fixed.arc2, 0.4), 0.03);
 }
 
-// The barrel pressure is odd by the same argument, but ours is not within 10 % of its range: measured 0.37 of
-// it over |phi| <= 0.4 and 0.13 over |phi| <= 0.3 (16 across, gamma = 0.5). Disabled until the wall pressure
-// near the corners is fixed (README, "Rotating boundary"); run it with --gtest_also_run_disabled_tests.
+// The barrel pressure is odd by the same argument (a finite-difference solution of this steady flow at Re = 2,
+// bench/rotating_reference.py, is odd within 0.028 of its range), but ours is not within 10 %: measured 0.112
+// of the range over |phi| <= 0.4 with the scene's defaults (16 across), 0.37 at gamma = 0.5 with the plain
+// minimum reference. The defect moves with the averaging window and the model (0.08-0.11): the near-corner
+// particle layout, which the Lagrangian flow does not keep mirror-symmetric. Disabled, not loosened (README,
+// "Rotating boundary"); run it with --gtest_also_run_disabled_tests.
 TEST(RotatingChannel, DISABLED_BarrelPressureIsOddAtReOne) {
   const ChannelRun fixed = run_channel(rotating::Model::fixed);
   const double prange = rotating::range(fixed.barrel, 0.4);
@@ -176,11 +206,11 @@ TEST(RotatingChannel, DISABLED_BarrelPressureIsOddAtReOne) {
 TEST(RotatingChannel, ViscousStepPastItsLimitIsStoppedByTheGuard) {
   rotating::Params p;
   p.across = 12;
-  p.dt_factor = 5;  // viscous number 1.0, five times the stable 0.2
+  p.dt_factor = 8;  // viscous number 1.6, eight times the default 0.2 (at 1.0 the scene ran stably to t = 2 s)
   mps::Simulation sim = rotating::make_simulation(p);
   try {
     run_to(sim, 0.5);
-    FAIL() << "an explicit viscous step 5x past its limit ran to t = 0.5 s";
+    FAIL() << "an explicit viscous step 8x past its limit ran to t = 0.5 s";
   } catch (const mps::SimulationError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("viscous"), std::string::npos) << what;

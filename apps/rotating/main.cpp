@@ -35,7 +35,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim
           {"boundary_particles", s.count(mps::Kind::wall) + s.count(mps::Kind::dummy)},
           {"gamma", p.gamma}, {"gradient", p.gradient == mps::GradientVariant::min_reference ? "min-reference"
                                                                                               : "corrected-min-reference"},
-          {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+          {"reference_number_density", p.initial_reference ? "initial packing" : "lattice n0"}, {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
           {"sample_times_s", times}, {"average_fraction", average},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient}, {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
@@ -187,7 +187,7 @@ std::vector<double> parse_times(const std::string& list) {
 
 int main(int argc, char** argv) {
   rotating::Params p;
-  std::string scene = "channel", model = "moving", times_list, gradient = "min-reference", walls = "mirror", out = "runs/rotating";
+  std::string scene = "channel", model = "moving", times_list, gradient = "corrected-min-reference", walls = "mirror", out = "runs/rotating";
   double average = 0.1, tolerance = 0.02, agreement = 0.03;
   int frames = 10;
   p.across = 0;
@@ -208,6 +208,8 @@ int main(int argc, char** argv) {
                  "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str();
   app.add_option("--gradient", gradient, "pressure gradient: min-reference | corrected-min-reference (with the "
                  "corrective matrix)")->capture_default_str();
+  app.add_flag("!--lattice-reference", p.initial_reference, "density source against the square lattice's n0 instead "
+               "of the initial packing (each wall particle's own, the fluid's mean)");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);

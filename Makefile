@@ -13,12 +13,11 @@ deps:
 build/release/CMakeCache.txt: | deps
 	cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release
 
-# The paper's Poiseuille set-up (seed 004: pushing-plate inlet, open outlet) at Re = 40, coarse and shortened:
-# 20 particles across instead of 50, 6 D long with the station at 4 D instead of 15 D and 10 D. Under a minute.
+# The paper's Poiseuille set-up (seed 004: pushing-plate inlet, open outlet, 15 D, station at 10 D, to
+# U t/D = 10) at Re = 40, coarse: 20 particles across instead of 50. About two minutes.
 demo: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille
-	./build/release/apps/poiseuille/poiseuille --mode inlet --re 40 --across 20 --channel-length 6 --station 4 \
-	  --end-time 6 --out $(DEMO_OUT)
+	./build/release/apps/poiseuille/poiseuille --mode inlet --re 40 --across 20 --end-time 10 --out $(DEMO_OUT)
 	/usr/bin/python3 apps/poiseuille/plot_profile.py $(DEMO_OUT)/profile.csv $(DEMO_OUT)/profile.png
 	@echo "profile plot: $(DEMO_OUT)/profile.png"
 

@@ -16,31 +16,33 @@ import subprocess
 import sys
 
 D = 0.2
-# (name, Re, particles across, the paper's peak-velocity error in %, viscosity). Re = 4 takes implicit
-# viscosity: its explicit limit would need ~31,000 steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL.
+# (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor). Re = 4 takes
+# implicit viscosity: its explicit limit would need ~31,000 steps for 10 D/U at dx = 0.004 m, against ~3,750
+# for CFL; at the full CFL limit (0.2) two particles closed to 0.5 l0 near the inlet and the guard stopped
+# it at 1.16 D/U, so it runs at half of it.
 CASES = [
-    ("re4-dx0.004", 4, 50, 2.6, "implicit"),
-    ("re40-dx0.004", 40, 50, 2.1, "explicit"),
-    ("re400-dx0.0055", 400, 36, 12.7, "explicit"),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
-    ("re400-dx0.004", 400, 50, 4.0, "explicit"),
-    ("re400-dx0.0025", 400, 80, 5.9, "explicit"),
+    ("re4-dx0.004", 4, 50, 2.6, "implicit", 0.5),
+    ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0),
+    ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
+    ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0),
+    ("re400-dx0.0025", 400, 80, 5.9, "explicit", 1.0),
 ]
 
 
-def run(app, out, re, across, viscosity, end_time, solver, threads, reuse):
+def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, reuse):
     if reuse:
         try:
             with open(os.path.join(out, "summary.json")) as f:
                 summary = json.load(f)
             p = summary["parameters"]
-            if (p["Re"], p["particles_across"], p.get("viscosity", "explicit"), p["end_time_D_over_U"],
-                    p["solver"].split(":")[0]) == (re, across, viscosity, end_time, solver.split(":")[0]):
+            if (p["Re"], p["particles_across"], p.get("viscosity", "explicit"), p["dt_factor"], p["end_time_D_over_U"],
+                    p["solver"].split(":")[0]) == (re, across, viscosity, dt_factor, end_time, solver.split(":")[0]):
                 print(f"reusing {out}", flush=True)
                 return summary
         except (OSError, KeyError, ValueError):
             pass
     cmd = [app, "--mode", "inlet", "--re", str(re), "--across", str(across), "--end-time", str(end_time),
-           "--solver", solver, "--frames", "0", "--profiles", "5", "--out", out]
+           "--dt-factor", str(dt_factor), "--solver", solver, "--frames", "0", "--profiles", "5", "--out", out]
     if viscosity == "implicit":
         cmd.append("--implicit-viscosity")
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
@@ -90,10 +92,10 @@ def main():
         sys.exit(f"unknown case(s) {unknown}; choose from {[c[0] for c in CASES]}")
     solvers = args.solvers.split(",")
     rows = []
-    for name, re, across, paper, viscosity in CASES:
+    for name, re, across, paper, viscosity, dt_factor in CASES:
         if name not in wanted:
             continue
-        acc = run(args.app, os.path.join(args.runs, name), re, across, viscosity, args.end_time, solvers[0], args.threads, args.reuse)
+        acc = run(args.app, os.path.join(args.runs, name), re, across, viscosity, dt_factor, args.end_time, solvers[0], args.threads, args.reuse)
         stopped = acc.get("status") == "failed"
         nan = float("nan")
         row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
@@ -103,10 +105,10 @@ def main():
                "paper_peak_velocity_error_pct": paper,
                "profile_l2_error_pct": nan if stopped else 100 * acc["profile_l2_error"],
                "flow_rate_error_pct": nan if stopped else 100 * acc["flow_rate_error"],
-               "viscosity": viscosity}
+               "viscosity": viscosity, "dt_factor": dt_factor}
         for solver in solvers:
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, viscosity,
-                        args.speed_time, solver, args.threads, args.reuse)
+                        dt_factor, args.speed_time, solver, args.threads, args.reuse)
             row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
         rows.append(row)
         write(rows, args, solvers)  # after every case: a long table keeps what it has if stopped
@@ -124,14 +126,14 @@ def write(rows, args, solvers):
         f.write(f"Measured {stamp} on {machine()}, {args.threads} OpenMP threads. Inlet channel 15 D, station at "
                 f"x = 10 D, profile averaged over the last 1 D/U, IC-CG (`{solvers[0]}`) for accuracy.\n\n")
         f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
-                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity |\n")
-        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|\n")
+                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor |\n")
+        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|\n")
         for r in rows:
             f.write(f"| {r['case']} | {r['Re']} | {r['dx_m']:.5f} | {r['end_time_D_over_U']:.2f} | {r['outcome']} | "
                     f"{r['peak_velocity_error_pct']:.2f} % | {r['paper_peak_velocity_error_pct']} % | "
                     f"{r['profile_l2_error_pct']:.2f} % | {r['flow_rate_error_pct']:.2f} % | "
                     + " | ".join(f"{r[s + '_particle_steps_per_s']:.3g}" for s in solvers)
-                    + f" | {r['viscosity']} |\n")
+                    + f" | {r['viscosity']} | {r['dt_factor']} |\n")
     print(f"wrote {args.out}.csv and {args.out}.md", flush=True)
 
 

@@ -72,6 +72,7 @@ std::string time_tag(double t) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   std::string case_name = "free", boundary_name, gradient_name = "mps", weight_name = "classic", out;
   double size = 100.0, half_width = 3.0, amplitude = 1.0, frequency = 200.0, tolerance = 1e-10;
   std::optional<double> end_time, u0;

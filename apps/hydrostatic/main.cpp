@@ -31,6 +31,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;
   std::string out = "runs/hydrostatic";
   int frames = 20;

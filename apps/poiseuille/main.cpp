@@ -41,6 +41,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   poiseuille::Params p;
   std::string mode = "inlet", out = "runs/poiseuille";
   double end_time = 10.0;  // in D/U: the paper's; a quarter of a diffusion time D^2/nu at Re = 40

@@ -186,6 +186,7 @@ std::vector<double> parse_times(const std::string& list) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   rotating::Params p;
   std::string scene = "channel", model = "moving", times_list, gradient = "corrected-min-reference", walls = "mirror", out = "runs/rotating";
   double average = 0.1, tolerance = 0.02, agreement = 0.03;

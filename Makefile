@@ -79,8 +79,9 @@ ROTATING_ACROSS ?= 24
 rotating: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target rotating
 	OMP_NUM_THREADS=1 ./build/release/apps/rotating/rotating --scene couette --out runs/rotating/couette
+	# Status 2 is a check missed (reported in the check lines, README "Rotating boundary"): plot anyway.
 	OMP_NUM_THREADS=1 ./build/release/apps/rotating/rotating --scene channel --model both --across $(ROTATING_ACROSS) \
-	  --average 0.5 --out runs/rotating/channel
+	  --average 0.5 --out runs/rotating/channel || [ $$? -eq 2 ]
 	/usr/bin/python3 apps/rotating/plot_rotating.py couette bench/results/rotating_couette.png runs/rotating/couette
 	/usr/bin/python3 apps/rotating/plot_rotating.py channel bench/results/rotating_channel.png \
 	  runs/rotating/channel/moving runs/rotating/channel/fixed

@@ -114,6 +114,8 @@ void Simulation::implicit_viscous_predictor(const Stencil& s, double dt) {
   CsrMatrix m;
   m.rows = m.cols = static_cast<int>(fluid.size());
   m.row_ptr.assign(fluid.size() + 1, 0);
+  m.col.reserve(lap.nnz());
+  m.val.reserve(lap.nnz());
   std::vector<double> bu(fluid.size()), bv(fluid.size()), u(fluid.size()), v(fluid.size());
   for (std::size_t r = 0; r < fluid.size(); ++r) {
     const std::size_t i = fluid[r];
@@ -272,13 +274,16 @@ void Simulation::advance() {
   if (surface_region_)
     for (std::size_t i = 0; i < surface.size(); ++i)
       if (surface[i] && !surface_region_(p.x[i], p.y[i])) surface[i] = 0;
-  std::vector<double> n_source = n_star_;
-  if (!n_reference_.empty())
+  std::vector<double> n_against_reference;  // only with initial_reference_density
+  if (!n_reference_.empty()) {
+    n_against_reference = n_star_;  // scaled so that mixed_source's (n - n0)/n0 reads (n* - n_ref)/n_ref
     for (std::size_t i = 0; i < p.size(); ++i) {
       const auto id = static_cast<std::size_t>(p.id[i]);
-      if (id < n_reference_.size()) n_source[i] *= k_density_.n0 / n_reference_[id];  // (n* - n_ref)/n_ref below
+      if (id < n_reference_.size()) n_against_reference[i] *= k_density_.n0 / n_reference_[id];
     }
-  std::vector<double> source = mixed_source(n_source, k_density_.n0, div, config_.rho, dt, config_.gamma);
+  }
+  std::vector<double> source = mixed_source(n_reference_.empty() ? n_star_ : n_against_reference, k_density_.n0, div,
+                                            config_.rho, dt, config_.gamma);
   {
     // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
     // expansion: read as such it asks for suction that grows as 1/dt^2. There the divergence term alone

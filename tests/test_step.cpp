@@ -95,6 +95,34 @@ TEST(Simulation, TimeStepReportsWhichLimitBinds) {
   EXPECT_NEAR(honey.last_step().dt, 0.2 * 0.01 * 0.01 / 1.0, 1e-15);
 }
 
+// SimulationConfig::warm_start: the pressure solve starts from the previous step's pressure (default) or from
+// zeros. Both start from P = 0 at step 1; afterwards the water at rest keeps nearly the same pressure, so the
+// warm solve needs fewer IC-CG iterations than the cold one, and both reach the same pressure to the tolerance.
+TEST(Simulation, ColdStartSolvesFromZerosAndWarmStartFromThePreviousPressure) {
+  tank::Params p;
+  auto run = [&](bool warm) {
+    auto c = tank::make_config(p);
+    c.solver = "eigen-cg:precond=ic,tol=1e-8";
+    c.warm_start = warm;
+    mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), c);
+    std::vector<int> iterations;
+    for (int s = 0; s < 5; ++s) iterations.push_back(sim.step().solve.iterations);
+    return std::make_pair(iterations, sim.particles().p);
+  };
+  const auto [warm, p_warm] = run(true);
+  const auto [cold, p_cold] = run(false);
+  EXPECT_EQ(warm.front(), cold.front());  // step 1: every particle starts at P = 0 either way
+  for (std::size_t s = 1; s < warm.size(); ++s)
+    EXPECT_LT(warm[s], cold[s]) << "step " << s + 1 << ": warm " << warm[s] << " iterations, cold " << cold[s];
+  double scale = 0.0, diff = 0.0;
+  for (std::size_t i = 0; i < p_warm.size(); ++i) {
+    scale = std::max(scale, std::abs(p_warm[i]));
+    diff = std::max(diff, std::abs(p_warm[i] - p_cold[i]));
+  }
+  EXPECT_GT(scale, 1000.0);
+  EXPECT_LT(diff, 1e-5 * scale);
+}
+
 TEST(Simulation, SameInputGivesTheSameNumbersAndReorderingChangesNothingButRoundOff) {
   tank::Params p;
   auto run = [&](int reorder_every) {

@@ -309,7 +309,8 @@ void Simulation::advance() {
   info_.floating_groups = ppe_.floating.size();
   times_.assemble += lap(t);
 
-  std::vector<double> pressure = ppe_.gather(p);  // warm start from the previous step
+  // Warm start from the previous step, or the zero guess of a cold start.
+  std::vector<double> pressure = config_.warm_start ? ppe_.gather(p) : std::vector<double>(ppe_.size(), 0.0);
   if (ppe_.size() > 0) info_.solve = solver_->solve(ppe_.matrix, ppe_.rhs, pressure);
   times_.solver_setup += info_.solve.setup_seconds;
   times_.solve += lap(t) - info_.solve.setup_seconds;

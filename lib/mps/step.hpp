@@ -59,6 +59,9 @@ struct SimulationConfig {
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
   std::string solver = "eigen-cg";
+  // Initial guess of each pressure solve: the previous step's pressure (true, design section 5) or zeros (false,
+  // the classic baseline that ignores the last step). Direct solvers (cholmod) ignore it either way.
+  bool warm_start = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad parameter and its valid range
 };

@@ -17,6 +17,13 @@ inline void add_list_solvers_flag(CLI::App& app) {
       "print the available solvers with their keys and defaults, and exit");
 }
 
+// --cold-start: every pressure solve from a zero guess instead of the previous step's pressure
+// (SimulationConfig::warm_start = false), the classic baseline.
+inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
+  return app.add_flag("!--cold-start", warm_start,
+                      "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)");
+}
+
 inline CLI::Option* add_solver_options(CLI::App& app, std::string& spec) {
   add_list_solvers_flag(app);
   return app.add_option("--solver", spec, "linear solver spec name[:key=value,...] (see --list-solvers)")

@@ -134,6 +134,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
+  c.warm_start = p.warm_start;
   // The outlet is an open end at gauge pressure 0, not a liquid surface: the confined liquid may hold a
   // negative gauge pressure, and clamping it would leave every push of the plate unanswered (measured: the
   // flow rate at the station ran 47 % above U D by t = 0.25 D/U).

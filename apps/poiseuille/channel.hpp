@@ -34,6 +34,7 @@ struct Params {
   double dt_factor = 1;    // multiplies both time-step limits (CFL 0.2, viscous number 0.2); > 1 probes stability
   bool implicit_viscosity = false;  // lifts the viscous limit (Re = 4 at dx = 0.004 m: ~31,000 explicit steps)
   std::string solver = "eigen-cg";
+  bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)
 
   [[nodiscard]] double l0() const { return D / across; }
   [[nodiscard]] double U() const { return re * nu / D; }          // mean velocity (body-force) or wall speed

@@ -33,6 +33,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
                         {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
           {"physics_on", {drive, c.implicit_viscosity ? "viscosity (implicit)" : "viscosity (explicit)", "mirror no-slip walls",
                           p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};
@@ -67,6 +68,7 @@ int main(int argc, char** argv) {
                "solve the viscous term implicitly (no viscous time-step limit; for low Re)");
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
+  add_cold_start_flag(app, p.warm_start);
   app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
                  "compare snapshots with the transient series)")->capture_default_str()->check(CLI::NonNegativeNumber);

@@ -39,6 +39,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim
           {"sample_times_s", times}, {"average_fraction", average},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient}, {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
           {"walls", p.mirror ? "mirror velocities on the circles" : "plain (wall velocity)"},
           {"physics_on", {"viscosity (explicit)", "wall + 4 dummy layers", "rigid wall motion", "closed-domain PPE gauge",
                           "no gravity"}}};
@@ -214,6 +215,7 @@ int main(int argc, char** argv) {
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
+  add_cold_start_flag(app, p.warm_start);
   app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")
       ->capture_default_str();
   app.add_option("--average", average, "each curve is averaged over the last AVERAGE fraction of its time")

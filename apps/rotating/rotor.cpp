@@ -108,6 +108,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
+  c.warm_start = p.warm_start;
   mps::Particles particles = make_particles(p);
   std::vector<mps::RigidMotion> motions;
   // Mirror circles: the wall velocity as a rotation about the origin (inner, outer).

@@ -1,11 +1,11 @@
 # The two commands a newcomer needs (both install missing Debian packages first):
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
-# Further: make bench, make bench-solvers (benchmarks, CSV + PNG in bench/results/), make test-sanitize.
+# Further: make bench, make bench-solvers, make bench-pareto (benchmarks, CSV + PNG in bench/results/), make test-sanitize.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -92,6 +92,13 @@ bench-rotating: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target rotating
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/rotating_corners.py --app build/release/apps/rotating/rotating \
 	  --out bench/results/rotating_corners.csv
+
+# Error against wall time (design section 7) for the body-force channel and Taylor-Couette: spacing x backend, then
+# tolerance and gamma one at a time; one thread, one run at a time (~6 min). PARETO_FLAGS=--full enlarges it.
+PARETO_FLAGS ?=
+bench-pareto: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target poiseuille rotating
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release $(PARETO_FLAGS)
 
 clean:
 	rm -rf build runs

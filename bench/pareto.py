@@ -2,12 +2,12 @@
 guess and gamma, for two scenes with exact solutions:
 
   poiseuille  apps/poiseuille --mode body-force (periodic channel, Re 40, to 10 D/U); error = relative L2 error
-              of the velocity profile against the transient series (summary.json: profile_l2_error);
+              ||u - exact|| / ||exact|| of the velocity profile against the transient series (summary.json: profile_l2_error);
   couette     apps/rotating --scene couette (annulus, inner cylinder turning, to t = 1 s); error = max |u_theta -
               exact| over omega R1 (summary.json: checks.max_abs_error_over_omega_R1), a peak error.
 
-usage: OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py BUILD_DIR [--full] [--scenes poiseuille,couette]
-           [--runs runs/pareto] [--results bench/results]
+usage: OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py BUILD_DIR [--defaults] [--full]
+           [--scenes poiseuille,couette] [--runs runs/pareto] [--results bench/results]
 
 Runs the built apps one at a time (BUILD_DIR/apps/...), writes RESULTS/pareto_<scene>.csv and .png, and prints, per
 scene, the fastest setting that reached 1 % and 0.1 % error. Wall time is the app's whole run measured around the
@@ -15,7 +15,8 @@ process (scene set-up included, no frames written); the phase sum from summary.j
 
 The quick sweep (default): every backend at every spacing of the scene at tol = 1e-8 and the scene's gamma, then
 tolerance and gamma one at a time around the app's default solver at the middle spacing. --full adds spacings
-(the apps' default spacings among them) and runs the tolerance and gamma variants at every spacing.
+(the apps' default spacings among them) and runs the tolerance and gamma variants at every spacing. --defaults
+adds the app defaults at the app's own spacing (poiseuille 50, couette 20 across) to a sweep that lacks them.
 
 Marked on the chart: the app defaults (eigen-cg, which is precond=ic at tol=1e-8, warm start, the scene's gamma;
 at the app's default spacing when it is in the sweep) and the classic baseline: IC-preconditioned CG from a zero

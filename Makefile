@@ -1,11 +1,12 @@
 # The two commands a newcomer needs (both install missing Debian packages first):
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
-# Further: make bench, make bench-solvers, make bench-pareto (benchmarks, CSV + PNG in bench/results/), make test-sanitize.
+# Further: make bench, make bench-solvers, make bench-pareto, make bench-scaling (benchmarks, CSV + PNG in
+# bench/results/), make test-sanitize.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -100,6 +101,16 @@ PARETO_FLAGS ?= --defaults
 bench-pareto: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release $(PARETO_FLAGS)
+
+# Per-step cost by phase against N: the body-force channel scaled up (as long as it is wide), each backend for 10
+# steps after 3, the classic baseline (IC-CG from a zero initial guess) included; one thread.
+SCALING_SIZES ?= 1e4,3e4,1e5,3e5,1e6
+SCALING_SOLVERS ?= eigen-cg;eigen-cg:precond=jacobi;hypre-pcg:reuse=10;cholmod
+bench-scaling: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_scaling
+	OMP_NUM_THREADS=1 ./build/release/bench/bench_scaling --sizes $(SCALING_SIZES) --solvers "$(SCALING_SOLVERS)" \
+	  --cold eigen-cg --warmup 3 --steps 10 --out bench/results/scaling.csv
+	/usr/bin/python3 bench/plot_scaling.py bench/results/scaling.csv bench/results/scaling.png
 
 clean:
 	rm -rf build runs

@@ -31,6 +31,8 @@ import subprocess
 import sys
 import time
 
+import stamp
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -147,26 +149,7 @@ def pareto(rows):
 
 
 def machine():
-    model = "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, nproc {os.cpu_count()}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}"
-
-
-def commit():
-    try:
-        c = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True).stdout.strip()
-        return c + ("-dirty" if dirty else "")
-    except OSError:
-        return "unknown"
+    return f"{stamp.machine()}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}"
 
 
 STYLE = {  # group -> (marker, colour)
@@ -181,7 +164,7 @@ STYLE = {  # group -> (marker, colour)
 }
 
 
-def plot(scene, rows, png, stamp):
+def plot(scene, rows, png, run_stamp):
     s = SCENES[scene]
     fig, ax = plt.subplots(figsize=(8.6, 5.6))
     for group, (marker, colour) in STYLE.items():
@@ -228,7 +211,7 @@ def plot(scene, rows, png, stamp):
     note = f"; {len(failed)} run(s) failed (CSV)" if failed else ""
     ax.set_title(f"{s['title']}: error against wall time\n"
                  f"tol / γ variants: IC-CG warm at {s['middle']} across; errors within {SAME_ERROR:g} (relative) count as "
-                 f"equal for the front{note}\n{stamp}",
+                 f"equal for the front{note}\n{run_stamp}",
                  fontsize=8)
     ax.legend(fontsize=7, loc="best")
     ax.grid(True, which="both", lw=0.3, alpha=0.5)
@@ -291,9 +274,9 @@ def main():
     if os.environ.get("OMP_NUM_THREADS") != "1":
         print("note: OMP_NUM_THREADS is not 1; the published numbers were taken with one thread", flush=True)
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    stamp = (f"{machine()}; {date}; commit {commit()}; {'full' if a.full else 'quick'} sweep"
-             f"{' + app defaults' if a.defaults else ''}")
-    print(stamp, flush=True)
+    run_stamp = (f"{machine()}; {date}; commit {stamp.commit()}; {'full' if a.full else 'quick'} sweep"
+                 f"{' + app defaults' if a.defaults else ''}")
+    print(run_stamp, flush=True)
     os.makedirs(a.results, exist_ok=True)
     start = time.perf_counter()
     all_rows = {}
@@ -307,12 +290,12 @@ def main():
             r["solver_setup_s"] = r.pop("setup_s", "")
         csv_path = os.path.join(a.results, f"pareto_{scene}.csv")
         with open(csv_path, "w", newline="") as f:
-            f.write(f"# {stamp}\n")
+            f.write(f"# {run_stamp}\n")
             w = csv.DictWriter(f, fieldnames=KEYS, extrasaction="ignore")
             w.writeheader()
             w.writerows(rows)
         png = os.path.join(a.results, f"pareto_{scene}.png")
-        plot(scene, rows, png, stamp)
+        plot(scene, rows, png, run_stamp)
         print("wrote", csv_path, png, flush=True)
         all_rows[scene] = rows
     for scene, rows in all_rows.items():

@@ -6,8 +6,6 @@ fitted slopes of log time against log N) and one of particle-steps per second.
 """
 import csv
 import datetime
-import os
-import subprocess
 import sys
 
 import matplotlib
@@ -16,26 +14,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+import stamp
+
 PHASES = [("neighbors_s", "neighbours"), ("assemble_s", "assembly"), ("setup_s", "solver setup"),
           ("solve_s", "solve"), ("rest_s", "rest (predictor, corrector)"), ("total_s", "total")]
-
-
-def machine():
-    cpu = "unknown cpu"
-    with open("/proc/cpuinfo") as f:
-        for line in f:
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    return f"{cpu}, {os.cpu_count()} cores"
-
-
-def commit():
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "?"
 
 
 def slope(n, t):
@@ -85,8 +67,8 @@ def main(src, dst):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     threads = ", ".join(sorted({f"{r['threads']:.0f}" for rows in runs.values() for r in rows}))
-    fig.suptitle(f"SparseMPS per-step cost, body-force channel (bench_scaling); {machine()}, OpenMP threads: "
-                 f"{threads}; {datetime.date.today()}, commit {commit()}", fontsize=9)
+    fig.suptitle(f"SparseMPS per-step cost, body-force channel (bench_scaling); {stamp.machine()}, OpenMP threads: "
+                 f"{threads}; {datetime.date.today()}, commit {stamp.commit()}", fontsize=9)
     fig.tight_layout()
     fig.savefig(dst, dpi=80)
     for label in labels:

@@ -15,6 +15,8 @@ import platform
 import subprocess
 import sys
 
+import stamp
+
 D = 0.2
 # (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor). Re = 4 takes
 # implicit viscosity: its explicit limit would need ~31,000 steps for 10 D/U at dx = 0.004 m, against ~3,750
@@ -60,16 +62,7 @@ def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, r
 
 
 def machine():
-    model = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+    return f"{stamp.machine()}, {platform.system()} {platform.release()}"
 
 
 def main():

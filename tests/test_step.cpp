@@ -4,12 +4,24 @@
 #include <cmath>
 #include <functional>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "mps/geometry.hpp"
 #include "mps/step.hpp"
 #include "tank.hpp"
 
 namespace {
+
+// The largest |a_i| and the largest |a_i - b_i|: two runs' fields and how far apart they are.
+std::pair<double, double> size_and_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double size = 0.0, diff = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    size = std::max(size, std::abs(a[i]));
+    diff = std::max(diff, std::abs(a[i] - b[i]));
+  }
+  return {size, diff};
+}
 
 mps::SimulationConfig base_config() {
   mps::SimulationConfig c;
@@ -114,11 +126,7 @@ TEST(Simulation, ColdStartSolvesFromZerosAndWarmStartFromThePreviousPressure) {
   EXPECT_EQ(warm.front(), cold.front());  // step 1: every particle starts at P = 0 either way
   for (std::size_t s = 1; s < warm.size(); ++s)
     EXPECT_LT(warm[s], cold[s]) << "step " << s + 1 << ": warm " << warm[s] << " iterations, cold " << cold[s];
-  double scale = 0.0, diff = 0.0;
-  for (std::size_t i = 0; i < p_warm.size(); ++i) {
-    scale = std::max(scale, std::abs(p_warm[i]));
-    diff = std::max(diff, std::abs(p_warm[i] - p_cold[i]));
-  }
+  const auto [scale, diff] = size_and_difference(p_warm, p_cold);
   EXPECT_GT(scale, 1000.0);
   EXPECT_LT(diff, 1e-5 * scale);
 }
@@ -136,11 +144,7 @@ TEST(Simulation, SameInputGivesTheSameNumbersAndReorderingChangesNothingButRound
   };
   const auto a = run(10), b = run(10), c = run(0);
   EXPECT_EQ(a, b);  // bitwise: no thread-order dependence
-  double scale = 0.0, diff = 0.0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    scale = std::max(scale, std::abs(a[i]));
-    diff = std::max(diff, std::abs(a[i] - c[i]));
-  }
+  const auto [scale, diff] = size_and_difference(a, c);
   EXPECT_GT(scale, 1000.0);
   EXPECT_LT(diff, 1e-6 * scale);
 }

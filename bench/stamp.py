@@ -1,0 +1,29 @@
+"""Where and when a benchmark ran, for chart titles and result tables: the CPU and its cores, the git commit."""
+import os
+import subprocess
+
+
+def cpu():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown CPU"
+
+
+def machine():
+    return f"{cpu()}, {os.cpu_count()} cores"
+
+
+def commit():
+    """Short hash of HEAD, with -dirty when tracked files differ from it."""
+    try:
+        c = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True).stdout.strip()
+        return (c or "unknown") + ("-dirty" if dirty else "")
+    except OSError:
+        return "unknown"

@@ -1,12 +1,12 @@
 # The two commands a newcomer needs (both install missing Debian packages first):
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
-# Further: make bench, make bench-solvers, make bench-pareto, make bench-scaling (benchmarks, CSV + PNG in
-# bench/results/), make test-sanitize.
+# Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
+# bench-solvers, bench-pareto, bench-scaling), CSV + PNG in bench/results/; make test-sanitize.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -40,7 +40,24 @@ test-sanitize: deps
 	cd build/sanitize && OMP_NUM_THREADS=1 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	  ctest --output-on-failure -j$(JOBS) -LE install
 
+# The quick pass over every benchmark: small sizes and the quick sweeps, one thread per run, CSV + PNG into
+# bench/results/quick/ (not committed: the README's charts come from make bench-full).
+QUICK := bench/results/quick
 bench: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_core bench_solvers bench_scaling poiseuille rotating
+	mkdir -p $(QUICK)
+	./build/release/bench/bench_core --sizes 1e4 1e5 --out $(QUICK)/core.csv
+	/usr/bin/python3 bench/plot_core.py $(QUICK)/core.csv $(QUICK)/core.png
+	./build/release/bench/bench_solvers --sizes 1e4,1e5 --out $(QUICK)/solvers.csv data/*.mtx
+	/usr/bin/python3 bench/plot_solvers.py $(QUICK)/solvers.csv $(QUICK)/solvers.png
+	$(MAKE) --no-print-directory bench-scaling SCALING_SIZES=1e4,3e4,1e5 SCALING_OUT=$(QUICK)
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release --results $(QUICK) --runs runs/pareto-quick
+
+# Every benchmark at full size, into bench/results/ (the README's charts): core phases and solvers to 1e6, the
+# per-step cost to 1e6 particles, error against wall time with the app defaults.
+bench-full: bench-core bench-solvers bench-scaling bench-pareto
+
+bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
 	./build/release/bench/bench_core --out bench/results/core.csv
 	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
@@ -106,11 +123,12 @@ bench-pareto: deps build/release/CMakeCache.txt
 # steps after 3, the classic baseline (IC-CG from a zero initial guess) included; one thread.
 SCALING_SIZES ?= 1e4,3e4,1e5,3e5,1e6
 SCALING_SOLVERS ?= eigen-cg;eigen-cg:precond=jacobi;hypre-pcg:reuse=10;cholmod
+SCALING_OUT ?= bench/results
 bench-scaling: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_scaling --sizes $(SCALING_SIZES) --solvers "$(SCALING_SOLVERS)" \
-	  --cold eigen-cg --warmup 3 --steps 10 --out bench/results/scaling.csv
-	/usr/bin/python3 bench/plot_scaling.py bench/results/scaling.csv bench/results/scaling.png
+	  --cold eigen-cg --warmup 3 --steps 10 --out $(SCALING_OUT)/scaling.csv
+	/usr/bin/python3 bench/plot_scaling.py $(SCALING_OUT)/scaling.csv $(SCALING_OUT)/scaling.png
 
 clean:
 	rm -rf build runs

@@ -2,11 +2,11 @@
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
 # Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
-# bench-solvers, bench-pareto, bench-scaling), CSV + PNG in bench/results/; make test-sanitize.
+# bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make test-sanitize.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -129,6 +129,13 @@ bench-scaling: deps build/release/CMakeCache.txt
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_scaling --sizes $(SCALING_SIZES) --solvers "$(SCALING_SOLVERS)" \
 	  --cold eigen-cg --warmup 3 --steps 10 --out $(SCALING_OUT)/scaling.csv
 	/usr/bin/python3 bench/plot_scaling.py $(SCALING_OUT)/scaling.csv $(SCALING_OUT)/scaling.png
+
+# Stability maps (design section 7): gamma x dt factor, each run classified as stable / inaccurate / blown up, for the
+# inlet channel at Re 400 (20 across, 4 D, to 2 D/U) and the screw channel (16 across, to 0.5 s); one thread, one run
+# at a time. CSV + PNG in bench/results/stability_{inlet,channel}.*
+bench-stability: deps build/release/CMakeCache.txt
+	cmake --build build/release -j1 --target poiseuille rotating
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release
 
 clean:
 	rm -rf build runs

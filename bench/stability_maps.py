@@ -21,6 +21,10 @@ limit) and 0.25 ... 8 for the screw channel (viscous-limited). Scenes and their 
            flow has exactly; bound 0.03, the app's own check (--agreement) and the test's. A run with fluid
            particles outside the channel also counts as inaccurate.
 
+Beside the error the CSV records, without using it to classify, each run's deviation from a reference run: the
+station profile (inlet, max |u - u_ref| / U, reference gamma 0.99 at factor 0.5) or line 1 (channel, max
+|u_theta - u_ref| / (omega R), reference gamma 0.05 at factor 0.25).
+
 usage: make bench-stability, or OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py BUILD_DIR [--scenes inlet,channel]
            [--gammas 0,0.01,...] [--factors 0.25,...] [--runs runs/stability] [--results bench/results]
 
@@ -60,6 +64,9 @@ SCENES = {
         "factors": [0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0],
         "percent": True,
         "app_default": (0.99, 1.0),
+        # Recorded beside the error, not used to classify: max |u - u_ref| / U of the station profile against the
+        # run at the app's gamma and the smallest factor that ran there.
+        "reference": (0.99, 0.5), "curve": "profile.csv",
     },
     "channel": {
         "app": "apps/rotating/rotating",
@@ -73,6 +80,9 @@ SCENES = {
         "factors": [0.25, 0.5, 1.0, 2.0, 4.0, 6.0, 8.0],
         "percent": False,
         "app_default": (0.05, 1.0),
+        # Recorded, not used to classify: max |u_theta - u_theta,ref| / (omega R) on line 1 against the run at the
+        # scene's gamma and a quarter of the default step.
+        "reference": (0.05, 0.25), "curve": "line1.csv",
     },
 }
 
@@ -202,8 +212,35 @@ def plot(scene, rows, gammas, factors, png, stamp):
     plt.close(fig)
 
 
-KEYS = ["scene", "gamma", "dt_factor", "class", "error", "exit_status", "steps", "time_reached", "escaped", "note",
-        "guard_message"]
+KEYS = ["scene", "gamma", "dt_factor", "class", "error", "deviation_from_reference", "exit_status", "steps",
+        "time_reached", "escaped", "note", "guard_message"]
+
+
+def read_curve(path):
+    """The first value column of a curve CSV (profile.csv, line1.csv) against its axis."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    return {float(r[0]): float(r[1]) for r in rows[1:]}
+
+
+def add_deviations(scene, rows, runs_dir):
+    """deviation_from_reference: max |curve - reference curve| over the common, non-nan points; empty when the
+    run or the reference did not finish or the reference is not in the grid."""
+    s = SCENES[scene]
+    g, f = s["reference"]
+    ref_path = os.path.join(runs_dir, scene, f"g{g:g}_f{f:g}", s["curve"])
+    ref_row = next((r for r in rows if r["gamma"] == g and r["dt_factor"] == f), None)
+    for r in rows:
+        r["deviation_from_reference"] = ""
+    if ref_row is None or ref_row["class"] in ("blown up", "error") or not os.path.exists(ref_path):
+        return
+    ref = read_curve(ref_path)
+    for r in rows:
+        if r["class"] in ("blown up", "error"):
+            continue
+        cur = read_curve(os.path.join(runs_dir, scene, f"g{r['gamma']:g}_f{r['dt_factor']:g}", s["curve"]))
+        d = [abs(v - ref[k]) for k, v in cur.items() if k in ref and not math.isnan(v) and not math.isnan(ref[k])]
+        r["deviation_from_reference"] = round(max(d), 6) if d else ""
 
 
 def main():
@@ -233,12 +270,16 @@ def main():
         for g in gammas:
             for f in factors:
                 rows.append(run_one(a.build, scene, g, f, a.runs)[0])
+        add_deviations(scene, rows, a.runs)
         csv_path = os.path.join(a.results, f"stability_{scene}.csv")
         with open(csv_path, "w", newline="") as fh:
             s = SCENES[scene]
             bound = f"{100 * s['bound']:g} %" if s["percent"] else f"{s['bound']:g}"
+            rg, rf = s["reference"]
             fh.write(f"# {stamp}\n# {s['title']}; error: {s['error_name']}; inaccurate above {bound}; "
-                     f"time_reached in {'D/U' if scene == 'inlet' else 's'}\n")
+                     f"time_reached in {'D/U' if scene == 'inlet' else 's'}; deviation_from_reference: max abs "
+                     f"difference of {s['curve']} from the run at gamma {rg:g}, dt factor {rf:g} (not used to "
+                     f"classify)\n")
             w = csv.DictWriter(fh, fieldnames=KEYS, extrasaction="ignore")
             w.writeheader()
             w.writerows(rows)

@@ -148,10 +148,6 @@ def pareto(rows):
     return front
 
 
-def machine():
-    return f"{stamp.machine()}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}"
-
-
 STYLE = {  # group -> (marker, colour)
     "IC-CG warm (app default)": ("o", "tab:blue"),
     "IC-CG cold (baseline)": ("s", "black"),
@@ -274,7 +270,7 @@ def main():
     if os.environ.get("OMP_NUM_THREADS") != "1":
         print("note: OMP_NUM_THREADS is not 1; the published numbers were taken with one thread", flush=True)
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    run_stamp = (f"{machine()}; {date}; commit {stamp.commit()}; {'full' if a.full else 'quick'} sweep"
+    run_stamp = (f"{stamp.machine(threads=True)}; {date}; commit {stamp.commit()}; {'full' if a.full else 'quick'} sweep"
                  f"{' + app defaults' if a.defaults else ''}")
     print(run_stamp, flush=True)
     os.makedirs(a.results, exist_ok=True)

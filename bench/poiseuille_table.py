@@ -114,9 +114,9 @@ def write(rows, args, solvers):
         f.write(",".join(keys) + "\n")
         for r in rows:
             f.write(",".join(f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + "\n")
-    stamp = datetime.date.today().isoformat()
+    today = datetime.date.today().isoformat()
     with open(args.out + ".md", "w") as f:
-        f.write(f"Measured {stamp} on {machine()}, {args.threads} OpenMP thread(s) per run, other runs sharing the cores. Inlet channel 15 D, station at "
+        f.write(f"Measured {today} on {machine()}, {args.threads} OpenMP thread(s) per run, other runs sharing the cores. Inlet channel 15 D, station at "
                 f"x = 10 D, profile averaged over the last 1 D/U, IC-CG (`{solvers[0]}`) for accuracy.\n\n")
         f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
                 + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor |\n")

@@ -42,6 +42,8 @@ import subprocess
 import sys
 import time
 
+import stamp
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -146,29 +148,6 @@ def run_one(build, scene, gamma, factor, runs_dir):
     return row, wall
 
 
-def machine():
-    model = "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, nproc {os.cpu_count()}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}"
-
-
-def commit():
-    try:
-        c = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True).stdout.strip()
-        return c + ("-dirty" if dirty else "")
-    except OSError:
-        return "unknown"
-
-
 def cell_text(scene, r):
     s = SCENES[scene]
     if r["class"] == "blown up":
@@ -180,7 +159,7 @@ def cell_text(scene, r):
     return text + ("\nescaped" if r["note"] == "fluid left the channel" else "")
 
 
-def plot(scene, rows, gammas, factors, png, stamp):
+def plot(scene, rows, gammas, factors, png, run_stamp):
     s = SCENES[scene]
     grid = [[CLASSES.index(next(r["class"] for r in rows if r["gamma"] == g and r["dt_factor"] == f))
              for f in factors] for g in gammas]
@@ -206,7 +185,7 @@ def plot(scene, rows, gammas, factors, png, stamp):
     handles.append(Patch(fill=False, ec="black", lw=2, label="app default"))
     ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(f"Stability map: {s['title']}\ninaccurate: {s['error_name']} > {bound}; "
-                 f"blown up: stopped by the guard (t reached)\n{stamp}", fontsize=8)
+                 f"blown up: stopped by the guard (t reached)\n{run_stamp}", fontsize=8)
     fig.tight_layout()
     fig.savefig(png, dpi=80)
     plt.close(fig)
@@ -256,8 +235,8 @@ def main():
         print("note: OMP_NUM_THREADS is not 1; the published maps were taken with one thread", flush=True)
     gammas = [float(g) for g in a.gammas.split(",")]
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    stamp = f"{machine()}; {date}; commit {commit()}"
-    print(stamp, flush=True)
+    run_stamp = f"{stamp.machine(threads=True)}; {date}; commit {stamp.commit()}"
+    print(run_stamp, flush=True)
     os.makedirs(a.results, exist_ok=True)
     start = time.perf_counter()
     for scene in a.scenes.split(","):
@@ -276,7 +255,7 @@ def main():
             s = SCENES[scene]
             bound = f"{100 * s['bound']:g} %" if s["percent"] else f"{s['bound']:g}"
             rg, rf = s["reference"]
-            fh.write(f"# {stamp}\n# {s['title']}; error: {s['error_name']}; inaccurate above {bound}; "
+            fh.write(f"# {run_stamp}\n# {s['title']}; error: {s['error_name']}; inaccurate above {bound}; "
                      f"time_reached in {'D/U' if scene == 'inlet' else 's'}; deviation_from_reference: max abs "
                      f"difference of {s['curve']} from the run at gamma {rg:g}, dt factor {rf:g} (not used to "
                      f"classify)\n")
@@ -284,7 +263,7 @@ def main():
             w.writeheader()
             w.writerows(rows)
         png = os.path.join(a.results, f"stability_{scene}.png")
-        plot(scene, rows, gammas, factors, png, stamp)
+        plot(scene, rows, gammas, factors, png, run_stamp)
         counts = ", ".join(f"{c} {sum(r['class'] == c for r in rows)}" for c in CLASSES)
         print(f"wrote {csv_path} {png}: {counts}; {time.perf_counter() - t0:.0f} s", flush=True)
     print(f"\nmaps took {time.perf_counter() - start:.0f} s")

@@ -14,8 +14,10 @@ def cpu():
     return "unknown CPU"
 
 
-def machine():
-    return f"{cpu()}, {os.cpu_count()} cores"
+def machine(threads=False):
+    """CPU and core count; with threads, also the OMP_NUM_THREADS the runs were given."""
+    line = f"{cpu()}, {os.cpu_count()} cores"
+    return line + (f", OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}" if threads else "")
 
 
 def commit():

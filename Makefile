@@ -40,7 +40,7 @@ test-sanitize: deps
 	cd build/sanitize && OMP_NUM_THREADS=1 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	  ctest --output-on-failure -j$(JOBS) -LE install
 
-# The quick pass over every benchmark: small sizes and the quick sweeps, one thread per run, CSV + PNG into
+# The quick pass over every benchmark: small sizes, the quick sweeps and a 2 x 3 corner of each stability map; CSV + PNG into
 # bench/results/quick/ (not committed: the README's charts come from make bench-full).
 QUICK := bench/results/quick
 bench: deps build/release/CMakeCache.txt
@@ -52,10 +52,12 @@ bench: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/plot_solvers.py $(QUICK)/solvers.csv $(QUICK)/solvers.png
 	$(MAKE) --no-print-directory bench-scaling SCALING_SIZES=1e4,3e4,1e5 SCALING_OUT=$(QUICK)
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release --results $(QUICK) --runs runs/pareto-quick
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release --gammas 0.05,0.99 --factors 0.5,1,2 \
+	  --results $(QUICK) --runs runs/stability-quick
 
 # Every benchmark at full size, into bench/results/ (the README's charts): core phases and solvers to 1e6, the
-# per-step cost to 1e6 particles, error against wall time with the app defaults.
-bench-full: bench-core bench-solvers bench-scaling bench-pareto
+# per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
+bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability
 
 bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core

@@ -70,7 +70,7 @@ def main(src, dst):
     fig.suptitle(f"SparseMPS per-step cost, body-force channel (bench_scaling); {stamp.machine()}, OpenMP threads: "
                  f"{threads}; {datetime.date.today()}, commit {stamp.commit()}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(dst, dpi=80)
+    fig.savefig(dst, dpi=70)
     for label in labels:
         rows = sorted(runs[label], key=lambda r: r["fluid"])
         n = [r["fluid"] for r in rows]

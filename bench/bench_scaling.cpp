@@ -12,7 +12,6 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -20,14 +19,6 @@
 #include "solver_cli.hpp"
 
 namespace {
-
-std::vector<std::string> split(const std::string& text, char sep) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, sep);)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 struct Row {
   long particles = 0, fluid = 0, unknowns = 0;
@@ -76,13 +67,17 @@ Row run(long size, const std::string& spec, bool warm_start, int warmup, int ste
 
 int main(int argc, char** argv) {
   CLI::App app{"SparseMPS scaling: per-step cost by phase against N, body-force channel, per solver backend"};
-  std::string sizes_text = "1e4,3e4,1e5", solvers_text = "eigen-cg;hypre-pcg:reuse=10", out = "scaling.csv";
-  std::string cold_text = "eigen-cg";
+  std::vector<double> sizes{1e4, 3e4, 1e5};
+  std::vector<std::string> solvers{"eigen-cg", "hypre-pcg:reuse=10"}, cold{"eigen-cg"};
+  std::string out = "scaling.csv";
   int warmup = 3, steps = 5;
   double cholmod_limit = 3e5;
-  app.add_option("--sizes", sizes_text, "comma-separated particle counts (fluid, about)")->capture_default_str();
-  app.add_option("--solvers", solvers_text, "semicolon-separated solver specs, each run warm-started")->capture_default_str();
-  app.add_option("--cold", cold_text, "semicolon-separated solver specs also run from a zero initial guess each step")
+  app.add_option("--sizes", sizes, "comma-separated particle counts (fluid, about)")->delimiter(',')->capture_default_str();
+  app.add_option("--solvers", solvers, "semicolon-separated solver specs, each run warm-started")
+      ->delimiter(';')
+      ->capture_default_str();
+  app.add_option("--cold", cold, "semicolon-separated solver specs also run from a zero initial guess each step")
+      ->delimiter(';')
       ->capture_default_str();
   app.add_option("--warmup", warmup, "steps run before timing")->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--steps", steps, "steps timed")->capture_default_str()->check(CLI::PositiveNumber);
@@ -92,8 +87,8 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::pair<std::string, bool>> runs;
-  for (const std::string& s : split(solvers_text, ';')) runs.emplace_back(s, true);
-  for (const std::string& s : split(cold_text, ';')) runs.emplace_back(s, false);
+  for (const std::string& s : solvers) runs.emplace_back(s, true);
+  for (const std::string& s : cold) runs.emplace_back(s, false);
   std::ofstream csv(out);
   if (!csv) {
     std::cerr << "error: cannot write " << out << "\n";
@@ -104,8 +99,8 @@ int main(int argc, char** argv) {
   std::cout << "body-force channel, " << omp_get_max_threads() << " OpenMP threads, " << steps << " timed steps after "
             << warmup << " (seconds per step)\n";
   try {
-    for (const std::string& size_text : split(sizes_text, ',')) {
-      const long size = std::lround(std::stod(size_text));
+    for (const double size_wanted : sizes) {
+      const long size = std::lround(size_wanted);
       for (const auto& [spec, warm] : runs) {
         if (spec.rfind("cholmod", 0) == 0 && static_cast<double>(size) > cholmod_limit) continue;
         const Row r = run(size, spec, warm, warmup, steps);

@@ -25,13 +25,12 @@ initial guess (--cold-start), no setup reuse.
 import argparse
 import csv
 import datetime
-import json
 import os
-import subprocess
 import sys
 import time
 
 import stamp
+from runapp import run_app
 
 import matplotlib
 
@@ -110,14 +109,7 @@ def run_one(build, r, runs_dir):
     if not r["warm_start"]:
         cmd.append("--cold-start")
     print(" ".join(cmd), flush=True)
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    r["wall_s"] = time.perf_counter() - start
-    summary_path = os.path.join(out, "summary.json")
-    summary = {}
-    if os.path.exists(summary_path):
-        with open(summary_path) as f:
-            summary = json.load(f)
+    proc, summary, r["wall_s"] = run_app(cmd, out)
     # Exit 2 is the app's accuracy check missed: the run finished and its error is a valid point.
     if proc.returncode in (0, 2) and "timings" in summary:
         t = summary["timings"]

@@ -34,15 +34,14 @@ apps computed (deterministic with one thread); the wall times are printed, not s
 import argparse
 import csv
 import datetime
-import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import time
 
 import stamp
+from runapp import run_app
 
 import matplotlib
 
@@ -112,14 +111,7 @@ def run_one(build, scene, gamma, factor, runs_dir):
     shutil.rmtree(out, ignore_errors=True)  # no stale summary.json from an earlier run
     cmd = [os.path.join(build, s["app"]), *s["args"], "--gamma", f"{gamma:g}", "--dt-factor", f"{factor:g}",
            "--out", out]
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - start
-    summary = {}
-    path = os.path.join(out, "summary.json")
-    if os.path.exists(path):
-        with open(path) as f:
-            summary = json.load(f)
+    proc, summary, wall = run_app(cmd, out)
     row = {"scene": scene, "gamma": gamma, "dt_factor": factor, "exit_status": proc.returncode, "error": math.nan,
            "steps": summary.get("steps", ""), "time_reached": "", "guard_message": "", "escaped": "", "note": ""}
     if "time_s" in summary:

@@ -2,14 +2,14 @@
 Usage: /usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png"""
 import csv
 import datetime
-import platform
-import subprocess
 import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+
+import stamp  # noqa: E402
 
 PHASES = ["bin", "neighbors_4.1", "neighbors_2.1", "number_density", "assemble_ppe", "reorder"]
 
@@ -21,12 +21,8 @@ for k, name in enumerate(PHASES):
         ax.loglog(*zip(*pts), "o-", label=name)
 ax.set_xlabel("particles N")
 ax.set_ylabel("time per particle [ns] (flat = O(N))")
-try:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-except OSError:
-    commit = "?"
-ax.set_title(f"SparseMPS core phases, {platform.node() or 'machine'} 2 cores, "
-             f"{datetime.date.today()}, {commit}", fontsize=9)
+ax.set_title(f"SparseMPS core phases, {stamp.machine()}, {datetime.date.today()}, commit {stamp.commit()}",
+             fontsize=9)
 ax.grid(True, which="both", alpha=0.3)
 ax.legend(fontsize=8)
 fig.tight_layout()

@@ -13,6 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+import stamp  # noqa: E402
+
 
 def read(path):
     with open(path) as f:
@@ -77,7 +79,8 @@ def main():
         date = parts[0].replace("SparseMPS bench_solvers ", "")
         machine = parts[1] if len(parts) > 1 else ""
         extra = [q for q in parts[3:] if q.startswith("tol") or q.startswith("load")]
-        title += "\n" + date + ", " + machine + ("\n" + "; ".join(extra) if extra else "")
+        title += "\n" + date + ", " + machine + ", commit " + stamp.commit() + \
+            ("\n" + "; ".join(extra) if extra else "")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=90)

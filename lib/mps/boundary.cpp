@@ -43,7 +43,7 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
     const double mx = p.x[i] - 2.0 * depth * nx, my = p.y[i] - 2.0 * depth * ny;
     const auto U = wall.velocity_at(p.x[i] - depth * nx, p.y[i] - depth * ny);  // at the foot on the wall
     double sw = 0.0, su = 0.0, sv = 0.0;
-    grid.for_each_near(p, mx, my, radius, [&](int j, double dx, double dy) {
+    grid.for_each_near(mx, my, radius, [&](int j, double dx, double dy) {
       const auto jj = static_cast<std::size_t>(j);
       if (p.kind[jj] != Kind::fluid) return;
       const double w = shepard.w(std::hypot(dx, dy));

@@ -1,5 +1,6 @@
 #pragma once
 // Neighbour search on a uniform cell grid, producing CSR neighbour lists (one per radius).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <span>
@@ -19,10 +20,17 @@ struct Domain {
   [[nodiscard]] double height() const { return ymax - ymin; }
   // r_j - r_i, by the minimum image on periodic axes.
   [[nodiscard]] std::array<double, 2> displacement(double xi, double yi, double xj, double yj) const {
-    double dx = xj - xi, dy = yj - yi;
-    if (periodic_x) dx -= width() * std::nearbyint(dx / width());
-    if (periodic_y) dy -= height() * std::nearbyint(dy / height());
-    return {dx, dy};
+    return {periodic_x ? nearest_image(xj - xi, width()) : xj - xi,
+            periodic_y ? nearest_image(yj - yi, height()) : yj - yi};
+  }
+  // d - L round(d / L), rounding half to even; the comparisons settle the usual |d| < 1.5 L without a
+  // division (this sits in every pair loop of a periodic channel).
+  [[nodiscard]] static double nearest_image(double d, double length) {
+    const double half = 0.5 * length;
+    if (d > half && d < 3.0 * half) return d - length;
+    if (d < -half && d > -3.0 * half) return d + length;
+    if (d >= -half && d <= half) return d;
+    return d - length * std::nearbyint(d / length);
   }
   [[nodiscard]] bool contains(double x, double y) const;
   void wrap(double& x, double& y) const;  // into [min, max) on periodic axes
@@ -42,46 +50,68 @@ struct NeighborList {
   [[nodiscard]] std::size_t pairs() const { return index.size(); }
 };
 
-// Bins the active (non-ghost) particles into square cells at least `cell_size` wide; one binning serves
-// every radius up to cell_size.
+// Bins the active (non-ghost) particles into square cells at least half of `cell_size` wide; one binning
+// serves every radius up to cell_size. The binned coordinates are kept in cell order, so a search scans a few
+// contiguous runs of memory (one per row of cells) instead of chasing particle indices.
 class CellGrid {
  public:
   CellGrid(const Domain& domain, double cell_size);
   void bin(const Particles& particles);
+  // `particles` must be those last passed to bin(), not moved since.
   [[nodiscard]] NeighborList neighbors(const Particles& particles, double radius) const;
   // Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
   // the kernel hand out (and zero) fresh pages every step.
   void neighbors(const Particles& particles, double radius, NeighborList& out) const;
+  // One search filling the lists of two radii, `inner` for inner_radius <= radius: cheaper than searching
+  // once and restricting the list.
+  void neighbors(const Particles& particles, double radius, NeighborList& out, double inner_radius,
+                 NeighborList& inner) const;
   // A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
   // neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
   [[nodiscard]] double cell_size() const { return cell_size_; }
   // Calls f(j, dx, dy) for every binned particle j closer than radius (<= cell size) to the point (x, y),
-  // with (dx, dy) = r_j - (x, y) by the minimum image. `particles` are those last passed to bin().
+  // with (dx, dy) = r_j - (x, y) by the minimum image.
   template <class F>
-  void for_each_near(const Particles& particles, double x, double y, double radius, F&& f) const {
+  void for_each_near(double x, double y, double radius, F&& f) const {
+    if (domain_.periodic_x || domain_.periodic_y) domain_.wrap(x, y);
     const double r2 = radius * radius;
-    const auto [cx, cy] = cell_of(x, y);
-    for (int oy = -1; oy <= 1; ++oy) {
-      int ky = cy + oy;
-      if (domain_.periodic_y) ky = (ky + ny_) % ny_;
-      else if (ky < 0 || ky >= ny_) continue;
-      for (int ox = -1; ox <= 1; ++ox) {
-        int kx = cx + ox;
-        if (domain_.periodic_x) kx = (kx + nx_) % nx_;
-        else if (kx < 0 || kx >= nx_) continue;
-        const auto c = static_cast<std::size_t>(cell_index(kx, ky));
-        for (int k = cell_start_[c]; k < cell_start_[c + 1]; ++k) {
-          const int j = cell_particles_[static_cast<std::size_t>(k)];
-          const auto d = domain_.displacement(x, y, particles.x[static_cast<std::size_t>(j)],
-                                              particles.y[static_cast<std::size_t>(j)]);
-          if (d[0] * d[0] + d[1] * d[1] < r2) f(j, d[0], d[1]);
-        }
+    for_each_run(x, y, radius, [&](int begin, int end, double sx, double sy) {
+      for (int k = begin; k < end; ++k) {
+        const auto kk = static_cast<std::size_t>(k);
+        const double dx = xs_[kk] + sx - x, dy = ys_[kk] + sy - y;
+        if (dx * dx + dy * dy < r2) f(ids_[kk], dx, dy);
       }
-    }
+    });
   }
 
  private:
+  void search(const Particles& particles, double radius, NeighborList& list, NeighborList* inner) const;
+  // The cell-ordered runs [begin, end) that hold every binned particle within radius of (x, y) (wrapped into
+  // the domain), each with the shift (sx, sy) that turns its coordinates into the nearest periodic image.
+  template <class Run>
+  void for_each_run(double x, double y, double radius, Run&& run) const {
+    const auto [ylo, yhi] = span(y - domain_.ymin, radius, hy_, ny_, domain_.periodic_y);
+    const auto [xlo, xhi] = span(x - domain_.xmin, radius, hx_, nx_, domain_.periodic_x);
+    for (int ky = ylo; ky <= yhi; ++ky) {
+      const int row = ky < 0 ? ky + ny_ : ky >= ny_ ? ky - ny_ : ky;
+      const double sy = ky < 0 ? -domain_.height() : ky >= ny_ ? domain_.height() : 0.0;
+      const auto row_run = [&](int x0, int x1, double sx) {  // cells x0..x1 of the row are contiguous
+        run(cell_start_[static_cast<std::size_t>(cell_index(x0, row))],
+            cell_start_[static_cast<std::size_t>(cell_index(x1, row)) + 1], sx, sy);
+      };
+      if (xlo < 0) row_run(xlo + nx_, nx_ - 1, -domain_.width());
+      row_run(std::max(xlo, 0), std::min(xhi, nx_ - 1), 0.0);
+      if (xhi >= nx_) row_run(0, xhi - nx_, domain_.width());
+    }
+  }
+  // The cells along one axis that can hold a particle within radius of offset u: clamped to the grid on a
+  // closed axis (escaped particles sit in the edge cells), running past it on a periodic one.
+  [[nodiscard]] static std::array<int, 2> span(double u, double radius, double h, int cells, bool periodic) {
+    int lo = static_cast<int>(std::floor((u - radius) / h)), hi = static_cast<int>(std::floor((u + radius) / h));
+    if (!periodic) return {std::clamp(lo, 0, cells - 1), std::clamp(hi, 0, cells - 1)};
+    return {std::max(lo, hi - cells + 1), hi};  // never more than one lap
+  }
   [[nodiscard]] int cell_index(int cx, int cy) const { return cy * nx_ + cx; }
   [[nodiscard]] std::array<int, 2> cell_of(double x, double y) const;
 
@@ -89,8 +119,9 @@ class CellGrid {
   double cell_size_ = 0, hx_ = 0, hy_ = 0;
   int nx_ = 0, ny_ = 0;
   std::size_t n_particles_ = 0;
-  std::vector<int> cell_start_;      // CSR over cells
-  std::vector<int> cell_particles_;  // particle indices, grouped by cell
+  std::vector<int> cell_start_;  // CSR over cells
+  std::vector<int> ids_;         // particle indices, grouped by cell
+  std::vector<double> xs_, ys_;  // their coordinates, in the same order
   std::vector<int> ghosts_;
 };
 

@@ -166,6 +166,27 @@ void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> 
   }
 }
 
+void laplacian(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> lu,
+               std::span<double> lv) {
+  const Index n = count(s);
+  check_size(u.size(), s.particles.size(), "u");
+  check_size(v.size(), s.particles.size(), "v");
+  check_size(lu.size(), s.particles.size(), "lu");
+  check_size(lv.size(), s.particles.size(), "lv");
+  const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double su = 0.0, sv = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, double, double, double, double w) {
+      su += (u[j] - u[i]) * w;
+      sv += (v[j] - v[i]) * w;
+    });
+    lu[i] = scale * su;
+    lv[i] = scale * sv;
+  }
+}
+
 CsrMatrix laplacian_matrix(const Stencil& s) {
   const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
   return pair_matrix(s, true, [scale](double, double, double, double w) { return scale * w; });

@@ -48,6 +48,10 @@ void divergence(const Stencil& s, std::span<const double> u, std::span<const dou
 
 // (2d/(lambda n0)) sum (phi_j - phi_i) w_ij
 void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out);
+// Both components of a vector field in one pass over the pairs (the viscous term): the same numbers as two
+// calls, at half the distance and kernel evaluations.
+void laplacian(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> lu,
+               std::span<double> lv);
 
 CsrMatrix laplacian_matrix(const Stencil& s);
 

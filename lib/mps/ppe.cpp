@@ -67,6 +67,15 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   // P = 0 neighbour: were it Dirichlet, fluid at a contact line would see more P = 0 neighbours than fluid
   // at the open surface, and the low-pressure pocket this makes draws the fluid up the wall.
   auto in_sum = [&](std::size_t j) { return p.kind[j] == Kind::fluid || (p.kind[j] == Kind::wall && !free_surface[j]); };
+  // Every listed pair is closer than the list's radius; when that is within the kernel's, every pair has w > 0
+  // and the passes that only need to know which pairs count skip the distance and the kernel.
+  const bool all_in_kernel = s.neighbors.radius <= s.kernel.re;
+  auto coupled = [&](std::size_t i, std::size_t j) {
+    if (!in_sum(j)) return false;
+    if (all_in_kernel) return true;
+    const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
+    return s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1])) > 0.0;
+  };
   // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
   auto ppe_weight = [&](std::size_t i, auto&& each) {
     double diag = 0.0;
@@ -85,18 +94,19 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   sys.unknown.assign(n, -1);
   sys.particle.clear();
   sys.floating.clear();
-  auto has_partner = [&](std::size_t i) {
-    for (int jj : s.neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      if (!in_sum(j)) continue;
-      const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
-      if (s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1])) > 0.0) return true;
-    }
-    return false;
-  };
-  for (std::size_t i = 0; i < n; ++i) {
+  std::vector<char> candidate(n, 0);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < static_cast<Index>(n); ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
     if (!in_ppe_sum(p.kind[i]) || free_surface[i]) continue;
-    if (!has_partner(i)) continue;
+    for (int j : s.neighbors.of(i))
+      if (coupled(i, static_cast<std::size_t>(j))) {
+        candidate[i] = 1;
+        break;
+      }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!candidate[i]) continue;
     sys.unknown[i] = static_cast<int>(sys.particle.size());
     sys.particle.push_back(static_cast<int>(i));
   }
@@ -111,7 +121,10 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
     int entries = 1;
-    ppe_weight(i, [&](std::size_t j, double) { entries += sys.unknown[j] >= 0; });
+    for (int jj : s.neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      entries += sys.unknown[j] >= 0 && coupled(i, j) ? 1 : 0;
+    }
     a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
   }
   for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
@@ -148,13 +161,17 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   // Connected groups of unknowns; those without a Dirichlet neighbour are singular and get the gauge.
   std::vector<int> parent(static_cast<std::size_t>(m));
   std::iota(parent.begin(), parent.end(), 0);
-  for (int r = 0; r < m; ++r)
+  for (int r = 0; r < m; ++r) {
+    int ra = find_root(parent, r);  // kept current through the row's unions: one find per edge, not two
     for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
       const int col = a.col[static_cast<std::size_t>(k)];
       if (col >= r) break;  // the pattern is symmetric: the lower triangle holds every edge once
-      const int ra = find_root(parent, r), rb = find_root(parent, col);
-      if (ra != rb) parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+      const int rb = find_root(parent, col);
+      if (ra == rb) continue;
+      parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+      ra = std::min(ra, rb);
     }
+  }
   std::vector<char> root_anchored(static_cast<std::size_t>(m), 0);
   for (int r = 0; r < m; ++r)
     if (anchored[static_cast<std::size_t>(r)]) root_anchored[static_cast<std::size_t>(find_root(parent, r))] = 1;

@@ -220,8 +220,7 @@ void Simulation::advance() {
   } else {
     const Stencil s{p, domain_, near_now, k_laplacian_};
     std::vector<double> lu(p.size()), lv(p.size());
-    laplacian(s, p.u, lu);
-    laplacian(s, p.v, lv);
+    laplacian(s, p.u, p.v, lu, lv);
 #pragma omp parallel for schedule(static)
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
@@ -248,13 +247,13 @@ void Simulation::advance() {
         p.u[i] = U[0];
         p.v[i] = U[1];
       }
-  grid_.neighbors(p, grid_.cell_size(), near_star_);
-  const NeighborList& near_star = near_star_;
   const Kernel* kernels[] = {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_};
   double small_radius = 0.0;
   for (const Kernel* k : kernels)
     if (k->re < grid_.cell_size() * (1.0 - 1e-12)) small_radius = std::max(small_radius, k->re);
-  if (small_radius > 0.0) restrict_radius(near_star, p, domain_, small_radius, close_star_);
+  if (small_radius > 0.0) grid_.neighbors(p, grid_.cell_size(), near_star_, small_radius, close_star_);
+  else grid_.neighbors(p, grid_.cell_size(), near_star_);
+  const NeighborList& near_star = near_star_;
   const NeighborList& close_star = close_star_;
   const auto list_for = [&](const Kernel& k) -> const NeighborList& {
     return k.re <= small_radius ? close_star : near_star;

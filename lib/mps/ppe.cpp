@@ -166,6 +166,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
       const int col = a.col[static_cast<std::size_t>(k)];
       if (col >= r) break;  // the pattern is symmetric: the lower triangle holds every edge once
+      if (parent[static_cast<std::size_t>(col)] == ra) continue;  // the common case once the region is joined
       const int rb = find_root(parent, col);
       if (ra == rb) continue;
       parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);

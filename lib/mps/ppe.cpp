@@ -48,18 +48,20 @@ std::vector<char> detect_free_surface(const Particles& particles, std::span<cons
   return surface;
 }
 
-PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source) {
+PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
+                       std::span<const double> dirichlet) {
   PpeSystem sys;
-  assemble_ppe(s, free_surface, source, sys);
+  assemble_ppe(s, free_surface, source, sys, dirichlet);
   return sys;
 }
 
 void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& sys) {
+                  PpeSystem& sys, std::span<const double> dirichlet) {
   const Particles& p = s.particles;
   const std::size_t n = p.size();
-  if (free_surface.size() != n || source.size() != n)
-    throw std::invalid_argument("assemble_ppe: free-surface flags and source must have one entry per particle");
+  if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n))
+    throw std::invalid_argument(
+        "assemble_ppe: free-surface flags, source and Dirichlet values must have one entry per particle");
   const double c = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
 
   // Who enters a Laplacian sum: fluid particles (free-surface ones as Dirichlet P = 0) and wet walls. A dry
@@ -139,10 +141,12 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
     std::size_t diag_slot = 0;
     bool placed = false;
+    double known = 0.0;  // sum of w P_j over the Dirichlet neighbours
     const double diag = ppe_weight(i, [&](std::size_t j, double w) {
       const int col = sys.unknown[j];
       if (col < 0) {
         anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
+        if (!dirichlet.empty()) known += w * dirichlet[j];
         return;
       }
       if (!placed && col > r) {
@@ -155,7 +159,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     if (!placed) diag_slot = k++;
     a.col[diag_slot] = static_cast<int>(r);
     a.val[diag_slot] = c * diag;
-    sys.rhs[static_cast<std::size_t>(r)] = -source[i];
+    sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
 
   // Connected groups of unknowns; those without a Dirichlet neighbour are singular and get the gauge.
@@ -202,14 +206,20 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   }
 }
 
-std::vector<double> PpeSystem::gather(const Particles& particles) const {
+std::vector<double> PpeSystem::gather(const Particles& particles, std::span<const double> offset) const {
   std::vector<double> x(particle.size());
-  for (std::size_t r = 0; r < x.size(); ++r) x[r] = particles.p[static_cast<std::size_t>(particle[r])];
+  for (std::size_t r = 0; r < x.size(); ++r) {
+    const auto i = static_cast<std::size_t>(particle[r]);
+    x[r] = particles.p[i] - (offset.empty() ? 0.0 : offset[i]);
+  }
   return x;
 }
 
-void PpeSystem::scatter(std::span<const double> solution, Particles& particles, bool clamp_negative) const {
+void PpeSystem::scatter(std::span<const double> solution, Particles& particles, bool clamp_negative,
+                        std::span<const double> offset) const {
   if (solution.size() != particle.size()) throw std::invalid_argument("PpeSystem::scatter: wrong solution length");
+  if (!offset.empty() && offset.size() != particles.size())
+    throw std::invalid_argument("PpeSystem::scatter: offset must have one entry per particle");
   std::vector<double> mean(floating.size(), 0.0);
   for (std::size_t r = 0; r < solution.size(); ++r)
     if (group[r] >= 0) mean[static_cast<std::size_t>(group[r])] += solution[r];
@@ -217,9 +227,11 @@ void PpeSystem::scatter(std::span<const double> solution, Particles& particles, 
   for (std::size_t i = 0; i < particles.size(); ++i)
     if (in_ppe_sum(particles.kind[i])) particles.p[i] = 0.0;
   for (std::size_t r = 0; r < solution.size(); ++r) {
-    double& pr = particles.p[static_cast<std::size_t>(particle[r])];
-    if (group[r] >= 0) pr = solution[r] - mean[static_cast<std::size_t>(group[r])];
-    else pr = clamp_negative ? std::max(0.0, solution[r]) : solution[r];
+    const auto i = static_cast<std::size_t>(particle[r]);
+    const double base = offset.empty() ? 0.0 : offset[i];
+    double& pr = particles.p[i];
+    if (group[r] >= 0) pr = solution[r] - mean[static_cast<std::size_t>(group[r])] + base;
+    else pr = clamp_negative ? std::max(0.0, solution[r] + base) : solution[r] + base;
   }
 }
 

@@ -56,21 +56,27 @@ struct PpeSystem {
 
   [[nodiscard]] std::size_t size() const { return particle.size(); }
   // Particle pressures of the unknowns, as an initial guess (warm start).
-  [[nodiscard]] std::vector<double> gather(const Particles& particles) const;
+  // `offset` (per particle, optional): the unknowns are p - offset (see assemble_ppe's `dirichlet`).
+  [[nodiscard]] std::vector<double> gather(const Particles& particles, std::span<const double> offset = {}) const;
   // Writes the solution to the particles: unknowns get it (floating groups shifted to zero mean), fluid
   // and wall particles that are not unknowns get 0; dummies are left for set_dummy_pressure.
   // clamp_negative sets negative pressures to 0 in groups that touch a free surface: liquid there cannot
   // hold tension, and letting it (the number-density deficit near a surface asks for suction) is MPS's
   // tensile instability. Floating groups are never clamped, their level being a gauge.
-  void scatter(std::span<const double> solution, Particles& particles, bool clamp_negative = false) const;
+  // With `offset` the unknowns solved for are p - offset: each unknown's pressure is solution + offset (the clamp
+  // applying to that sum).
+  void scatter(std::span<const double> solution, Particles& particles, bool clamp_negative = false,
+               std::span<const double> offset = {}) const;
 };
 
 // `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
 // `source` are per particle.
-PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source);
+// `dirichlet` (per particle, optional): the value a free-surface particle is held at (0 if not given).
+PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
+                       std::span<const double> dirichlet = {});
 // Same, refilling `out` in place (reusing its memory across time steps).
 void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& out);
+                  PpeSystem& out, std::span<const double> dirichlet = {});
 
 // Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
 // carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.

@@ -100,7 +100,7 @@ void Simulation::add_mirror_wall(const MirrorWall& wall) {
 
 // The boundary velocities are lagged by a step. For the mode a wall's mirror values feed back on (u beside
 // the wall, its mirror -u) that gives the factor (1 - a)/(1 + a), a > 0: stable for any dt.
-void Simulation::implicit_viscous_predictor(const Stencil& s, double dt) {
+void Simulation::implicit_viscous_predictor(const Stencil& s, double dt, double fx, double fy) {
   Particles& p = particles_;
   const CsrMatrix lap = laplacian_matrix(s);
   std::vector<int> row(p.size(), -1);
@@ -119,8 +119,8 @@ void Simulation::implicit_viscous_predictor(const Stencil& s, double dt) {
   std::vector<double> bu(fluid.size()), bv(fluid.size()), u(fluid.size()), v(fluid.size());
   for (std::size_t r = 0; r < fluid.size(); ++r) {
     const std::size_t i = fluid[r];
-    bu[r] = p.u[i] + dt * config_.fx;
-    bv[r] = p.v[i] + dt * config_.fy;
+    bu[r] = p.u[i] + dt * fx;
+    bv[r] = p.v[i] + dt * fy;
     u[r] = p.u[i];
     v[r] = p.v[i];
     for (auto k = static_cast<std::size_t>(lap.row_ptr[i]); k < static_cast<std::size_t>(lap.row_ptr[i + 1]); ++k) {
@@ -199,6 +199,11 @@ const StepInfo& Simulation::step() {
 void Simulation::advance() {
   Particles& p = particles_;
   const auto n = static_cast<Index>(p.size());
+  // The body force's hydrostatic part (its components along non-periodic axes; see hydrostatic_split):
+  // balanced by P_h = rho f_h . r exactly, it is left out of the predictor and of the pressure solved for.
+  const bool split = config_.hydrostatic_split && config_.min_reference_tilt;
+  const double fhx = split && !domain_.periodic_x ? config_.fx : 0.0;
+  const double fhy = split && !domain_.periodic_y ? config_.fy : 0.0;
   auto t = Clock::now();
   const double dt = choose_dt(info_.dt_limit);
   info_.dt = dt;
@@ -216,7 +221,7 @@ void Simulation::advance() {
   // Predictor: viscosity and body force; walls and dummies carry their (prescribed or mirrored) velocity
   // into the viscous sum, which is the no-slip condition.
   if (config_.implicit_viscosity) {
-    implicit_viscous_predictor({p, domain_, near_now, k_laplacian_}, dt);
+    implicit_viscous_predictor({p, domain_, near_now, k_laplacian_}, dt, config_.fx - fhx, config_.fy - fhy);
   } else {
     const Stencil s{p, domain_, near_now, k_laplacian_};
     std::vector<double> lu(p.size()), lv(p.size());
@@ -225,8 +230,8 @@ void Simulation::advance() {
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
       if (p.kind[i] != Kind::fluid) continue;
-      p.u[i] += dt * (config_.nu * lu[i] + config_.fx);
-      p.v[i] += dt * (config_.nu * lv[i] + config_.fy);
+      p.u[i] += dt * (config_.nu * lu[i] + config_.fx - fhx);
+      p.v[i] += dt * (config_.nu * lv[i] + config_.fy - fhy);
       p.x[i] += dt * p.u[i];
       p.y[i] += dt * p.v[i];
       domain_.wrap(p.x[i], p.y[i]);
@@ -302,23 +307,70 @@ void Simulation::advance() {
       }
     }
   }
-  assemble_ppe(lapl, surface, source, ppe_);
+  // With the hydrostatic part split off, the unknown is P' = P - P_h. A free-surface particle holds P' = -P_h
+  // + rho |f_h| l0/2: the surface itself (P = 0) lies half a spacing above the surface particle's centre, the
+  // top of the volume it stands for, and a liquid at rest has its surface normal to f_h. Walls stay zero-flux
+  // for P', which is the wall condition dP/dn = rho f_h . n for P.
+  std::vector<double> hydro, dirichlet;
+  if (fhx != 0.0 || fhy != 0.0) {
+    hydro.resize(p.size());
+    dirichlet.resize(p.size());
+    const double surface_pressure = 0.5 * config_.l0 * config_.rho * std::hypot(fhx, fhy);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      hydro[i] = config_.rho * (fhx * p.x[i] + fhy * p.y[i]);
+      dirichlet[i] = surface_pressure - hydro[i];
+    }
+  }
+  assemble_ppe(lapl, surface, source, ppe_, dirichlet);
   info_.unknowns = ppe_.size();
   info_.free_surface = static_cast<std::size_t>(std::count(surface.begin(), surface.end(), 1));
   info_.floating_groups = ppe_.floating.size();
   times_.assemble += lap(t);
 
   // Warm start from the previous step, or the zero guess of a cold start.
-  std::vector<double> pressure = config_.warm_start ? ppe_.gather(p) : std::vector<double>(ppe_.size(), 0.0);
-  if (ppe_.size() > 0) info_.solve = solver_->solve(ppe_.matrix, ppe_.rhs, pressure);
+  std::vector<double> pressure = config_.warm_start ? ppe_.gather(p, hydro) : std::vector<double>(ppe_.size(), 0.0);
+  // A zero right-hand side (a liquid at rest on the lattice once the hydrostatic part is split off) has the
+  // solution 0, which iterative solvers measuring a residual relative to |b| cannot confirm.
+  const bool zero_rhs = std::all_of(ppe_.rhs.begin(), ppe_.rhs.end(), [](double b) { return b == 0.0; });
+  // A warm start worse than the zero guess is dropped. The first step's guess is P = 0, i.e. P' = -P_h with the
+  // split, while a liquid at rest asks for P' ~ const and |b| at round-off: from that guess the solver cannot
+  // reach its tolerance relative to |b|.
+  // Likewise when no pressure has been set yet (all P = 0): there is nothing to warm-start from, and with the
+  // split P = 0 would read as P' = -P_h.
+  const bool no_previous = std::all_of(ppe_.particle.begin(), ppe_.particle.end(),
+                                       [&](int i) { return p.p[static_cast<std::size_t>(i)] == 0.0; });
+  if (config_.warm_start && !zero_rhs && ppe_.size() > 0 &&
+      (no_previous || relative_residual(ppe_.matrix, pressure, ppe_.rhs) > 1.0))
+    std::fill(pressure.begin(), pressure.end(), 0.0);
+  if (ppe_.size() > 0 && zero_rhs) {
+    std::fill(pressure.begin(), pressure.end(), 0.0);
+    info_.solve = SolveReport{};
+  } else if (ppe_.size() > 0) {
+    info_.solve = solver_->solve(ppe_.matrix, ppe_.rhs, pressure);
+  }
   times_.solver_setup += info_.solve.setup_seconds;
   times_.solve += lap(t) - info_.solve.setup_seconds;
 
-  ppe_.scatter(pressure, p, config_.clamp_negative_pressure);
+  ppe_.scatter(pressure, p, config_.clamp_negative_pressure, hydro);
+  if (!dirichlet.empty())
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (p.kind[i] == Kind::fluid && surface[i]) p.p[i] = dirichlet[i] + hydro[i];  // its P, as held in the PPE
   const std::vector<char> carriers = set_dummy_pressure(lapl, p, surface, config_.rho, config_.fx, config_.fy);
   std::vector<double> gx(p.size()), gy(p.size());
   const double tilt = config_.min_reference_tilt ? config_.rho : 0.0;
-  gradient(grad, p.p, gx, gy, config_.pressure_gradient, carriers, {tilt * config_.fx, tilt * config_.fy});
+  if (split) {
+    // The corrector takes the gradient of P' (its minimum reference is the tilted one, of P - rho f_h . r): the
+    // hydrostatic part's gradient rho f_h cancels f_h exactly, which the predictor therefore left out. Taken
+    // through the particle sum instead, it would be M rho f_h, M = (d/n0) sum w r r^T/r^2, and wherever M != I
+    // (a lattice distorted near a wall corner, a truncated kernel) gravity would push sideways: the closed tank's
+    // mode growing ~15 /s (README, "Numerics and stability").
+    std::vector<double> residual(p.p);
+    for (std::size_t i = 0; i < p.size(); ++i) residual[i] -= config_.rho * (fhx * p.x[i] + fhy * p.y[i]);
+    gradient(grad, residual, gx, gy, config_.pressure_gradient, carriers,
+             {tilt * (config_.fx - fhx), tilt * (config_.fy - fhy)});
+  } else {
+    gradient(grad, p.p, gx, gy, config_.pressure_gradient, carriers, {tilt * config_.fx, tilt * config_.fy});
+  }
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (p.kind[i] != Kind::fluid) continue;
     const double du = -dt / config_.rho * gx[i], dv = -dt / config_.rho * gy[i];

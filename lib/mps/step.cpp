@@ -332,16 +332,12 @@ void Simulation::advance() {
   // A zero right-hand side (a liquid at rest on the lattice once the hydrostatic part is split off) has the
   // solution 0, which iterative solvers measuring a residual relative to |b| cannot confirm.
   const bool zero_rhs = std::all_of(ppe_.rhs.begin(), ppe_.rhs.end(), [](double b) { return b == 0.0; });
-  // A warm start worse than the zero guess is dropped. The first step's guess is P = 0, i.e. P' = -P_h with the
-  // split, while a liquid at rest asks for P' ~ const and |b| at round-off: from that guess the solver cannot
-  // reach its tolerance relative to |b|.
-  // Likewise when no pressure has been set yet (all P = 0): there is nothing to warm-start from, and with the
-  // split P = 0 would read as P' = -P_h.
+  // Before any pressure has been set (all P = 0) there is nothing to warm-start from, and with the split P = 0
+  // would read as P' = -P_h: from that guess a liquid at rest, whose |b| is at round-off, cannot reach a
+  // tolerance relative to |b|.
   const bool no_previous = std::all_of(ppe_.particle.begin(), ppe_.particle.end(),
                                        [&](int i) { return p.p[static_cast<std::size_t>(i)] == 0.0; });
-  if (config_.warm_start && !zero_rhs && ppe_.size() > 0 &&
-      (no_previous || relative_residual(ppe_.matrix, pressure, ppe_.rhs) > 1.0))
-    std::fill(pressure.begin(), pressure.end(), 0.0);
+  if (no_previous) std::fill(pressure.begin(), pressure.end(), 0.0);
   if (ppe_.size() > 0 && zero_rhs) {
     std::fill(pressure.begin(), pressure.end(), 0.0);
     info_.solve = SolveReport{};

@@ -423,6 +423,7 @@ class SolverInTheTimeLoop : public ::testing::TestWithParam<const char*> {};
 TEST_P(SolverInTheTimeLoop, HydrostaticTankMatchesRhoGDepth) {
   tank::Params p;
   p.l0 = 0.02;
+  p.end_time = 0.2;
   p.solver = GetParam();
   tank::Tank t(p);
   int reused = 0;

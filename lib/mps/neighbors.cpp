@@ -116,16 +116,25 @@ void CellGrid::neighbors(const Particles& particles, double radius, NeighborList
 
 namespace {
 
-// Appends row[0 .. count) to out, sorted. Runs come in cell order and particles were last permuted into cell
-// order, so a row is nearly sorted already: insertion sort does it in about one pass.
+// Appends row[0 .. count) to out, sorted. Runs come in cell order, so once particles have been permuted into
+// cell order a row is nearly sorted and insertion sort finishes it in about one pass; a row far from sorted
+// (particles never reordered) is handed to std::sort instead of costing count^2 moves.
 void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<int>& out) {
   const std::size_t start = out.size();
+  std::size_t moves = 0;
   for (std::size_t a = 0; a < count; ++a) {
     const int v = row[a];
     out.push_back(v);
     std::size_t b = start + a;
     for (; b > start && out[b - 1] > v; --b) out[b] = out[b - 1];
     out[b] = v;
+    moves += start + a - b;
+    if (moves > 4 * count) {
+      out.insert(out.end(), row.begin() + static_cast<std::ptrdiff_t>(a + 1),
+                 row.begin() + static_cast<std::ptrdiff_t>(count));
+      std::sort(out.begin() + static_cast<std::ptrdiff_t>(start), out.end());
+      return;
+    }
   }
 }
 

@@ -85,8 +85,10 @@ std::vector<double> number_density(const Stencil& s) {
 }
 
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
-              GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt) {
+              GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt,
+              std::span<const char> own_reference) {
   if (!carriers.empty()) check_size(carriers.size(), s.particles.size(), "carriers");
+  if (!own_reference.empty()) check_size(own_reference.size(), s.particles.size(), "own_reference");
   const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
   const Index n = count(s);
   check_size(phi.size(), s.particles.size(), "phi");
@@ -99,7 +101,7 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     double ref = phi[i];
-    if (min_ref) {
+    if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
       // The tilted minimum removes the known linear part from the classic one, never going below it: where
       // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
       double classic = phi[i], tilted = phi[i];

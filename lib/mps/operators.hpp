@@ -39,9 +39,12 @@ enum class GradientVariant {
 // known linear part. For pressure under a body force f pass rho f: the hydrostatic drop across the kernel
 // then no longer counts as a dip. Counted, it makes the repulsion ~ 2 rho g l0 everywhere, which on a lattice
 // whose columns slide past each other pushes each column further along its slide (growth ~ sqrt(g/l0)).
+// `own_reference` (the min-reference variants), if given: particles i with own_reference[i] != 0 take phi_i itself as
+// the reference instead of the minimum over their neighbours (for pressure: free-surface particles, whose phi is
+// imposed; see Simulation::advance).
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
-              std::array<double, 2> min_tilt = {0.0, 0.0});
+              std::array<double, 2> min_tilt = {0.0, 0.0}, std::span<const char> own_reference = {});
 
 // (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);

@@ -362,8 +362,17 @@ void Simulation::advance() {
     // mode growing ~15 /s (README, "Numerics and stability").
     std::vector<double> residual(p.p);
     for (std::size_t i = 0; i < p.size(); ++i) residual[i] -= config_.rho * (fhx * p.x[i] + fhy * p.y[i]);
+    // A free-surface particle takes its own, imposed P' as the reference, not the minimum over its neighbours.
+    // The minimum reference is a repulsion against clustering, (P'_j - P'_min) summed over the kernel, that balances
+    // only where the kernel is full. A surface particle's kernel is cut off above by the surface and, at a contact
+    // line, also on the wall side, the dry wall there carrying no pressure. Any dip of P' below the imposed surface
+    // value within its reach (the PPE's answer to a small motion) then becomes a net push towards the missing
+    // side: up and into the wall, which moves the particle further and deepens the dip. In the tank this mode grew
+    // from solver round-off at ~12 /s (gamma 0.99) and ~10 /s (0.01) at both contact lines and broke the tank up
+    // after 1.2-1.5 s. With its own value as reference the particle feels the pressure gradient itself: P' below it
+    // under the surface value pulls it down, neighbours on the surface at the same value exert nothing.
     gradient(grad, residual, gx, gy, config_.pressure_gradient, carriers,
-             {tilt * (config_.fx - fhx), tilt * (config_.fy - fhy)});
+             {tilt * (config_.fx - fhx), tilt * (config_.fy - fhy)}, surface);
   } else {
     gradient(grad, p.p, gx, gy, config_.pressure_gradient, carriers, {tilt * config_.fx, tilt * config_.fy});
   }

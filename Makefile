@@ -46,7 +46,7 @@ QUICK := bench/results/quick
 bench: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core bench_solvers bench_scaling poiseuille rotating
 	mkdir -p $(QUICK)
-	./build/release/bench/bench_core --sizes 1e4 1e5 --out $(QUICK)/core.csv
+	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --sizes 1e4 1e5 --out $(QUICK)/core.csv
 	/usr/bin/python3 bench/plot_core.py $(QUICK)/core.csv $(QUICK)/core.png
 	./build/release/bench/bench_solvers --sizes 1e4,1e5 --out $(QUICK)/solvers.csv data/*.mtx
 	/usr/bin/python3 bench/plot_solvers.py $(QUICK)/solvers.csv $(QUICK)/solvers.png
@@ -59,9 +59,10 @@ bench: deps build/release/CMakeCache.txt
 # per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
 bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability
 
+# One thread, like the per-step sweep: with two and a job on the other core, the lists took 2-6x longer than on one.
 bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
-	./build/release/bench/bench_core --out bench/results/core.csv
+	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --out bench/results/core.csv
 	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
 
 SOLVER_SIZES ?= 1e4,1e5,1e6

@@ -1,6 +1,7 @@
 #include "mps/operators.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -154,39 +155,38 @@ void divergence(const Stencil& s, std::span<const double> u, std::span<const dou
   }
 }
 
-void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out) {
+namespace {
+
+// The Laplacian of K fields in one pass over the pairs: each pair's distance and weight serve them all.
+template <std::size_t K>
+void laplacian_of(const Stencil& s, const std::array<std::span<const double>, K>& in,
+                  const std::array<std::span<double>, K>& out) {
+  for (std::size_t f = 0; f < K; ++f) {
+    check_size(in[f].size(), s.particles.size(), "field");
+    check_size(out[f].size(), s.particles.size(), "out");
+  }
   const Index n = count(s);
-  check_size(phi.size(), s.particles.size(), "phi");
-  check_size(out.size(), s.particles.size(), "out");
   const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    double sum = 0.0;
-    for_each_pair(s, i, [&](std::size_t j, double, double, double, double w) { sum += (phi[j] - phi[i]) * w; });
-    out[i] = scale * sum;
+    std::array<double, K> sum{};
+    for_each_pair(s, i, [&](std::size_t j, double, double, double, double w) {
+      for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * w;
+    });
+    for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];
   }
+}
+
+}  // namespace
+
+void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out) {
+  laplacian_of<1>(s, {phi}, {out});
 }
 
 void laplacian(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> lu,
                std::span<double> lv) {
-  const Index n = count(s);
-  check_size(u.size(), s.particles.size(), "u");
-  check_size(v.size(), s.particles.size(), "v");
-  check_size(lu.size(), s.particles.size(), "lu");
-  check_size(lv.size(), s.particles.size(), "lv");
-  const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
-#pragma omp parallel for schedule(static)
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    double su = 0.0, sv = 0.0;
-    for_each_pair(s, i, [&](std::size_t j, double, double, double, double w) {
-      su += (u[j] - u[i]) * w;
-      sv += (v[j] - v[i]) * w;
-    });
-    lu[i] = scale * su;
-    lv[i] = scale * sv;
-  }
+  laplacian_of<2>(s, {u, v}, {lu, lv});
 }
 
 CsrMatrix laplacian_matrix(const Stencil& s) {

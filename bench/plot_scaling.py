@@ -37,7 +37,7 @@ def main(src, dst):
             r["rest_s"] = r["predict_s"] + r["correct_s"]
             runs.setdefault(label, []).append(r)
     labels = list(runs)
-    cols = 3
+    cols = 4  # two rows for up to seven panels
     nrows = -(-(len(labels) + 1) // cols)
     fig, axes = plt.subplots(nrows, cols, figsize=(4.6 * cols, 4.0 * nrows), squeeze=False)
     axes = axes.ravel()
@@ -70,7 +70,7 @@ def main(src, dst):
     fig.suptitle(f"SparseMPS per-step cost, body-force channel (bench_scaling); {stamp.machine()}, OpenMP threads: "
                  f"{threads}; {datetime.date.today()}, commit {stamp.commit()}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(dst, dpi=70)
+    fig.savefig(dst, dpi=60)
     for label in labels:
         rows = sorted(runs[label], key=lambda r: r["fluid"])
         n = [r["fluid"] for r in rows]

@@ -59,7 +59,7 @@ bench: deps build/release/CMakeCache.txt
 # per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
 bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability
 
-# One thread, like the per-step sweep: with two and a job on the other core, the lists took 2-6x longer than on one.
+# One thread, like the per-step sweep: with two and a job on the other core, the lists took 1.6-6.5x longer than on one.
 bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --out bench/results/core.csv

@@ -24,7 +24,6 @@ initial guess (--cold-start), no setup reuse.
 """
 import argparse
 import csv
-import datetime
 import os
 import sys
 import time
@@ -259,12 +258,8 @@ def main():
     ap.add_argument("--runs", default="runs/pareto", help="where the apps write their outputs")
     ap.add_argument("--results", default="bench/results", help="where the CSV and PNG go")
     a = ap.parse_args()
-    if os.environ.get("OMP_NUM_THREADS") != "1":
-        print("note: OMP_NUM_THREADS is not 1; the published numbers were taken with one thread", flush=True)
-    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    run_stamp = (f"{stamp.machine(threads=True)}; {date}; commit {stamp.commit()}; {'full' if a.full else 'quick'} sweep"
+    run_stamp = (f"{stamp.sweep('numbers')}; {'full' if a.full else 'quick'} sweep"
                  f"{' + app defaults' if a.defaults else ''}")
-    print(run_stamp, flush=True)
     os.makedirs(a.results, exist_ok=True)
     start = time.perf_counter()
     all_rows = {}

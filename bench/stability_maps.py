@@ -33,7 +33,6 @@ apps computed (deterministic with one thread); the wall times are printed, not s
 """
 import argparse
 import csv
-import datetime
 import math
 import os
 import shutil
@@ -223,12 +222,8 @@ def main():
     ap.add_argument("--runs", default="runs/stability", help="where the apps write their outputs")
     ap.add_argument("--results", default="bench/results", help="where the CSV and PNG go")
     a = ap.parse_args()
-    if os.environ.get("OMP_NUM_THREADS") != "1":
-        print("note: OMP_NUM_THREADS is not 1; the published maps were taken with one thread", flush=True)
     gammas = [float(g) for g in a.gammas.split(",")]
-    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    run_stamp = f"{stamp.machine(threads=True)}; {date}; commit {stamp.commit()}"
-    print(run_stamp, flush=True)
+    run_stamp = stamp.sweep("maps")
     os.makedirs(a.results, exist_ok=True)
     start = time.perf_counter()
     for scene in a.scenes.split(","):

@@ -1,4 +1,5 @@
 """Where and when a benchmark ran, for chart titles and result tables: the CPU and its cores, the git commit."""
+import datetime
 import os
 import subprocess
 
@@ -29,3 +30,14 @@ def commit():
         return (c or "unknown") + ("-dirty" if dirty else "")
     except OSError:
         return "unknown"
+
+
+def sweep(what):
+    """The stamp of a sweep of app runs (machine with its threads, UTC time, commit), printed; warns first when the
+    runs are not on one thread, as the published results were."""
+    if os.environ.get("OMP_NUM_THREADS") != "1":
+        print(f"note: OMP_NUM_THREADS is not 1; the published {what} were taken with one thread", flush=True)
+    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    line = f"{machine(threads=True)}; {date}; commit {commit()}"
+    print(line, flush=True)
+    return line

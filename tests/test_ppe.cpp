@@ -121,6 +121,34 @@ TEST(Ppe, ClosedBoxGetsTheZeroMeanGaugeAndSolvesTheConsistentSingularSystem) {
   EXPECT_LT((l0 * pressure - b).norm(), 1e-9 * b.norm());
 }
 
+// The compressibility term: A = -lap + shift I. A uniform density error in a closed box, which
+// the incompressible PPE can only answer with a gauge (its mean is removed), now gets the uniform pressure
+// -source/shift of a compressible liquid, and the matrix needs no pinning.
+TEST(Ppe, CompressibilityShiftsTheDiagonalAndGivesAUniformErrorAUniformPressure) {
+  Box box(true);
+  const mps::PpeSystem plain = box.assemble();
+  std::fill(box.source.begin(), box.source.end(), -3.0);
+  const double shift = 40.0;
+  const mps::PpeSystem sys = mps::assemble_ppe({box.p, box.d, box.near, box.lap}, box.surface, box.source, {}, shift);
+  EXPECT_TRUE(sys.floating.empty());
+  ASSERT_EQ(sys.size(), plain.size());
+  ASSERT_EQ(sys.matrix.col, plain.matrix.col);
+  for (std::size_t r = 0; r < sys.size(); ++r)
+    for (int k = sys.matrix.row_ptr[r]; k < sys.matrix.row_ptr[r + 1]; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      const bool diag = sys.matrix.col[kk] == static_cast<int>(r);
+      // the unshifted assembly doubled one diagonal entry for its gauge
+      const double unpinned = plain.matrix.val[kk] / (diag && static_cast<int>(r) == plain.floating[0].pinned ? 2.0 : 1.0);
+      EXPECT_NEAR(sys.matrix.val[kk], unpinned + (diag ? shift : 0.0), 1e-9 * std::abs(unpinned)) << r;
+    }
+  const Eigen::MatrixXd a = dense(sys.matrix);
+  const Eigen::VectorXd b = Eigen::Map<const Eigen::VectorXd>(sys.rhs.data(), static_cast<Eigen::Index>(sys.size()));
+  const Eigen::VectorXd x = a.llt().solve(b);
+  for (Eigen::Index r = 0; r < x.size(); ++r) EXPECT_NEAR(x(r), 3.0 / shift, 1e-9) << r;
+  EXPECT_THROW(mps::assemble_ppe({box.p, box.d, box.near, box.lap}, box.surface, box.source, {}, -1.0),
+               std::invalid_argument);
+}
+
 TEST(Ppe, MixedSourceBlendsDivergenceAndDensityError) {
   const std::vector<double> n{10.0, 10.5, 9.0}, div{0.0, 2.0, -1.0};
   const double rho = 1000, dt = 0.01, n0 = 10.0;

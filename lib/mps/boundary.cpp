@@ -57,6 +57,44 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
   }
 }
 
+void OutflowBuffer::validate() const {
+  if (!std::isfinite(px) || !std::isfinite(py)) throw std::invalid_argument("outflow buffer: point must be finite");
+  if (!(std::abs(std::hypot(nx, ny) - 1.0) < 1e-9))
+    throw std::invalid_argument("outflow buffer: the normal (nx, ny) must have unit length");
+  if (!(thickness > 0.0) || !std::isfinite(thickness))
+    throw std::invalid_argument("outflow buffer: thickness must be positive");
+}
+
+void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, double radius,
+                            std::span<const char> in_buffer, Particles& p) {
+  buffer.validate();
+  if (!(radius > 0.0) || radius > grid.cell_size() * (1.0 + 1e-12))
+    throw std::invalid_argument("apply_outflow_velocity: radius must be in (0, the grid's cell size]");
+  if (in_buffer.size() != p.size()) throw std::invalid_argument("apply_outflow_velocity: one flag per particle");
+  const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0};
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  // Writes go to buffer particles, reads come from fluid outside it only: no dependence between particles.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::fluid || !in_buffer[i]) continue;
+    const double back = buffer.depth(p.x[i], p.y[i]) + radius;
+    const double mx = p.x[i] - back * buffer.nx, my = p.y[i] - back * buffer.ny;
+    double sw = 0.0, su = 0.0, sv = 0.0;
+    grid.for_each_near(mx, my, radius, [&](int j, double dx, double dy) {
+      const auto jj = static_cast<std::size_t>(j);
+      if (p.kind[jj] != Kind::fluid || in_buffer[jj]) return;
+      const double w = shepard.w(std::hypot(dx, dy));
+      sw += w;
+      su += w * p.u[jj];
+      sv += w * p.v[jj];
+    });
+    const double un = sw > 0.0 ? (su * buffer.nx + sv * buffer.ny) / sw : p.u[i] * buffer.nx + p.v[i] * buffer.ny;
+    p.u[i] = un * buffer.nx;
+    p.v[i] = un * buffer.ny;
+  }
+}
+
 RigidPath steady_path(double omega, double vx, double vy) {
   if (!std::isfinite(omega) || !std::isfinite(vx) || !std::isfinite(vy))
     throw std::invalid_argument("steady_path: omega and velocity must be finite");

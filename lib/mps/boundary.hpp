@@ -52,6 +52,34 @@ struct MirrorWall {
 // a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
 void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
 
+// An open outlet with an outflow buffer, the usual open boundary of particle channel flows: the layer of
+// `thickness` upstream of the outlet line, and everything beyond it, is held at gauge pressure 0, and its fluid
+// leaves at the velocity of the fluid just upstream (zero gradient along the outflow), taken along the outflow
+// direction (parallel outflow, as in a developed channel). The buffer's particles are not moved by the pressure
+// gradient or the viscous term.
+// Why not an outlet of free-surface particles at P = 0: their kernels are cut off downstream, and where the
+// channel's walls run on past the outlet (so that the fluid there keeps its wall support) the dry wall
+// extension carries no pressure. The fluid particle in each outlet corner was then pushed into the wall
+// extension with nothing pushing back, and the Re = 400 channel at 50 across was stopped by the guard at step
+// 67 (README, "Poiseuille"). Buffer particles keep their packing, so the fluid upstream of the buffer has full
+// kernels and a P = 0 neighbourhood, and nothing at the outlet is driven by a truncated kernel.
+struct OutflowBuffer {
+  double px = 0, py = 0;  // a point of the outlet line, where fluid leaves
+  double nx = 1, ny = 0;  // unit normal of the line, pointing out of the fluid (the outflow direction)
+  double thickness = 0;   // [m] how far upstream of the line the buffer reaches; at least the largest kernel radius
+  void validate() const;  // throws std::invalid_argument unless the normal has unit length and thickness > 0
+  // Signed distance past the buffer's upstream edge: > 0 inside the buffer (or beyond the outlet line).
+  [[nodiscard]] double depth(double x, double y) const { return (x - px) * nx + (y - py) * ny + thickness; }
+  [[nodiscard]] bool contains(double x, double y) const { return depth(x, y) > 0.0; }
+};
+
+// Sets the velocity of every fluid particle i with in_buffer[i] != 0: the Shepard average (bounded weight) of
+// the fluid outside the buffer within `radius` of the point `radius` upstream of the buffer's edge, level with
+// i, its component along the outflow normal only; a particle with no such fluid in reach keeps its velocity's
+// normal component. `grid` must have been binned with `particles`.
+void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, double radius,
+                            std::span<const char> in_buffer, Particles& particles);
+
 // Where a rigid body is at time t, relative to t = 0: rotated by `angle` (counter-clockwise) about its centre,
 // then shifted by (dx, dy); and how fast: omega = d angle/dt, (vx, vy) = d(dx, dy)/dt.
 struct RigidPose {

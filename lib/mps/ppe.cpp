@@ -49,19 +49,20 @@ std::vector<char> detect_free_surface(const Particles& particles, std::span<cons
 }
 
 PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet) {
+                       std::span<const double> dirichlet, double shift) {
   PpeSystem sys;
-  assemble_ppe(s, free_surface, source, sys, dirichlet);
+  assemble_ppe(s, free_surface, source, sys, dirichlet, shift);
   return sys;
 }
 
 void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& sys, std::span<const double> dirichlet) {
+                  PpeSystem& sys, std::span<const double> dirichlet, double shift) {
   const Particles& p = s.particles;
   const std::size_t n = p.size();
   if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n))
     throw std::invalid_argument(
         "assemble_ppe: free-surface flags, source and Dirichlet values must have one entry per particle");
+  if (!(shift >= 0.0) || !std::isfinite(shift)) throw std::invalid_argument("assemble_ppe: shift must be >= 0");
   const double c = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
 
   // Who enters a Laplacian sum: fluid particles (free-surface ones as Dirichlet P = 0) and wet walls. A dry
@@ -117,7 +118,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   a.rows = a.cols = static_cast<int>(m);
   a.row_ptr.assign(static_cast<std::size_t>(m) + 1, 0);
   sys.rhs.resize(static_cast<std::size_t>(m));
-  std::vector<char> anchored(static_cast<std::size_t>(m), 0);
+  std::vector<char> anchored(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
 
 #pragma omp parallel for schedule(static)
   for (Index r = 0; r < m; ++r) {
@@ -158,7 +159,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     });
     if (!placed) diag_slot = k++;
     a.col[diag_slot] = static_cast<int>(r);
-    a.val[diag_slot] = c * diag;
+    a.val[diag_slot] = c * diag + shift;
     sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
 

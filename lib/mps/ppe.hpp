@@ -72,11 +72,13 @@ struct PpeSystem {
 // `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
 // `source` are per particle.
 // `dirichlet` (per particle, optional): the value a free-surface particle is held at (0 if not given).
+// `shift` (>= 0) is added to every diagonal entry, A = -lap + shift I: a compressibility term (see
+// SimulationConfig::sound_speed). With shift > 0 no group is singular and none gets the gauge.
 PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet = {});
+                       std::span<const double> dirichlet = {}, double shift = 0.0);
 // Same, refilling `out` in place (reusing its memory across time steps).
 void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& out, std::span<const double> dirichlet = {});
+                  PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0);
 
 // Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
 // carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.

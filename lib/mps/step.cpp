@@ -49,6 +49,8 @@ void SimulationConfig::validate() const {
   require(reorder_every >= 0, "reorder_every must be >= 0");
   require(positive(max_displacement), "max_displacement must be positive (in l0)");
   require(max_speed > 0.0, "max_speed must be positive");
+  require(sound_speed >= 0.0 && std::isfinite(sound_speed),
+          "sound_speed must be >= 0 (0: incompressible), got " + fmt(sound_speed));
 }
 
 Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config)
@@ -98,6 +100,11 @@ void Simulation::add_mirror_wall(const MirrorWall& wall) {
   mirror_walls_.push_back(wall);
 }
 
+void Simulation::set_outflow_buffer(const OutflowBuffer& buffer) {
+  buffer.validate();
+  outflow_ = buffer;
+}
+
 // The boundary velocities are lagged by a step. For the mode a wall's mirror values feed back on (u beside
 // the wall, its mirror -u) that gives the factor (1 - a)/(1 + a), a > 0: stable for any dt.
 void Simulation::implicit_viscous_predictor(const Stencil& s, double dt, double fx, double fy) {
@@ -106,7 +113,7 @@ void Simulation::implicit_viscous_predictor(const Stencil& s, double dt, double 
   std::vector<int> row(p.size(), -1);
   std::vector<std::size_t> fluid;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::fluid) {
+    if (p.kind[i] == Kind::fluid && !in_buffer_[i]) {
       row[i] = static_cast<int>(fluid.size());
       fluid.push_back(i);
     }
@@ -150,6 +157,12 @@ void Simulation::implicit_viscous_predictor(const Stencil& s, double dt, double 
     p.y[i] += dt * v[r];
     domain_.wrap(p.x[i], p.y[i]);
   }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && in_buffer_[i]) {
+      p.x[i] += dt * p.u[i];
+      p.y[i] += dt * p.v[i];
+      domain_.wrap(p.x[i], p.y[i]);
+    }
 }
 
 void Simulation::apply_mirror_walls() {
@@ -214,6 +227,12 @@ void Simulation::advance() {
   }
   grid_.bin(p);
   grid_.neighbors(p, k_laplacian_.re, near_now_);  // viscosity only
+  in_buffer_.assign(p.size(), 0);
+  if (outflow_) {
+    for (std::size_t i = 0; i < p.size(); ++i)
+      in_buffer_[i] = p.kind[i] != Kind::ghost && outflow_->contains(p.x[i], p.y[i]);
+    apply_outflow_velocity(*outflow_, grid_, k_gradient_.re, in_buffer_, p);
+  }
   apply_mirror_walls();
   const NeighborList& near_now = near_now_;
   times_.neighbors += lap(t);
@@ -230,8 +249,10 @@ void Simulation::advance() {
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
       if (p.kind[i] != Kind::fluid) continue;
-      p.u[i] += dt * (config_.nu * lu[i] + config_.fx - fhx);
-      p.v[i] += dt * (config_.nu * lv[i] + config_.fy - fhy);
+      if (!in_buffer_[i]) {
+        p.u[i] += dt * (config_.nu * lu[i] + config_.fx - fhx);
+        p.v[i] += dt * (config_.nu * lv[i] + config_.fy - fhy);
+      }
       p.x[i] += dt * p.u[i];
       p.y[i] += dt * p.v[i];
       domain_.wrap(p.x[i], p.y[i]);
@@ -321,7 +342,20 @@ void Simulation::advance() {
       dirichlet[i] = surface_pressure - hydro[i];
     }
   }
-  assemble_ppe(lapl, surface, source, ppe_, dirichlet);
+  // The outflow buffer is held at P = 0 like a free surface, but it is no surface: the fluid beside it has full
+  // kernels, and its number density stays in the source (above).
+  std::vector<char> held;
+  if (outflow_) {
+    held = surface;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (in_buffer_[i]) {
+        held[i] = 1;
+        if (!dirichlet.empty()) dirichlet[i] = -hydro[i];
+      }
+  }
+  const double screening = config_.sound_speed * dt;  // the compressibility's reach
+  assemble_ppe(lapl, outflow_ ? held : surface, source, ppe_, dirichlet,
+               screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
   info_.unknowns = ppe_.size();
   info_.free_surface = static_cast<std::size_t>(std::count(surface.begin(), surface.end(), 1));
   info_.floating_groups = ppe_.floating.size();
@@ -351,7 +385,12 @@ void Simulation::advance() {
   if (!dirichlet.empty())
     for (std::size_t i = 0; i < p.size(); ++i)
       if (p.kind[i] == Kind::fluid && surface[i]) p.p[i] = dirichlet[i] + hydro[i];  // its P, as held in the PPE
-  const std::vector<char> carriers = set_dummy_pressure(lapl, p, surface, config_.rho, config_.fx, config_.fy);
+  std::vector<char> carriers = set_dummy_pressure(lapl, p, surface, config_.rho, config_.fx, config_.fy);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (in_buffer_[i]) {
+      p.p[i] = 0.0;
+      carriers[i] = 1;
+    }
   std::vector<double> gx(p.size()), gy(p.size());
   const double tilt = config_.min_reference_tilt ? config_.rho : 0.0;
   if (split) {
@@ -381,7 +420,7 @@ void Simulation::advance() {
     gradient(grad, p.p, gx, gy, config_.pressure_gradient, carriers, {tilt * config_.fx, tilt * config_.fy});
   }
   for (std::size_t i = 0; i < p.size(); ++i) {
-    if (p.kind[i] != Kind::fluid) continue;
+    if (p.kind[i] != Kind::fluid || in_buffer_[i]) continue;
     const double du = -dt / config_.rho * gx[i], dv = -dt / config_.rho * gy[i];
     p.u[i] += du;
     p.v[i] += dv;

@@ -4,6 +4,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -62,6 +63,17 @@ struct SimulationConfig {
   // zero-flux walls and the particle gradient of the hydrostatic pressure disagree near wall corners, and a
   // closed tank at g = 9.81 drifted 0.95 l0 in 0.5 s (README, "Numerics and stability").
   bool hydrostatic_split = true;
+  // Artificial sound speed [m/s] (0: incompressible). The PPE becomes (-lap + 1/(c dt)^2) P = -source, the
+  // compressibility term design section 3 lists for closed domains: a density error of wavelength well below c dt
+  // is corrected as before, a longer one gets the pressure rho c^2 (n - n0)/n0 of a compressible liquid instead of
+  // one growing with the square of its length. Incompressible, the source of a long open channel turns any
+  // coherent density error, however small, into a pressure ~ gamma rho (L/dt)^2 (n - n0)/n0 that expels it through
+  // the outlet within one step: fluid rows sliding along a wall's particle lattice change their number density in
+  // step (1e-3 in the near-wall rows, a mean of 4e-5 over the fluid), and in a channel 750 l0 long that moved the
+  // plate pressure by +-4 Pa from step to step (the Poiseuille drop is 0.002 Pa) and the outlet flow by +-40 %
+  // (README, "Poiseuille"). Choose c so that the flow's pressures compress the liquid little, e.g. by Morris et
+  // al.'s (1997) c^2 = max(u^2, dP/rho)/delta for a density variation delta.
+  double sound_speed = 0;
   bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
@@ -111,6 +123,10 @@ class Simulation {
   // and P = 0 there, with no ambient pressure around it to collapse the void, keeps it open.
   using SurfaceRegion = std::function<bool(double x, double y)>;
   void set_free_surface_region(SurfaceRegion region) { surface_region_ = std::move(region); }
+  // An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0 and its fluid
+  // leaves at the velocity of the fluid upstream, unmoved by the pressure gradient and the viscous term.
+  void set_outflow_buffer(const OutflowBuffer& buffer);
+  [[nodiscard]] const std::optional<OutflowBuffer>& outflow_buffer() const { return outflow_; }
   [[nodiscard]] const std::vector<MirrorWall>& mirror_walls() const { return mirror_walls_; }
 
   [[nodiscard]] const Particles& particles() const { return particles_; }
@@ -144,6 +160,8 @@ class Simulation {
   BoundaryMotion motion_;
   SurfaceRegion surface_region_;
   std::vector<MirrorWall> mirror_walls_;
+  std::optional<OutflowBuffer> outflow_;
+  std::vector<char> in_buffer_;  // this step's outflow-buffer particles, by position at its start
   StepInfo info_;
   PhaseTimes times_;
   // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "channel.hpp"
+#include "mps/geometry.hpp"
 
 namespace {
 
@@ -170,6 +171,41 @@ TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
   EXPECT_EQ(plate.columns_added(), 2);
   EXPECT_THROW(plate(p, 0.65), mps::SimulationError);  // the pool is empty now
   EXPECT_THROW(mps::PushingPlate(p, 7, U, l0, 1.0), std::invalid_argument);  // no such plate group
+}
+
+TEST(OutflowBuffer, BufferFluidLeavesAlongTheNormalAtTheVelocityUpstreamLevelWithIt) {
+  // Fluid on a lattice with u linear in y and a transverse v; the buffer's fluid starts with junk velocities.
+  const double l0 = 0.1;
+  mps::Particles p;
+  mps::fill_rectangle(p, {0.0, 0.0, 2.0, 1.0}, l0, mps::Kind::fluid, 0);
+  const mps::OutflowBuffer buffer{2.0, 0.0, 1.0, 0.0, 0.5};
+  std::vector<char> in_buffer(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    in_buffer[i] = buffer.contains(p.x[i], p.y[i]);
+    p.u[i] = in_buffer[i] ? -5.0 : 1.0 + 2.0 * p.y[i];
+    p.v[i] = in_buffer[i] ? 7.0 : 0.3;
+  }
+  const mps::Particles before = p;
+  const mps::Domain domain{-0.5, 2.5, -0.5, 1.5};
+  mps::CellGrid grid(domain, 0.25);
+  grid.bin(p);
+  mps::apply_outflow_velocity(buffer, grid, 2.1 * l0, in_buffer, p);
+  int checked = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!in_buffer[i]) {
+      EXPECT_EQ(p.u[i], before.u[i]);
+      EXPECT_EQ(p.v[i], before.v[i]);
+      continue;
+    }
+    EXPECT_EQ(p.v[i], 0.0) << "the flow leaves along the normal";
+    // Where the sampling kernel is not cut off by the channel's edges, a linear profile is reproduced exactly.
+    if (p.y[i] > 2.1 * l0 && p.y[i] < 1.0 - 2.1 * l0) {
+      EXPECT_NEAR(p.u[i], 1.0 + 2.0 * p.y[i], 1e-12) << "y = " << p.y[i];
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 5 * 6);  // five buffer columns, rows 0.25 .. 0.75
+  EXPECT_THROW(mps::OutflowBuffer({2.0, 0.0, 1.0, 1.0, 0.5}).validate(), std::invalid_argument);
 }
 
 TEST(InletChannel, DevelopedPeakAndFlowRateMatchTheParabolaAndMassIsConserved) {

@@ -29,8 +29,10 @@ constexpr int kPlateGroup = 3;
 // start at the conveyor's end, a few l0 downstream of the plate.
 constexpr double kConveyorL0 = 3;
 constexpr int kBottomConveyorGroup = 4, kTopConveyorGroup = 5;
-// The outlet's free surface disturbs the last few l0; the station must stay clear of it and of the plate.
+// The outlet (its buffer, or its free surface) disturbs the last few l0; the station must stay clear of it and of
+// the plate.
 constexpr double kStationMarginL0 = 8;
+constexpr double kLargestRadiusL0 = 4.1;  // the Laplacian's and the PPE source's
 }  // namespace
 
 void Params::validate() const {
@@ -44,15 +46,28 @@ void Params::validate() const {
   if (!(length_l0 >= 13.0) || std::abs(length_l0 - std::round(length_l0)) > 1e-9)
     fail("periodic length must be a whole number of l0 >= 13 (three cells of the 4.1 l0 search), got " +
          std::to_string(length_l0));
+  if (!(outlet_buffer_l0 == 0.0 || (outlet_buffer_l0 >= kLargestRadiusL0 && std::isfinite(outlet_buffer_l0))))
+    fail("the outlet buffer must be 0 (none) or at least " + std::to_string(kLargestRadiusL0) +
+         " l0 thick (the fluid before it needs full kernels), got " + std::to_string(outlet_buffer_l0));
   if (mode == Mode::inlet) {
     if (!positive(length_D)) fail("channel length must be positive");
-    if (!(station_D * across >= kStationMarginL0 && (length_D - station_D) * across >= kStationMarginL0))
+    const double outlet_margin = std::max(kStationMarginL0, outlet_buffer_l0 + 2.0);
+    if (!(station_D * across >= kStationMarginL0 && (length_D - station_D) * across >= outlet_margin))
       fail("the measuring station x = " + std::to_string(station_D) + " D must be at least " +
-           std::to_string(kStationMarginL0) + " l0 from the plate and from the outlet at " + std::to_string(length_D) +
-           " D");
+           std::to_string(kStationMarginL0) + " l0 from the plate and " + std::to_string(outlet_margin) +
+           " l0 from the outlet at " + std::to_string(length_D) + " D");
   }
   if (!(gamma >= 0.0 && gamma <= 1.0)) fail("gamma must be in [0, 1]");
+  if (!(compression >= 0.0 && compression < 1.0)) fail("compression must be in [0, 1)");
   if (!positive(dt_factor)) fail("dt_factor must be positive");
+}
+
+double Params::sound_speed() const {
+  if (compression <= 0.0) return 0.0;
+  const double umax = 1.5 * U();
+  const double length = periodic() ? length_l0 * l0() : length_D * D;
+  const double drop = 12.0 * rho * nu * U() * length / (D * D);  // Poiseuille: dP/dx = 12 mu U / D^2
+  return std::sqrt(std::max(umax * umax, drop / rho) / compression);
 }
 
 double exact_velocity(const Params& p, double y, double t) {
@@ -135,6 +150,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
   c.warm_start = p.warm_start;
+  c.sound_speed = p.periodic() ? 0.0 : p.sound_speed();  // the periodic channels are closed: the gauge serves them
   // The outlet is an open end at gauge pressure 0, not a liquid surface: the confined liquid may hold a
   // negative gauge pressure, and clamping it would leave every push of the plate unanswered (measured: the
   // flow rate at the station ran 47 % above U D by t = 0.25 D/U).
@@ -147,11 +163,17 @@ mps::Simulation make_simulation(const Params& p) {
   // The liquid is confined but for its open outlet (and the dry wall ends behind the plate). A void opened by
   // the shear elsewhere, read as free surface, stayed open at P = 0 and was carried downstream until the
   // inrush blew up (15 D at Re 40, 20 across: stopped at 4.5 D/U); left to the source term, it closes.
+  // An outflow buffer holds the outlet at P = 0 itself; without one the outlet's fluid is free surface.
+  const bool buffer = !p.periodic() && p.outlet_buffer_l0 > 0.0;
   const double outlet_zone = L - 4.0 * l0;
   if (p.periodic())
     sim.set_free_surface_region([](double, double) { return false; });
+  else if (buffer)
+    sim.set_free_surface_region([](double x, double) { return x < 0.0; });
   else
     sim.set_free_surface_region([outlet_zone](double x, double) { return x < 0.0 || x > outlet_zone; });
+  // The walls run 5 l0 past the outlet line, so that the buffer's last particles keep their wall support.
+  if (buffer) sim.set_outflow_buffer({L, 0.0, 1.0, 0.0, p.outlet_buffer_l0 * l0});
   const double top_speed = p.mode == Mode::couette ? p.U() : 0.0;
   sim.add_mirror_wall({0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1});
   sim.add_mirror_wall({0.0, p.D, 0.0, -1.0, top_speed, 0.0, 2});

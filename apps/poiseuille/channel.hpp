@@ -33,6 +33,14 @@ struct Params {
   double gamma = 0.99;
   double dt_factor = 1;    // multiplies both time-step limits (CFL 0.2, viscous number 0.2); > 1 probes stability
   bool implicit_viscosity = false;  // lifts the viscous limit (Re = 4 at dx = 0.004 m: ~31,000 explicit steps)
+  // inlet: the outlet as an outflow buffer this many l0 thick (mps::OutflowBuffer; 0: an open end of free-surface
+  // particles, which the guard stopped at step 67 at Re = 400, 50 across: README, "Poiseuille")
+  double outlet_buffer_l0 = 5;
+  // inlet: the density variation an artificial compressibility may cause (0: incompressible). Its sound speed
+  // follows Morris et al.'s (1997) criterion c^2 = max(u_max^2, dP/rho) / compression, u_max = 1.5 U and dP the
+  // Poiseuille drop along the channel (SimulationConfig::sound_speed).
+  double compression = 1e-4;
+  [[nodiscard]] double sound_speed() const;
   std::string solver = "eigen-cg";
   bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)
 

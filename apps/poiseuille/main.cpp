@@ -30,6 +30,8 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
           {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
           {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
           {"viscosity", c.implicit_viscosity ? "implicit" : "explicit"},
+          {"outlet_buffer_l0", p.outlet_buffer_l0}, {"compression", p.compression},
+          {"sound_speed_m_per_s", c.sound_speed},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
                         {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
@@ -66,6 +68,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_flag("--implicit-viscosity", p.implicit_viscosity,
                "solve the viscous term implicitly (no viscous time-step limit; for low Re)");
+  app.add_option("--outlet-buffer", p.outlet_buffer_l0, "inlet: the outlet as an outflow buffer this many l0 thick, "
+                 "held at P = 0, leaving at the upstream velocity (0: an open end of free-surface particles)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--compression", p.compression, "density variation allowed to an artificial compressibility, "
+                 "whose sound speed follows Morris et al. (1997) from 1.5 U and the Poiseuille drop (0: incompressible)")
+      ->capture_default_str()->check(CLI::Range(0.0, 0.5));
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);

@@ -1,11 +1,13 @@
 """Seed 004's Poiseuille table, reproduced: the pushing-plate inlet channel (15 D, station at 10 D) at
 Re = 4, 40, 400 with dx = 0.004 m and Re = 400 with dx = 0.0055 / 0.004 / 0.0025 m, to the paper's end time
-U t / D = 10, with IC-CG; then the particle-steps per second of each solver over a short stretch of each case.
+U t / D = 10 (IC-CG unless the case names another solver); then the particle-steps per second of each solver over
+a short stretch of each case.
 Writes CSV and Markdown (with date and machine) and keeps every run's outputs under --runs.
 
 usage: /usr/bin/python3 bench/poiseuille_table.py --app build/release/apps/poiseuille/poiseuille [--reuse]
            [--cases re40-dx0.004,re400-dx0.004] [--end-time 10] [--speed-time 0.5]
-           [--solvers eigen-cg,hypre-pcg] [--out bench/results/poiseuille_table]
+           [--solvers eigen-cg,hypre-pcg] [--outlet-buffer 5] [--compression 1e-4]
+           [--out bench/results/poiseuille_table]
 """
 import argparse
 import datetime
@@ -18,33 +20,35 @@ import sys
 import stamp
 
 D = 0.2
-# (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor). Re = 4 takes
-# implicit viscosity: its explicit limit would need ~31,000 steps for 10 D/U at dx = 0.004 m, against ~3,750
-# for CFL; at the full CFL limit (0.2) two particles closed to 0.5 l0 near the inlet and the guard stopped
-# it at 1.16 D/U, so it runs at half of it.
+# (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor, solver of the accuracy
+# run or None for the first of --solvers). Re = 4 takes implicit viscosity: its explicit limit would need ~31,000
+# steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. The 80-across case (~110,000 particles, ~6,000 steps)
+# takes hypre-pcg, which ran 1.4x the particle-steps of IC-CG there.
 CASES = [
-    ("re4-dx0.004", 4, 50, 2.6, "implicit", 0.5),
-    ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0),
-    ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
-    ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0),
-    ("re400-dx0.0025", 400, 80, 5.9, "explicit", 1.0),
+    ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, None),
+    ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0, None),
+    ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0, None),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
+    ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0, None),
+    ("re400-dx0.0025", 400, 80, 5.9, "explicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6"),
 ]
 
 
-def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, reuse):
+def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, reuse, outlet_buffer, compression):
     if reuse:
         try:
             with open(os.path.join(out, "summary.json")) as f:
                 summary = json.load(f)
             p = summary["parameters"]
             if (p["Re"], p["particles_across"], p.get("viscosity", "explicit"), p["dt_factor"], p["end_time_D_over_U"],
-                    p["solver"].split(":")[0]) == (re, across, viscosity, dt_factor, end_time, solver.split(":")[0]):
+                    p["solver"].split(":")[0], p.get("outlet_buffer_l0", 0.0), p.get("compression", 0.0)) == (
+                    re, across, viscosity, dt_factor, end_time, solver.split(":")[0], outlet_buffer, compression):
                 print(f"reusing {out}", flush=True)
                 return summary
         except (OSError, KeyError, ValueError):
             pass
     cmd = [app, "--mode", "inlet", "--re", str(re), "--across", str(across), "--end-time", str(end_time),
-           "--dt-factor", str(dt_factor), "--solver", solver, "--frames", "0", "--profiles", "5", "--out", out]
+           "--dt-factor", str(dt_factor), "--solver", solver, "--outlet-buffer", str(outlet_buffer),
+           "--compression", str(compression), "--frames", "0", "--profiles", "10", "--out", out]
     if viscosity == "implicit":
         cmd.append("--implicit-viscosity")
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
@@ -73,6 +77,8 @@ def main():
     ap.add_argument("--speed-time", type=float, default=0.5, help="U t / D of each solver's timing run")
     ap.add_argument("--solvers", default="eigen-cg,hypre-pcg")
     ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap.add_argument("--outlet-buffer", type=float, default=5.0, help="the app's --outlet-buffer (l0; 0: free-surface outlet)")
+    ap.add_argument("--compression", type=float, default=1e-4, help="the app's --compression (0: incompressible)")
     ap.add_argument("--runs", default="runs/poiseuille-table")
     ap.add_argument("--out", default="bench/results/poiseuille_table")
     ap.add_argument("--reuse", action="store_true",
@@ -85,10 +91,11 @@ def main():
         sys.exit(f"unknown case(s) {unknown}; choose from {[c[0] for c in CASES]}")
     solvers = args.solvers.split(",")
     rows = []
-    for name, re, across, paper, viscosity, dt_factor in CASES:
+    for name, re, across, paper, viscosity, dt_factor, case_solver in CASES:
         if name not in wanted:
             continue
-        acc = run(args.app, os.path.join(args.runs, name), re, across, viscosity, dt_factor, args.end_time, solvers[0], args.threads, args.reuse)
+        acc = run(args.app, os.path.join(args.runs, name), re, across, viscosity, dt_factor, args.end_time,
+                  case_solver or solvers[0], args.threads, args.reuse, args.outlet_buffer, args.compression)
         stopped = acc.get("status") == "failed"
         nan = float("nan")
         row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
@@ -98,10 +105,12 @@ def main():
                "paper_peak_velocity_error_pct": paper,
                "profile_l2_error_pct": nan if stopped else 100 * acc["profile_l2_error"],
                "flow_rate_error_pct": nan if stopped else 100 * acc["flow_rate_error"],
-               "viscosity": viscosity, "dt_factor": dt_factor}
+               "viscosity": viscosity, "dt_factor": dt_factor, "solver": acc["parameters"]["solver"].split(":")[0],
+               "outlet_buffer_l0": args.outlet_buffer, "compression": args.compression}
         for solver in solvers:
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, viscosity,
-                        dt_factor, args.speed_time, solver, args.threads, args.reuse)
+                        dt_factor, args.speed_time, solver, args.threads, args.reuse, args.outlet_buffer,
+                        args.compression)
             row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
         rows.append(row)
         write(rows, args, solvers)  # after every case: a long table keeps what it has if stopped
@@ -117,16 +126,18 @@ def write(rows, args, solvers):
     today = datetime.date.today().isoformat()
     with open(args.out + ".md", "w") as f:
         f.write(f"Measured {today} on {machine()}, {args.threads} OpenMP thread(s) per run, other runs sharing the cores. Inlet channel 15 D, station at "
-                f"x = 10 D, profile averaged over the last 1 D/U, IC-CG (`{solvers[0]}`) for accuracy.\n\n")
+                f"x = 10 D, profile averaged over the last 1 D/U; outlet buffer {args.outlet_buffer:g} l0, compression "
+                f"{args.compression:g}; accuracy run with the solver named (`{solvers[0]}` unless the case names another), "
+                f"speeds over {args.speed_time:g} D/U of each case.\n\n")
         f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
-                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor |\n")
-        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|\n")
+                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor | accuracy solver |\n")
+        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|---|\n")
         for r in rows:
             f.write(f"| {r['case']} | {r['Re']} | {r['dx_m']:.5f} | {r['end_time_D_over_U']:.2f} | {r['outcome']} | "
                     f"{r['peak_velocity_error_pct']:.2f} % | {r['paper_peak_velocity_error_pct']} % | "
                     f"{r['profile_l2_error_pct']:.2f} % | {r['flow_rate_error_pct']:.2f} % | "
                     + " | ".join(f"{r[s + '_particle_steps_per_s']:.3g}" for s in solvers)
-                    + f" | {r['viscosity']} | {r['dt_factor']} |\n")
+                    + f" | {r['viscosity']} | {r['dt_factor']} | {r['solver']} |\n")
     print(f"wrote {args.out}.csv and {args.out}.md", flush=True)
 
 

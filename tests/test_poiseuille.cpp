@@ -232,6 +232,34 @@ TEST(InletChannel, DevelopedPeakAndFlowRateMatchTheParabolaAndMassIsConserved) {
   EXPECT_LT(pr.max_abs_v, 0.5 * p.U());
 }
 
+TEST(InletChannel, OutflowBufferIsHeldAtZeroPressureAndLeavesParallelWhileTheFluidBeforeItIsNot) {
+  poiseuille::Params p = coarse(poiseuille::Mode::inlet);
+  p.re = 400;
+  p.length_D = 4;
+  p.station_D = 3;
+  mps::Simulation sim = poiseuille::make_simulation(p);
+  ASSERT_TRUE(sim.outflow_buffer().has_value());
+  const double l0 = p.l0(), L = p.length_D * p.D, edge = L - p.outlet_buffer_l0 * l0;
+  for (int step = 0; step < 20; ++step) {
+    sim.step();
+    const mps::Particles& s = sim.particles();
+    double upstream = 0.0;  // the largest |P| just before the buffer
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      if (s.kind[i] == mps::Kind::ghost) continue;
+      // inside the buffer at the start of the step as well (a particle moves less than 0.5 l0 in a step)
+      if (s.x[i] > edge + 0.5 * l0) {
+        ASSERT_EQ(s.p[i], 0.0) << mps::to_string(s.kind[i]) << " at x = " << s.x[i] / l0 << " l0, step " << step;
+        if (s.kind[i] == mps::Kind::fluid) {
+          ASSERT_EQ(s.v[i], 0.0) << "x = " << s.x[i] / l0 << " l0";
+        }
+      } else if (s.kind[i] == mps::Kind::fluid && s.x[i] > edge - 3 * l0 && s.x[i] < edge - l0) {
+        upstream = std::max(upstream, std::abs(s.p[i]));
+      }
+    }
+    EXPECT_GT(upstream, 0.0) << "step " << step;
+  }
+}
+
 TEST(InletChannel, CompressibilityKeepsTheLongChannelsPlatePressureNearItsPoiseuilleDrop) {
   // The paper's 15 D channel at Re = 400, 20 across (300 l0 long). Incompressible, the fluid rows sliding over the
   // walls' particle lattice change the mean number density in step, and the source expels that through the outlet

@@ -7,8 +7,13 @@ Writes CSV and Markdown (with date and machine) and keeps every run's outputs un
 usage: /usr/bin/python3 bench/poiseuille_table.py --app build/release/apps/poiseuille/poiseuille [--reuse]
            [--cases re40-dx0.004,re400-dx0.004] [--end-time 10] [--speed-time 0.5]
            [--solvers eigen-cg,hypre-pcg] [--outlet-buffer 5] [--compression 1e-4]
-           [--out bench/results/poiseuille_table]
+           [--reference runs/channel-reference] [--out bench/results/poiseuille_table]
+
+With --reference, the station profile of each case is also compared with the finest finite-difference solution of
+the same flow found there (bench/channel_reference.py, files re<Re>-ny<N>-profile.csv): at Re = 400 the flow at the
+station is still developing at U t/D = 10, and the peak error against the developed parabola is mostly that.
 """
+import glob
 import argparse
 import datetime
 import json
@@ -65,6 +70,53 @@ def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, r
     return summary
 
 
+def final_profile(run_dir):
+    """y/D and u/U of the last profile the app wrote."""
+    with open(os.path.join(run_dir, "profile.csv")) as f:
+        rows = [line.strip().split(",") for line in f if line.strip()]
+    return [float(r[0]) for r in rows[1:]], [float(r[-2]) for r in rows[1:]]
+
+
+def reference_profile(directory, re):
+    """The finest grid's station profile for this Re, or None."""
+    best = None
+    for path in glob.glob(os.path.join(directory, f"re{re:g}-ny*-profile.csv")):
+        ny = int(path.rsplit("-ny", 1)[1].split("-")[0])
+        if best is None or ny > best[0]:
+            best = (ny, path)
+    if best is None:
+        return None
+    with open(best[1]) as f:
+        rows = [line.strip().split(",") for line in f][1:]
+    # the no-slip walls close the profile, so that rows nearer a wall than the first cell centre interpolate
+    return best[0], [0.0] + [float(r[0]) for r in rows] + [1.0], [0.0] + [float(r[1]) for r in rows] + [0.0]
+
+
+def interpolate(x, xs, ys):
+    if x <= xs[0]:
+        return ys[0]
+    for k in range(1, len(xs)):
+        if x <= xs[k]:
+            t = (x - xs[k - 1]) / (xs[k] - xs[k - 1])
+            return ys[k - 1] + t * (ys[k] - ys[k - 1])
+    return ys[-1]
+
+
+def against_reference(run_dir, directory, re):
+    """(grid cells across, the reference's peak deficit below 1.5 U in %, |peak - reference peak| / reference peak in
+    %, max |u - u_ref| / (1.5 U) in %) with the reference read at the particle rows; NaNs without a reference."""
+    nan = float("nan")
+    ref = reference_profile(directory, re) if directory else None
+    if ref is None:
+        return nan, nan, nan, nan
+    ny, yr, ur = ref
+    y, u = final_profile(run_dir)
+    at_rows = [interpolate(yk, yr, ur) for yk in y]
+    peak_ref = max(at_rows)
+    return (ny, 100 * (1.5 - max(ur)) / 1.5, 100 * abs(max(u) - peak_ref) / peak_ref,
+            100 * max(abs(a - b) for a, b in zip(u, at_rows)) / 1.5)
+
+
 def machine():
     return f"{stamp.machine()}, {platform.system()} {platform.release()}"
 
@@ -79,6 +131,8 @@ def main():
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--outlet-buffer", type=float, default=5.0, help="the app's --outlet-buffer (l0; 0: free-surface outlet)")
     ap.add_argument("--compression", type=float, default=1e-4, help="the app's --compression (0: incompressible)")
+    ap.add_argument("--reference", default="runs/channel-reference",
+                    help="directory of bench/channel_reference.py's profiles ('' for none)")
     ap.add_argument("--runs", default="runs/poiseuille-table")
     ap.add_argument("--out", default="bench/results/poiseuille_table")
     ap.add_argument("--reuse", action="store_true",
@@ -107,6 +161,9 @@ def main():
                "flow_rate_error_pct": nan if stopped else 100 * acc["flow_rate_error"],
                "viscosity": viscosity, "dt_factor": dt_factor, "solver": acc["parameters"]["solver"].split(":")[0],
                "outlet_buffer_l0": args.outlet_buffer, "compression": args.compression}
+        ref = (nan,) * 4 if stopped else against_reference(os.path.join(args.runs, name), args.reference, re)
+        row.update({"reference_cells_across": ref[0], "reference_peak_below_parabola_pct": ref[1],
+                    "peak_error_vs_reference_pct": ref[2], "max_deviation_from_reference_pct": ref[3]})
         for solver in solvers:
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, viscosity,
                         dt_factor, args.speed_time, solver, args.threads, args.reuse, args.outlet_buffer,
@@ -128,16 +185,21 @@ def write(rows, args, solvers):
         f.write(f"Measured {today} on {machine()}, {args.threads} OpenMP thread(s) per run, other runs sharing the cores. Inlet channel 15 D, station at "
                 f"x = 10 D, profile averaged over the last 1 D/U; outlet buffer {args.outlet_buffer:g} l0, compression "
                 f"{args.compression:g}; accuracy run with the solver named (`{solvers[0]}` unless the case names another), "
-                f"speeds over {args.speed_time:g} D/U of each case.\n\n")
+                f"speeds over {args.speed_time:g} D/U of each case. Reference: the same flow by finite differences "
+                f"(bench/channel_reference.py) on the grid named, its station peak below 1.5 U, and our peak against "
+                f"its peak and our profile's largest deviation from it (in 1.5 U), read at the particle rows.\n\n")
         f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
-                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor | accuracy solver |\n")
-        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|---|\n")
+                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor | accuracy solver | "
+                "reference grid | reference peak below 1.5 U | peak vs reference | max deviation from reference |\n")
+        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|---|---:|---:|---:|---:|\n")
         for r in rows:
             f.write(f"| {r['case']} | {r['Re']} | {r['dx_m']:.5f} | {r['end_time_D_over_U']:.2f} | {r['outcome']} | "
                     f"{r['peak_velocity_error_pct']:.2f} % | {r['paper_peak_velocity_error_pct']} % | "
                     f"{r['profile_l2_error_pct']:.2f} % | {r['flow_rate_error_pct']:.2f} % | "
                     + " | ".join(f"{r[s + '_particle_steps_per_s']:.3g}" for s in solvers)
-                    + f" | {r['viscosity']} | {r['dt_factor']} | {r['solver']} |\n")
+                    + f" | {r['viscosity']} | {r['dt_factor']} | {r['solver']} | "
+                    f"D/{r['reference_cells_across']:g} | {r['reference_peak_below_parabola_pct']:.2f} % | "
+                    f"{r['peak_error_vs_reference_pct']:.2f} % | {r['max_deviation_from_reference_pct']:.2f} % |\n")
     print(f"wrote {args.out}.csv and {args.out}.md", flush=True)
 
 

@@ -13,14 +13,16 @@ With --reference, the station profile of each case is also compared with the fin
 the same flow found there (bench/channel_reference.py, files re<Re>-ny<N>-profile.csv): at Re = 400 the flow at the
 station is still developing at U t/D = 10, and the peak error against the developed parabola is mostly that.
 """
-import glob
 import argparse
 import datetime
+import glob
 import json
 import os
 import platform
 import subprocess
 import sys
+
+import numpy
 
 import stamp
 
@@ -92,16 +94,6 @@ def reference_profile(directory, re):
     return best[0], [0.0] + [float(r[0]) for r in rows] + [1.0], [0.0] + [float(r[1]) for r in rows] + [0.0]
 
 
-def interpolate(x, xs, ys):
-    if x <= xs[0]:
-        return ys[0]
-    for k in range(1, len(xs)):
-        if x <= xs[k]:
-            t = (x - xs[k - 1]) / (xs[k] - xs[k - 1])
-            return ys[k - 1] + t * (ys[k] - ys[k - 1])
-    return ys[-1]
-
-
 def against_reference(run_dir, directory, re):
     """(grid cells across, the reference's peak deficit below 1.5 U in %, |peak - reference peak| / reference peak in
     %, max |u - u_ref| / (1.5 U) in %) with the reference read at the particle rows; NaNs without a reference."""
@@ -111,7 +103,7 @@ def against_reference(run_dir, directory, re):
         return nan, nan, nan, nan
     ny, yr, ur = ref
     y, u = final_profile(run_dir)
-    at_rows = [interpolate(yk, yr, ur) for yk in y]
+    at_rows = numpy.interp(y, yr, ur)
     peak_ref = max(at_rows)
     return (ny, 100 * (1.5 - max(ur)) / 1.5, 100 * abs(max(u) - peak_ref) / peak_ref,
             100 * max(abs(a - b) for a, b in zip(u, at_rows)) / 1.5)

@@ -3,11 +3,33 @@
 #include "mps/kernel.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 namespace mps {
+
+namespace {
+// The Shepard average (bounded weight) of the velocity of the fluid particles within `radius` of (x, y) that
+// `takes(j)` accepts; nullopt if none is in reach. Mirror walls and the outflow buffer both sample the fluid so.
+template <class Takes>
+std::optional<std::array<double, 2>> fluid_velocity_near(const CellGrid& grid, const Kernel& shepard, double x,
+                                                         double y, const Particles& p, Takes takes) {
+  double sw = 0.0, su = 0.0, sv = 0.0;
+  grid.for_each_near(x, y, shepard.re, [&](int j, double dx, double dy) {
+    const auto jj = static_cast<std::size_t>(j);
+    if (p.kind[jj] != Kind::fluid || !takes(jj)) return;
+    const double w = shepard.w(std::hypot(dx, dy));
+    sw += w;
+    su += w * p.u[jj];
+    sv += w * p.v[jj];
+  });
+  if (!(sw > 0.0)) return std::nullopt;
+  return std::array<double, 2>{su / sw, sv / sw};
+}
+}  // namespace
 
 void MirrorWall::validate() const {
   if (!std::isfinite(px) || !std::isfinite(py) || !std::isfinite(u) || !std::isfinite(v))
@@ -42,16 +64,8 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
     }
     const double mx = p.x[i] - 2.0 * depth * nx, my = p.y[i] - 2.0 * depth * ny;
     const auto U = wall.velocity_at(p.x[i] - depth * nx, p.y[i] - depth * ny);  // at the foot on the wall
-    double sw = 0.0, su = 0.0, sv = 0.0;
-    grid.for_each_near(mx, my, radius, [&](int j, double dx, double dy) {
-      const auto jj = static_cast<std::size_t>(j);
-      if (p.kind[jj] != Kind::fluid) return;
-      const double w = shepard.w(std::hypot(dx, dy));
-      sw += w;
-      su += w * p.u[jj];
-      sv += w * p.v[jj];
-    });
-    const double um = sw > 0.0 ? su / sw : U[0], vm = sw > 0.0 ? sv / sw : U[1];
+    const auto m = fluid_velocity_near(grid, shepard, mx, my, p, [](std::size_t) { return true; });
+    const double um = m ? (*m)[0] : U[0], vm = m ? (*m)[1] : U[1];
     p.u[i] = 2.0 * U[0] - um;
     p.v[i] = 2.0 * U[1] - vm;
   }
@@ -80,16 +94,8 @@ void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, d
     if (p.kind[i] != Kind::fluid || !in_buffer[i]) continue;
     const double back = buffer.depth(p.x[i], p.y[i]) + radius;
     const double mx = p.x[i] - back * buffer.nx, my = p.y[i] - back * buffer.ny;
-    double sw = 0.0, su = 0.0, sv = 0.0;
-    grid.for_each_near(mx, my, radius, [&](int j, double dx, double dy) {
-      const auto jj = static_cast<std::size_t>(j);
-      if (p.kind[jj] != Kind::fluid || in_buffer[jj]) return;
-      const double w = shepard.w(std::hypot(dx, dy));
-      sw += w;
-      su += w * p.u[jj];
-      sv += w * p.v[jj];
-    });
-    const double un = sw > 0.0 ? (su * buffer.nx + sv * buffer.ny) / sw : p.u[i] * buffer.nx + p.v[i] * buffer.ny;
+    const auto m = fluid_velocity_near(grid, shepard, mx, my, p, [&](std::size_t j) { return !in_buffer[j]; });
+    const double un = m ? (*m)[0] * buffer.nx + (*m)[1] * buffer.ny : p.u[i] * buffer.nx + p.v[i] * buffer.ny;
     p.u[i] = un * buffer.nx;
     p.v[i] = un * buffer.ny;
   }

@@ -258,7 +258,15 @@ void Simulation::advance() {
       domain_.wrap(p.x[i], p.y[i]);
     }
   }
-  if (motion_) motion_(p, info_.time + dt);
+  if (motion_) {
+    motion_(p, info_.time + dt);
+    // The motion may recycle particles: a pushing plate turns buffer fluid that crossed the outlet into a ghost
+    // and, in the same call, into a fresh inlet particle. Left flagged, that particle was held at P = 0 beside the
+    // plate for its first step and sucked its neighbours in (the Re = 4 inlet channel's guard stops).
+    if (outflow_)
+      for (std::size_t i = 0; i < p.size(); ++i)
+        if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !outflow_->contains(p.x[i], p.y[i]))) in_buffer_[i] = 0;
+  }
   times_.predict += lap(t);
 
   // Two lists serve every kernel: one at the largest radius, one at the largest of the small ones.

@@ -29,10 +29,10 @@ import stamp
 D = 0.2
 # (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor, solver of the accuracy
 # run or None for the first of --solvers). Re = 4 takes implicit viscosity: its explicit limit would need ~31,000
-# steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. The 80-across case (~110,000 particles, ~6,000 steps)
-# takes hypre-pcg, which ran 1.4x the particle-steps of IC-CG there.
+# steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. It and the 80-across case (~110,000 particles, ~6,000
+# steps) take hypre-pcg, which ran 1.4x the particle-steps of IC-CG in both.
 CASES = [
-    ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, None),
+    ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6"),
     ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0, None),
     ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0, None),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
     ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0, None),

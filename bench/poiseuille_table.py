@@ -28,34 +28,36 @@ import stamp
 
 D = 0.2
 # (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor, solver of the accuracy
-# run or None for the first of --solvers). Re = 4 takes implicit viscosity: its explicit limit would need ~31,000
+# run or None for the first of --solvers, particle shifting coefficient). Re = 4 takes implicit viscosity: its explicit limit would need ~31,000
 # steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. It and the 80-across case (~110,000 particles, ~6,000
 # steps) take hypre-pcg, which ran 1.4x the particle-steps of IC-CG in both.
 CASES = [
-    ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6"),
-    ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0, None),
-    ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0, None),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
-    ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0, None),
-    ("re400-dx0.0025", 400, 80, 5.9, "explicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6"),
+    ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6", 1.0),
+    ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0, None, 0.0),
+    ("re400-dx0.0055", 400, 36, 12.7, "explicit", 1.0, None, 0.0),  # D / 0.0055 = 36.4: 36 across, dx = 0.00556
+    ("re400-dx0.004", 400, 50, 4.0, "explicit", 1.0, None, 0.0),
+    ("re400-dx0.0025", 400, 80, 5.9, "explicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6", 0.0),
 ]
 
 
-def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, reuse, outlet_buffer, compression):
+def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, reuse, outlet_buffer, compression,
+        shifting):
     if reuse:
         try:
             with open(os.path.join(out, "summary.json")) as f:
                 summary = json.load(f)
             p = summary["parameters"]
             if (p["Re"], p["particles_across"], p.get("viscosity", "explicit"), p["dt_factor"], p["end_time_D_over_U"],
-                    p["solver"].split(":")[0], p.get("outlet_buffer_l0", 0.0), p.get("compression", 0.0)) == (
-                    re, across, viscosity, dt_factor, end_time, solver.split(":")[0], outlet_buffer, compression):
+                    p["solver"].split(":")[0], p.get("outlet_buffer_l0", 0.0), p.get("compression", 0.0),
+                    p.get("shifting", 0.0)) == (re, across, viscosity, dt_factor, end_time, solver.split(":")[0],
+                                                outlet_buffer, compression, shifting):
                 print(f"reusing {out}", flush=True)
                 return summary
         except (OSError, KeyError, ValueError):
             pass
     cmd = [app, "--mode", "inlet", "--re", str(re), "--across", str(across), "--end-time", str(end_time),
            "--dt-factor", str(dt_factor), "--solver", solver, "--outlet-buffer", str(outlet_buffer),
-           "--compression", str(compression), "--frames", "0", "--profiles", "10", "--out", out]
+           "--compression", str(compression), "--shifting", str(shifting), "--frames", "0", "--profiles", "10", "--out", out]
     if viscosity == "implicit":
         cmd.append("--implicit-viscosity")
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
@@ -137,11 +139,11 @@ def main():
         sys.exit(f"unknown case(s) {unknown}; choose from {[c[0] for c in CASES]}")
     solvers = args.solvers.split(",")
     rows = []
-    for name, re, across, paper, viscosity, dt_factor, case_solver in CASES:
+    for name, re, across, paper, viscosity, dt_factor, case_solver, shifting in CASES:
         if name not in wanted:
             continue
         acc = run(args.app, os.path.join(args.runs, name), re, across, viscosity, dt_factor, args.end_time,
-                  case_solver or solvers[0], args.threads, args.reuse, args.outlet_buffer, args.compression)
+                  case_solver or solvers[0], args.threads, args.reuse, args.outlet_buffer, args.compression, shifting)
         stopped = acc.get("status") == "failed"
         nan = float("nan")
         row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
@@ -152,14 +154,14 @@ def main():
                "profile_l2_error_pct": nan if stopped else 100 * acc["profile_l2_error"],
                "flow_rate_error_pct": nan if stopped else 100 * acc["flow_rate_error"],
                "viscosity": viscosity, "dt_factor": dt_factor, "solver": acc["parameters"]["solver"].split(":")[0],
-               "outlet_buffer_l0": args.outlet_buffer, "compression": args.compression}
+               "outlet_buffer_l0": args.outlet_buffer, "compression": args.compression, "shifting": shifting}
         ref = (nan,) * 4 if stopped else against_reference(os.path.join(args.runs, name), args.reference, re)
         row.update({"reference_cells_across": ref[0], "reference_peak_below_parabola_pct": ref[1],
                     "peak_error_vs_reference_pct": ref[2], "max_deviation_from_reference_pct": ref[3]})
         for solver in solvers:
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, viscosity,
                         dt_factor, args.speed_time, solver, args.threads, args.reuse, args.outlet_buffer,
-                        args.compression)
+                        args.compression, shifting)
             row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
         rows.append(row)
         write(rows, args, solvers)  # after every case: a long table keeps what it has if stopped
@@ -181,15 +183,15 @@ def write(rows, args, solvers):
                 f"(bench/channel_reference.py) on the grid named, its station peak below 1.5 U, and our peak against "
                 f"its peak and our profile's largest deviation from it (in 1.5 U), read at the particle rows.\n\n")
         f.write("| case | Re | dx [m] | U t/D reached | outcome | peak error (ours) | peak error (paper) | profile L2 | flow rate | "
-                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | Δt factor | accuracy solver | "
+                + " | ".join(f"{s} particle-steps/s" for s in solvers) + " | viscosity | shifting | Δt factor | accuracy solver | "
                 "reference grid | reference peak below 1.5 U | peak vs reference | max deviation from reference |\n")
-        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|---|---:|---:|---:|---:|\n")
+        f.write("|---|---:|---:|---:|---|---:|---:|---:|---:|" + "---:|" * len(solvers) + "---|---:|---:|---|---:|---:|---:|---:|\n")
         for r in rows:
             f.write(f"| {r['case']} | {r['Re']} | {r['dx_m']:.5f} | {r['end_time_D_over_U']:.2f} | {r['outcome']} | "
                     f"{r['peak_velocity_error_pct']:.2f} % | {r['paper_peak_velocity_error_pct']} % | "
                     f"{r['profile_l2_error_pct']:.2f} % | {r['flow_rate_error_pct']:.2f} % | "
                     + " | ".join(f"{r[s + '_particle_steps_per_s']:.3g}" for s in solvers)
-                    + f" | {r['viscosity']} | {r['dt_factor']} | {r['solver']} | "
+                    + f" | {r['viscosity']} | {r['shifting']:g} | {r['dt_factor']} | {r['solver']} | "
                     f"D/{r['reference_cells_across']:g} | {r['reference_peak_below_parabola_pct']:.2f} % | "
                     f"{r['peak_error_vs_reference_pct']:.2f} % | {r['max_deviation_from_reference_pct']:.2f} % |\n")
     print(f"wrote {args.out}.csv and {args.out}.md", flush=True)

@@ -59,6 +59,7 @@ void Params::validate() const {
   }
   if (!(gamma >= 0.0 && gamma <= 1.0)) fail("gamma must be in [0, 1]");
   if (!(compression >= 0.0 && compression < 1.0)) fail("compression must be in [0, 1)");
+  if (!(shifting >= 0.0 && std::isfinite(shifting))) fail("shifting must be >= 0 (0: off)");
   if (!positive(dt_factor)) fail("dt_factor must be positive");
 }
 
@@ -145,6 +146,7 @@ mps::Simulation make_simulation(const Params& p) {
   // Implicit viscosity leaves the CFL limit alone, and a channel starting at rest sets none: dt_max is then
   // that limit at the developed peak speed 1.5 U.
   c.implicit_viscosity = p.implicit_viscosity;
+  c.shifting = p.shifting;
   if (p.implicit_viscosity) c.dt_max = p.dt_factor * c.cfl * l0 / (1.5 * p.U());
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;

@@ -40,6 +40,7 @@ struct Params {
   // follows Morris et al.'s (1997) criterion c^2 = max(u_max^2, dP/rho) / compression, u_max = 1.5 U and dP the
   // Poiseuille drop along the channel (SimulationConfig::sound_speed).
   double compression = 1e-4;
+  double shifting = 0;  // particle shifting coefficient (SimulationConfig::shifting; 0: off)
   [[nodiscard]] double sound_speed() const;
   std::string solver = "eigen-cg";
   bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)

@@ -31,7 +31,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
           {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
           {"viscosity", c.implicit_viscosity ? "implicit" : "explicit"},
           {"outlet_buffer_l0", p.outlet_buffer_l0}, {"compression", p.compression},
-          {"sound_speed_m_per_s", c.sound_speed},
+          {"sound_speed_m_per_s", c.sound_speed}, {"shifting", c.shifting},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
                         {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
@@ -74,6 +74,9 @@ int main(int argc, char** argv) {
   app.add_option("--compression", p.compression, "density variation allowed to an artificial compressibility, "
                  "whose sound speed follows Morris et al. (1997) from 1.5 U and the Poiseuille drop (0: incompressible)")
       ->capture_default_str()->check(CLI::Range(0.0, 0.5));
+  app.add_option("--shifting", p.shifting, "particle shifting coefficient A: fluid moves down the particle "
+                 "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);

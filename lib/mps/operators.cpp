@@ -200,4 +200,47 @@ GradientMatrices gradient_matrices(const Stencil& s) {
           pair_matrix(s, true, [scale](double, double dy, double r2, double w) { return scale * dy * w / r2; })};
 }
 
+double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
+                       Particles& particles) {
+  if (&s.particles != &particles) throw std::invalid_argument("shift_particles: the stencil must see the particles moved");
+  if (!(diffusion >= 0.0) || !(max_shift >= 0.0)) throw std::invalid_argument("shift_particles: need diffusion, max_shift >= 0");
+  const Index n = count(s);
+  check_size(movable.size(), static_cast<std::size_t>(n), "movable");
+  const auto size = static_cast<std::size_t>(n);
+  std::vector<double> dx(size, 0.0), dy(size, 0.0);
+  const double scale = diffusion * 2.0 / s.kernel.n0;  // d = 2
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (!movable[i]) continue;
+    double gx = 0.0, gy = 0.0;
+    for_each_pair(s, i, [&](std::size_t, double rx, double ry, double r2, double w) {
+      gx += rx / r2 * w;
+      gy += ry / r2 * w;
+    });
+    double sx = -scale * gx, sy = -scale * gy;
+    const double length = std::hypot(sx, sy);
+    if (length > max_shift) {
+      sx *= max_shift / length;
+      sy *= max_shift / length;
+    }
+    dx[i] = sx;
+    dy[i] = sy;
+  }
+  std::vector<double> ux(size), uy(size), vx(size), vy(size);
+  gradient(s, particles.u, ux, uy, GradientVariant::corrected);
+  gradient(s, particles.v, vx, vy, GradientVariant::corrected);
+  double largest = 0.0;
+  for (std::size_t i = 0; i < size; ++i) {
+    if (!movable[i]) continue;
+    particles.u[i] += dx[i] * ux[i] + dy[i] * uy[i];
+    particles.v[i] += dx[i] * vx[i] + dy[i] * vy[i];
+    particles.x[i] += dx[i];
+    particles.y[i] += dy[i];
+    s.domain.wrap(particles.x[i], particles.y[i]);
+    largest = std::max(largest, std::hypot(dx[i], dy[i]));
+  }
+  return largest;
+}
+
 }  // namespace mps

@@ -64,4 +64,13 @@ struct GradientMatrices {
 };
 GradientMatrices gradient_matrices(const Stencil& s);
 
+// Particle shifting (after Lind et al. 2012, in MPS form): particle i moves down the gradient of the particle
+// concentration, dr_i = -diffusion (d/n0) sum_j r_ij/|r_ij|^2 w_ij, capped at max_shift, which evens out a lattice
+// that the flow has drawn apart or bunched up; its velocity is carried to the new position by the first-order
+// Taylor term, u_i += dr_i . grad u_i (corrected gradient: exact for linear fields), so a smooth flow is not
+// diffused by the move. Every neighbour counts towards the concentration (walls and dummies keep fluid off the
+// wall); only particles with movable[i] != 0 move. Returns the largest shift.
+double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
+                       Particles& particles);
+
 }  // namespace mps

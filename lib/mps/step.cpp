@@ -46,6 +46,7 @@ void SimulationConfig::validate() const {
   require(positive(dt_max), "time step dt_max must be positive, got " + fmt(dt_max));
   require(positive(cfl), "cfl must be positive, got " + fmt(cfl));
   require(positive(viscous_number), "viscous_number must be positive, got " + fmt(viscous_number));
+  require(shifting >= 0.0 && std::isfinite(shifting), "shifting must be >= 0 (0: off), got " + fmt(shifting));
   require(reorder_every >= 0, "reorder_every must be >= 0");
   require(positive(max_displacement), "max_displacement must be positive (in l0)");
   require(max_speed > 0.0, "max_speed must be positive");
@@ -439,6 +440,23 @@ void Simulation::advance() {
   double umax2 = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
+  if (config_.shifting > 0.0) {
+    // A particle at or beside a free surface would be pushed out through it, towards the missing neighbours.
+    const NeighborList& close = list_for(k_gradient_);
+    std::vector<char> movable(p.size(), 0);
+#pragma omp parallel for schedule(static)
+    for (Index ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      if (p.kind[i] != Kind::fluid || in_buffer_[i] || surface[i]) continue;
+      const auto near = close.of(i);
+      movable[i] = std::none_of(near.begin(), near.end(), [&](int j) { return surface[static_cast<std::size_t>(j)] != 0; });
+    }
+    const double diffusion = config_.shifting * config_.l0 * std::sqrt(umax2) * dt;
+    shift_particles(grad, diffusion, 0.2 * config_.l0, movable, p);
+    umax2 = 0.0;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
+  }
   info_.max_speed = std::sqrt(umax2);
   info_.time += dt;
   ++info_.step;

@@ -74,6 +74,11 @@ struct SimulationConfig {
   // (README, "Poiseuille"). Choose c so that the flow's pressures compress the liquid little, e.g. by Morris et
   // al.'s (1997) c^2 = max(u^2, dP/rho)/delta for a density variation delta.
   double sound_speed = 0;
+  // Particle shifting coefficient A (0: off): after each step, fluid away from free surfaces and the outflow buffer
+  // moves down the particle concentration gradient (shift_particles) with the diffusion A l0 |u|max dt (Lind et al.
+  // 2012), at most 0.2 l0 per step. For flows that draw the lattice apart over many steps: the Re = 4 inlet
+  // channel's entrance region (README, "Poiseuille").
+  double shifting = 0;
   bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0

@@ -35,7 +35,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim
           {"boundary_particles", s.count(mps::Kind::wall) + s.count(mps::Kind::dummy)},
           {"gamma", p.gamma}, {"gradient", p.gradient == mps::GradientVariant::min_reference ? "min-reference"
                                                                                               : "corrected-min-reference"},
-          {"reference_number_density", p.initial_reference ? "initial packing" : "lattice n0"}, {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+          {"reference_number_density", p.initial_reference ? "initial packing" : "lattice n0"}, {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor}, {"shifting", p.shifting},
           {"sample_times_s", times}, {"average_fraction", average},
           {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient}, {"laplacian", c.radius_laplacian}}},
           {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
@@ -214,6 +214,9 @@ int main(int argc, char** argv) {
                "of the initial packing (each wall particle's own, the fluid's mean)");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--shifting", p.shifting, "particle shifting coefficient A: fluid moves down the particle "
+                 "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")

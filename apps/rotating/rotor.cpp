@@ -47,6 +47,7 @@ void Params::validate() const {
   if (!positive(rho) || !positive(nu)) fail("rho and nu must be positive");
   if (!(gamma >= 0.0 && gamma <= 1.0)) fail("gamma must be in [0, 1], got " + std::to_string(gamma));
   if (!positive(dt_factor)) fail("dt_factor must be positive");
+  if (!(shifting >= 0.0 && std::isfinite(shifting))) fail("shifting must be >= 0 (0: off)");
 }
 
 double couette_exact(const Params& p, double r) {
@@ -109,6 +110,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
   c.warm_start = p.warm_start;
+  c.shifting = p.shifting;
   mps::Particles particles = make_particles(p);
   std::vector<mps::RigidMotion> motions;
   // Mirror circles: the wall velocity as a rotation about the origin (inner, outer).

@@ -50,6 +50,7 @@ struct Params {
   bool initial_reference = true;  // the density source against the packing at t = 0, not the lattice n0
   std::string solver = "eigen-cg";
   bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)
+  double shifting = 0;     // particle shifting coefficient (SimulationConfig::shifting; 0: off)
 
   [[nodiscard]] double l0() const { return (R2 - R1) / across; }
   // Velocity scale: the wall speed, omega R1 (couette) or omega R2 (channel: the barrel relative to it).

@@ -24,6 +24,12 @@ inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
                       "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)");
 }
 
+inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {
+  return app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the particle "
+                        "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+}
+
 inline CLI::Option* add_solver_options(CLI::App& app, std::string& spec) {
   add_list_solvers_flag(app);
   return app.add_option("--solver", spec, "linear solver spec name[:key=value,...] (see --list-solvers)")

@@ -74,9 +74,7 @@ int main(int argc, char** argv) {
   app.add_option("--compression", p.compression, "density variation allowed to an artificial compressibility, "
                  "whose sound speed follows Morris et al. (1997) from 1.5 U and the Poiseuille drop (0: incompressible)")
       ->capture_default_str()->check(CLI::Range(0.0, 0.5));
-  app.add_option("--shifting", p.shifting, "particle shifting coefficient A: fluid moves down the particle "
-                 "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  add_shifting_option(app, p.shifting);
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);

@@ -214,9 +214,7 @@ int main(int argc, char** argv) {
                "of the initial packing (each wall particle's own, the fluid's mean)");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--shifting", p.shifting, "particle shifting coefficient A: fluid moves down the particle "
-                 "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")

@@ -145,6 +145,7 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
   if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
     throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  const std::size_t expected_pairs = list.index.size(), expected_inner = inner ? inner->index.size() : 0;
   list.radius = radius;
   list.offsets.assign(particles.size() + 1, 0);
   if (inner) inner->offsets.assign(particles.size() + 1, 0);
@@ -152,9 +153,12 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
   const double r2 = radius * radius, inner_r2 = inner ? inner->radius * inner->radius : 0.0;
 
   // One pass: each thread fills its own contiguous share of the rows into a buffer, then copies it to its
-  // place once the counts are known; the lists do not depend on how many threads there are. The loops are
-  // branch-free over contiguous runs of cell-ordered coordinates: every candidate is written and the count
-  // of kept ones advanced, with no branch to mispredict.
+  // place once the counts are known; the lists do not depend on how many threads there are. The first share
+  // starts at 0, so the first thread writes straight into the list, whose memory a time loop keeps from step to
+  // step: a lone thread copies nothing and, after the first step, allocates nothing (a fresh buffer growing to
+  // the 64 MB of a 3e5-particle list cost copies and page faults every step). The loops are branch-free over
+  // contiguous runs of cell-ordered coordinates: every candidate is written and the count of kept ones
+  // advanced, with no branch to mispredict.
   auto scan = [&](std::ptrdiff_t i, auto&& run_kernel) {
     const auto si = static_cast<std::size_t>(i);
     double x = particles.x[si], y = particles.y[si];
@@ -171,7 +175,16 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
     const std::ptrdiff_t threads = 1, thread = 0;
 #endif
     const std::ptrdiff_t first_row = n * thread / threads, end_row = n * (thread + 1) / threads;
-    std::vector<int> rows, inner_rows, row, inner_row;
+    std::vector<int> own_rows, own_inner_rows, row, inner_row;
+    std::vector<int>& rows = thread == 0 ? list.index : own_rows;
+    std::vector<int>& inner_rows = thread == 0 && inner ? inner->index : own_inner_rows;
+    if (thread == 0) {
+      rows.clear();
+      inner_rows.clear();
+    } else {  // about the previous list's share, read before any thread writes it
+      rows.reserve(expected_pairs / static_cast<std::size_t>(threads) + expected_pairs / 32);
+      inner_rows.reserve(expected_inner / static_cast<std::size_t>(threads) + expected_inner / 32);
+    }
     for (std::ptrdiff_t i = first_row; i < end_row; ++i) {
       if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
       std::size_t kept = 0, inner_kept = 0;
@@ -200,6 +213,7 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
 #pragma omp barrier
 #pragma omp single
     {
+      // resize keeps the first thread's share, already in place
       for (std::size_t i = 1; i < list.offsets.size(); ++i) list.offsets[i] += list.offsets[i - 1];
       list.index.resize(static_cast<std::size_t>(list.offsets.back()));
       if (inner) {
@@ -207,10 +221,12 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
         inner->index.resize(static_cast<std::size_t>(inner->offsets.back()));
       }
     }  // implicit barrier
-    std::copy(rows.begin(), rows.end(), list.index.begin() + list.offsets[static_cast<std::size_t>(first_row)]);
-    if (inner)
-      std::copy(inner_rows.begin(), inner_rows.end(),
-                inner->index.begin() + inner->offsets[static_cast<std::size_t>(first_row)]);
+    if (thread > 0) {
+      std::copy(rows.begin(), rows.end(), list.index.begin() + list.offsets[static_cast<std::size_t>(first_row)]);
+      if (inner)
+        std::copy(inner_rows.begin(), inner_rows.end(),
+                  inner->index.begin() + inner->offsets[static_cast<std::size_t>(first_row)]);
+    }
   }
 }
 

@@ -192,18 +192,18 @@ double Simulation::choose_dt(std::string& limit) const {
 }
 
 const StepInfo& Simulation::step() {
-  const Particles before = particles_;
+  before_step_ = particles_;
   const StepInfo info_before = info_;
   try {
     advance();
     check_guard();
   } catch (const SolverError& e) {
-    particles_ = before;
+    particles_ = before_step_;
     info_ = info_before;
     throw SimulationError("step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
                           " s): pressure solve failed: " + e.what());
   } catch (const SimulationError&) {
-    particles_ = before;
+    particles_ = before_step_;
     info_ = info_before;
     throw;
   }
@@ -318,10 +318,10 @@ void Simulation::advance() {
   }
   std::vector<double> source = mixed_source(n_reference_.empty() ? n_star_ : n_against_reference, k_density_.n0, div,
                                             config_.rho, dt, config_.gamma);
-  {
+  if (std::find(surface.begin(), surface.end(), 1) != surface.end()) {
     // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
     // expansion: read as such it asks for suction that grows as 1/dt^2. There the divergence term alone
-    // (gamma = 0) drives the PPE.
+    // (gamma = 0) drives the PPE. (Without a surface the scan over every pair is skipped.)
     const NeighborList& reach = list_for(k_density_);
 #pragma omp parallel for schedule(static)
     for (Index ii = 0; ii < n; ++ii) {

@@ -171,6 +171,7 @@ class Simulation {
   PhaseTimes times_;
   // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.
   NeighborList near_now_, near_star_, close_star_;
+  Particles before_step_;  // the state a failed step rolls back to
   std::vector<double> n_star_;
   std::vector<double> n_reference_;  // by particle id, with initial_reference_density
   PpeSystem ppe_;

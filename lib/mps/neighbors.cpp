@@ -120,6 +120,11 @@ namespace {
 // cell order a row is nearly sorted and insertion sort finishes it in about one pass; a row far from sorted
 // (particles never reordered) is handed to std::sort instead of costing count^2 moves.
 void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<int>& out) {
+  const auto last = row.begin() + static_cast<std::ptrdiff_t>(count);
+  if (std::is_sorted(row.begin(), last)) {  // the common case right after a reordering: one copy
+    out.insert(out.end(), row.begin(), last);
+    return;
+  }
   const std::size_t start = out.size();
   std::size_t moves = 0;
   for (std::size_t a = 0; a < count; ++a) {

@@ -29,8 +29,8 @@ import stamp
 D = 0.2
 # (name, Re, particles across, the paper's peak-velocity error in %, viscosity, dt factor, solver of the accuracy
 # run or None for the first of --solvers, particle shifting coefficient). Re = 4 takes implicit viscosity: its explicit limit would need ~31,000
-# steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. It and the 80-across case (~110,000 particles, ~6,000
-# steps) take hypre-pcg, which ran 1.4x the particle-steps of IC-CG in both.
+# steps for 10 D/U at dx = 0.004 m, against ~3,750 for CFL. It and the 80-across case (~110,000 particles, ~5,300
+# steps) take hypre-pcg, which ran 1.14x and 1.05x the particle-steps of IC-CG in their timing runs (2026-11-24).
 CASES = [
     ("re4-dx0.004", 4, 50, 2.6, "implicit", 1.0, "hypre-pcg:reuse=10,tol=1e-6", 1.0),
     ("re40-dx0.004", 40, 50, 2.1, "explicit", 1.0, None, 0.0),

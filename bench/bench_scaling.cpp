@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
   app.add_option("--solvers", solvers, "semicolon-separated solver specs, each run warm-started")
       ->delimiter(';')
       ->capture_default_str();
-  app.add_option("--cold", cold, "semicolon-separated solver specs also run from a zero initial guess each step")
+  app.add_option("--cold", cold, "semicolon-separated solver specs also run from a zero initial guess each step ('' for none)")
       ->delimiter(';')
       ->capture_default_str();
   app.add_option("--warmup", warmup, "steps run before timing")->capture_default_str()->check(CLI::NonNegativeNumber);
@@ -88,7 +88,8 @@ int main(int argc, char** argv) {
 
   std::vector<std::pair<std::string, bool>> runs;
   for (const std::string& s : solvers) runs.emplace_back(s, true);
-  for (const std::string& s : cold) runs.emplace_back(s, false);
+  for (const std::string& s : cold)
+    if (!s.empty()) runs.emplace_back(s, false);
   std::ofstream csv(out);
   if (!csv) {
     std::cerr << "error: cannot write " << out << "\n";

@@ -401,7 +401,7 @@ class HypreSolver final : public LinearSolver {
   // On one rank the matrix is copied straight into a ParCSR matrix kept from solve to solve. Through the IJ
   // interface every step allocated, zeroed and filled a fresh matrix entry by entry, then reordered it: 0.06 s of a
   // 1 s time step at 3e5 unknowns. hypre's smoothers take each row's first entry as its diagonal, so it is moved to
-  // the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way, which reports it.
+  // the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way as before.
   bool upload_one_rank(const CsrMatrix& a, ParSystem& sys) {
     const HYPRE_Int n = a.rows;
     const auto nnz = static_cast<HYPRE_Int>(a.row_ptr.back());

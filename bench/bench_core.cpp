@@ -112,8 +112,11 @@ int main(int argc, char** argv) {
   mps::write_csv(out, {"particles", "phase_index", "seconds", "ns_per_particle"}, {col_n, col_phase, col_seconds, col_ns});
   std::printf("\nphase index: ");
   for (std::size_t k = 0; k < phases.size(); ++k) std::printf("%zu=%s ", k, phases[k].c_str());
-  std::printf("\nfitted slope of log(time) against log(N) (1 = linear):\n");
-  for (const auto& ph : phases) std::printf("  %-16s %.3f\n", ph.c_str(), fitted_slope(counts, times[ph]));
+  std::printf("\n");
+  if (counts.size() >= 2) {  // one size has no slope
+    std::printf("fitted slope of log(time) against log(N) (1 = linear):\n");
+    for (const auto& ph : phases) std::printf("  %-16s %.3f\n", ph.c_str(), fitted_slope(counts, times[ph]));
+  }
   std::printf("CSV: %s\n", out.c_str());
   return 0;
 }

@@ -405,16 +405,6 @@ class HypreSolver final : public LinearSolver {
   bool upload_one_rank(const CsrMatrix& a, ParSystem& sys) {
     const HYPRE_Int n = a.rows;
     const auto nnz = static_cast<HYPRE_Int>(a.row_ptr.back());
-    std::vector<int>& diagonal = diagonal_slot_;
-    diagonal.assign(static_cast<std::size_t>(n), -1);
-    for (HYPRE_Int r = 0; r < n; ++r)
-      for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
-        const int c = a.col[static_cast<std::size_t>(k)];
-        if (c < 0 || c >= n) return false;
-        if (c == r) diagonal[static_cast<std::size_t>(r)] = k;
-      }
-    if (std::find(diagonal.begin(), diagonal.end(), -1) != diagonal.end()) return false;
-
     if (kept_ == nullptr || kept_rows_ != n || kept_capacity_ < nnz) {
       if (kept_ != nullptr) hypre_ParCSRMatrixDestroy(kept_);
       HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
@@ -428,16 +418,24 @@ class HypreSolver final : public LinearSolver {
     HYPRE_Int* row_start = hypre_CSRMatrixI(diag);
     HYPRE_Int* column = hypre_CSRMatrixJ(diag);
     HYPRE_Complex* value = hypre_CSRMatrixData(diag);
-    std::copy(a.row_ptr.begin(), a.row_ptr.end(), row_start);
-    std::copy(a.col.begin(), a.col.end(), column);
-    std::copy(a.val.begin(), a.val.end(), value);
-    // The diagonal swaps places with the row's first entry, as the IJ assembly does: the same order, the same
-    // smoothing sweeps and the same numbers as before this path existed.
+    // One pass copies, checks the columns and finds each diagonal, which then swaps places with the row's first
+    // entry, as the IJ assembly does: the same order, the same smoothing sweeps, the same numbers as through IJ.
     for (HYPRE_Int r = 0; r < n; ++r) {
-      const HYPRE_Int first = row_start[r], d = diagonal[static_cast<std::size_t>(r)];
+      const int first = a.row_ptr[static_cast<std::size_t>(r)], end = a.row_ptr[static_cast<std::size_t>(r) + 1];
+      row_start[r] = first;
+      int d = -1;
+      for (int k = first; k < end; ++k) {
+        const int c = a.col[static_cast<std::size_t>(k)];
+        if (c < 0 || c >= n) return false;
+        if (c == r) d = k;
+        column[k] = c;
+        value[k] = a.val[static_cast<std::size_t>(k)];
+      }
+      if (d < 0) return false;
       std::swap(column[first], column[d]);
       std::swap(value[first], value[d]);
     }
+    row_start[n] = nnz;
     hypre_CSRMatrixNumNonzeros(diag) = nnz;
     hypre_ParCSRMatrixSetNumNonzeros(kept_);
     hypre_ParCSRMatrixSetDNumNonzeros(kept_);
@@ -566,7 +564,6 @@ class HypreSolver final : public LinearSolver {
   std::vector<HYPRE_BigInt> rows_;  // this rank's global row numbers
   hypre_ParCSRMatrix* kept_ = nullptr;  // the one-rank upload's matrix, refilled in place while it fits
   HYPRE_Int kept_rows_ = -1, kept_capacity_ = 0;
-  std::vector<int> diagonal_slot_;
   HYPRE_Solver amg_ = nullptr;      // the kept hierarchy
   HYPRE_Int setup_local_rows_ = -1;
   int reuses_ = 0;             // solves that reused amg_ since its setup

@@ -218,6 +218,26 @@ TEST(RotatingChannel, ViscousStepPastItsLimitIsStoppedByTheGuard) {
   }
 }
 
+// r span / l0 is a half-integer on the barrel's wall ring: rounded from two differently computed radii, the layout
+// gave 48 particles and the sampler 49 bins at 24 across, the bin at phi = 0 empty and the others off their particles.
+TEST(RotatingScene, BarrelSamplerHasOneBinPerBarrelParticle) {
+  for (double across : {16.0, 24.0, 49.0}) {
+    rotating::Params p;
+    p.across = across;
+    const mps::Simulation sim = rotating::make_simulation(p);
+    rotating::LineSampler barrel(p, Line::barrel);
+    barrel.add(sim);
+    const rotating::Curve c = barrel.result();
+    int over_opening = 0;
+    for (std::size_t k = 0; k < c.axis.size(); ++k)
+      if (std::abs(c.axis[k]) < 0.5 * p.span) {
+        EXPECT_EQ(c.count[k], 1) << across << " across, bin at phi = " << c.axis[k];
+        ++over_opening;
+      }
+    EXPECT_GE(over_opening, 2 * static_cast<int>(across)) << across << " across";
+  }
+}
+
 TEST(RotatingScene, BadInputNamesTheParameter) {
   rotating::Params p;
   p.across = 2;

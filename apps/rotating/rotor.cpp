@@ -30,6 +30,12 @@ std::string to_string(Model model) { return model == Model::moving ? "moving" : 
 namespace {
 constexpr int kLayers = 5;  // one wall layer and four dummy layers: the 4.1 l0 Laplacian's reach
 constexpr double kCentre = std::numbers::pi / 2;  // the channel's centre line at t = 0, in lab angle
+
+// Ring k lies at R1 + (k + 1/2) l0; k < 0 the inner wall, k >= across the outer.
+double ring_radius(const Params& p, int k) { return p.R1 + (k + 0.5) * p.l0(); }
+// Particles a ring of the channel holds over the opening. r span / l0 is a half-integer on the barrel's wall ring,
+// so the layout and every sampler of that ring must round the same radius, computed the same way.
+int ring_count(const Params& p, double r) { return std::max(1, static_cast<int>(std::lround(r * p.span / p.l0()))); }
 }  // namespace
 
 void Params::validate() const {
@@ -64,7 +70,7 @@ mps::Particles make_particles(const Params& p) {
   // Ring k at R1 + (k + 1/2) l0; k < 0 the inner wall, k >= rings the outer. Layer 1 is the wall layer.
   const auto ring_kind = [&](int layer) { return layer == 0 ? mps::Kind::fluid : layer == 1 ? mps::Kind::wall : mps::Kind::dummy; };
   for (int k = -kLayers; k < rings + kLayers; ++k) {
-    const double r = p.R1 + (k + 0.5) * l0;
+    const double r = ring_radius(p, k);
     const int layer_r = k < 0 ? -k : k >= rings ? k - rings + 1 : 0;
     if (p.scene == Scene::couette) {
       mps::fill_annular_sector(s, r - 0.5 * l0, r + 0.5 * l0, 0.0, 2.0 * std::numbers::pi, l0, ring_kind(layer_r),
@@ -76,7 +82,7 @@ mps::Particles make_particles(const Params& p) {
     // larger of the radial and the angular count (so the corners are filled); the corner blocks beyond the
     // barrel are barrel, those below the bottom are channel.
     const double theta0 = kCentre - 0.5 * p.span;
-    const int m = std::max(1, static_cast<int>(std::lround(r * p.span / l0)));
+    const int m = ring_count(p, r);
     const double dq = p.span / m;
     for (int q = -kLayers; q < m + kLayers; ++q) {
       const int layer_q = q < 0 ? -q : q >= m ? q - m + 1 : 0;
@@ -168,8 +174,8 @@ LineSampler::LineSampler(const Params& p, Line line) : p_(p), line_(line) {
     sum_.assign(static_cast<std::size_t>(std::lround(p.across)), 0.0);
   } else {
     // Arc bins one ring spacing wide, on the arc's radius (arc 2) or on the barrel's wall ring.
-    const double r = line == Line::arc2 ? 0.5 * (p.R1 + p.R2) : p.R2 + 0.5 * l0;
-    const int m = std::max(1, static_cast<int>(std::lround(r * p.span / l0)));
+    const double r = line == Line::arc2 ? 0.5 * (p.R1 + p.R2) : ring_radius(p, static_cast<int>(std::lround(p.across)));
+    const int m = ring_count(p, r);
     width_ = p.span / m;
     const int extra = line == Line::barrel ? kLayers : 0;  // the barrel's wall ring reaches over the flights
     lo_ = -0.5 * p.span - extra * width_;

@@ -106,9 +106,11 @@ rotating: deps build/release/CMakeCache.txt
 	  --average 0.5 --out runs/rotating/channel || [ $$? -eq 2 ]
 	/usr/bin/python3 apps/rotating/plot_rotating.py couette bench/results/rotating_couette.png runs/rotating/couette
 	/usr/bin/python3 apps/rotating/plot_rotating.py channel bench/results/rotating_channel.png \
+	  --reference bench/results/rotating_reference.csv \
 	  runs/rotating/channel/moving runs/rotating/channel/fixed
 
-# Barrel pressure at the corners for gamma in {0, 0.01, 0.5, 0.99, 1}, with and without the corrective matrix.
+# Barrel pressure at the corners for gamma in {0, 0.01, 0.05, 0.5, 0.99, 1}, with and without the corrective matrix
+# and particle shifting (24 runs, ~5 min).
 bench-rotating: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target rotating
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/rotating_corners.py --app build/release/apps/rotating/rotating \

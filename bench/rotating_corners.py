@@ -1,6 +1,7 @@
 """Corner study for seed 000's screw channel: barrel-wall pressure near the two corners where barrel meets
-flights, for each gamma of the mixed PPE source and each pressure gradient (the corrective matrix is the
-correction on offer). Runs the rotating app once per setting, then writes a CSV and a PNG chart.
+flights, for each gamma of the mixed PPE source, each pressure gradient and with and without particle shifting
+(the corrective matrix and shifting are the corrections on offer). Runs the rotating app once per setting, then
+writes a CSV and a PNG chart.
 
 usage: /usr/bin/python3 bench/rotating_corners.py --app build/release/apps/rotating/rotating
            [--across 24] [--model moving] [--time 0.5] --out bench/results/rotating_corners.csv
@@ -12,6 +13,7 @@ half of the run):
   sign_changes     sign changes of the second difference of p over |phi| <= 0.4 (away from the corners);
   corner_low/high  p at the barrel wall particle nearest the upstream (phi < 0) and downstream corner, just
                    inside the opening;
+  odd_defect       max |p(phi) + p(-phi)| over |phi| <= 0.4 divided by the range (the symmetry test's 10 %);
   status           ran, or the guard's stop.
 """
 import argparse
@@ -26,8 +28,15 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-GAMMAS = [0.0, 0.01, 0.5, 0.99, 1.0]
-GRADIENTS = ["min-reference", "corrected-min-reference"]
+GAMMAS = [0.0, 0.01, 0.05, 0.5, 0.99, 1.0]
+# (gradient, shifting coefficient A); the scene's default is the last.
+SETTINGS = [("min-reference", 0.0), ("corrected-min-reference", 0.0), ("min-reference", 1.0),
+            ("corrected-min-reference", 1.0)]
+
+
+def label(grad, shift):
+    gradient = "min-reference" if grad == "min-reference" else "corrective matrix"
+    return gradient + (f" + shifting {shift:g}" if shift else "")
 
 
 def measures(path, limit=0.4):
@@ -55,58 +64,71 @@ def main():
     a = ap.parse_args()
     env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
     rows, curves = [], {}
-    for grad in GRADIENTS:
+    for grad, shift in SETTINGS:
         for g in GAMMAS:
-            run = os.path.join(a.runs, f"{grad}_g{g}")
+            run = os.path.join(a.runs, f"{grad}_s{shift:g}_g{g}")
             cmd = [a.app, "--scene", "channel", "--model", a.model, "--across", str(a.across), "--gamma", str(g),
-                   "--gradient", grad, "--times", str(a.time), "--average", "0.5", "--frames", "0", "--out", run]
+                   "--gradient", grad, "--shifting", str(shift), "--times", str(a.time), "--average", "0.5",
+                   "--frames", "0", "--out", run]
             print(" ".join(cmd), flush=True)
             proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
             with open(os.path.join(run, "summary.json")) as f:
                 summary = json.load(f)
-            row = {"gradient": grad, "gamma": g, "across": a.across, "model": a.model, "time_s": summary["time_s"],
-                   "steps": summary["steps"]}
+            row = {"gradient": grad, "shifting": shift, "gamma": g, "across": a.across, "model": a.model,
+                   "time_s": summary["time_s"], "steps": summary["steps"]}
             if proc.returncode == 1:
                 row.update(status="stopped: " + summary.get("error", "")[:160].replace(",", ";"))
             else:
                 m, data = measures(os.path.join(run, "barrel_pressure.csv"))
                 row.update(status="ran", **m)
+                row["odd_defect"] = summary["checks"]["barrel_pressure_odd_defect_over_range"]
                 row["arc2_odd_defect"] = summary["checks"]["arc2_odd_defect"]
                 row["seconds"] = summary["timings"]["total_s"]
-                curves[(grad, g)] = data
-            print("  ", {k: row[k] for k in row if k not in ("gradient", "model")}, flush=True)
+                curves[(grad, shift, g)] = data
+            print("  ", {k: row[k] for k in row if k not in ("gradient", "shifting", "model")}, flush=True)
             rows.append(row)
-    keys = ["gradient", "gamma", "across", "model", "status", "time_s", "steps", "range", "tv_over_range",
-            "sign_changes", "second_differences", "corner_low", "corner_high", "arc2_odd_defect", "seconds"]
+    keys = ["gradient", "shifting", "gamma", "across", "model", "status", "time_s", "steps", "range", "tv_over_range",
+            "sign_changes", "second_differences", "odd_defect", "corner_low", "corner_high", "arc2_odd_defect", "seconds"]
     os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
     with open(a.out, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-    fig, (ac, ab) = plt.subplots(1, 2, figsize=(11, 3.8))
-    for (grad, g), data in curves.items():
-        ac.plot([d[0] for d in data if abs(d[0]) < 0.5], [d[1] for d in data if abs(d[0]) < 0.5],
-                "-" if grad == "min-reference" else "--", lw=0.9,
-                label=f"gamma {g}" + (" + corrective matrix" if grad != "min-reference" else ""))
+    fig, (ac, ab, ao) = plt.subplots(1, 3, figsize=(15, 4.2))
+    styles = {SETTINGS[0]: "-", SETTINGS[1]: "--", SETTINGS[2]: ":", SETTINGS[3]: "-"}
+    for (grad, shift, g), data in curves.items():
+        if g not in (0.01, 1.0):  # the curves of the other gammas lie between
+            continue
+        inside = [d for d in data if abs(d[0]) < 0.5]
+        ac.plot([d[0] for d in inside], [d[1] for d in inside], styles[(grad, shift)],
+                lw=1.6 if (grad, shift) == SETTINGS[-1] else 0.8, label=f"gamma {g}, {label(grad, shift)}")
     ac.set_xlabel("phi [rad] (barrel inner wall; flights at +-0.5)")
     ac.set_ylabel("p - mean over |phi| <= 0.4")
-    ac.legend(fontsize=6, ncol=2)
-    width = 0.38
-    for i, grad in enumerate(GRADIENTS):
-        xs, tv, sc, labels = [], [], [], []
+    ac.set_ylim(-80, 80)
+    ac.legend(fontsize=6)
+    width = 0.8 / len(SETTINGS)
+    for i, setting in enumerate(SETTINGS):
+        xs, tv, odd, labels = [], [], [], []
         for k, g in enumerate(GAMMAS):
-            r = next(r for r in rows if r["gradient"] == grad and r["gamma"] == g)
-            xs.append(k + (i - 0.5) * width)
-            tv.append(r.get("tv_over_range", float("nan")) if r["status"] == "ran" else 0)
-            sc.append(r.get("sign_changes", 0))
-            labels.append("stopped" if r["status"] != "ran" else f"{sc[-1]}")
-        bars = ab.bar(xs, tv, width, label=("" if grad == "min-reference" else "corrective matrix, ") + "TV / range")
+            r = next(r for r in rows if (r["gradient"], r["shifting"]) == setting and r["gamma"] == g)
+            xs.append(k + (i - 0.5 * (len(SETTINGS) - 1)) * width)
+            ran = r["status"] == "ran"
+            tv.append(r["tv_over_range"] if ran else 0)
+            odd.append(r["odd_defect"] if ran else float("nan"))
+            labels.append(f"{r['sign_changes']}" if ran else "x")
+        bars = ab.bar(xs, tv, width, label=label(*setting))
         for b, t in zip(bars, labels):
-            ab.annotate(t, (b.get_x() + b.get_width() / 2, b.get_height()), ha="center", va="bottom", fontsize=6)
-    ab.set_xticks(range(len(GAMMAS)), [str(g) for g in GAMMAS])
-    ab.set_xlabel("gamma (numbers on bars: sign changes of the 2nd difference, |phi| <= 0.4)")
+            ab.annotate(t, (b.get_x() + b.get_width() / 2, b.get_height()), ha="center", va="bottom", fontsize=5)
+        ao.bar(xs, odd, width, label=label(*setting))
+    for ax in (ab, ao):
+        ax.set_xticks(range(len(GAMMAS)), [str(g) for g in GAMMAS])
+        ax.legend(fontsize=6)
+    ab.set_xlabel("gamma (on bars: sign changes of the 2nd difference; x: stopped by the guard)")
     ab.set_ylabel("total variation / range, |phi| <= 0.4 (1: monotone)")
-    ab.legend(fontsize=7)
+    ao.axhline(0.1, color="k", lw=0.6)
+    ao.set_yscale("log")
+    ao.set_xlabel("gamma (missing bar: stopped by the guard)")
+    ao.set_ylabel("odd defect / range, |phi| <= 0.4 (test: <= 0.1)")
     fig.suptitle(f"Barrel pressure near the corners, {a.model} model, {a.across} across, t = {a.time} s", fontsize=9)
     fig.tight_layout()
     png = os.path.splitext(a.out)[0] + ".png"

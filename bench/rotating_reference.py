@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 # Reference for the rotating channel's barrel pressure symmetry (seed 000): a finite-difference solution on a polar
-# grid, Stokes and Re = omega R2 (R2 - R1)/nu = 2. Usage: python3 bench/rotating_reference.py [N]
+# grid, Stokes and Re = omega R2 (R2 - R1)/nu = 2. Usage: /usr/bin/python3 bench/rotating_reference.py [N] [--csv PATH]
+# (needs python3-scipy). --csv writes the Re = 2 barrel pressure less its mean over |theta| <= 0.4, the curve
+# apps/rotating/plot_rotating.py draws as the reference (bench/results/rotating_reference.csv: N = 96).
 # Steady Navier-Stokes in the annular sector 1<r<2, |theta|<0.5, barrel r=2 moving at U (towards +theta), others at rest.
 # Stream function-vorticity, Thom wall vorticity, Picard on the advection. Barrel pressure from the wall's
 # theta-momentum: (1/r) dp/dtheta = mu domega/dr at r = R2 (the convective term vanishes on a wall sliding along itself).
@@ -62,10 +64,17 @@ def odd(th, p, lim=0.4):
     q = p - p[m].mean(); rng = q[m].max() - q[m].min()
     mir = np.interp(-th[m], th, q)
     return np.abs(q[m] + mir).max() / rng, rng
-N = int(sys.argv[1]) if len(sys.argv) > 1 else 48
+args = sys.argv[1:]
+csv_path = args.pop(args.index("--csv") + 1) if "--csv" in args else None
+args = [x for x in args if x != "--csv"]
+N = int(args[0]) if args else 48
 for U, nu in ((1e-6, 1.0), (2.0, 1.0)):
     th, p = solve(N, N, U, nu)
     o, rng = odd(th, p)
     print(f"N={N} U={U} nu={nu}: Re={U/nu:.3g} barrel odd defect/range over |th|<=0.4 = {o:.4f}, range {rng/U:.4g} U")
+    if U == 2.0 and csv_path:
+        m = np.abs(th) <= 0.4 + 1e-12
+        np.savetxt(csv_path, np.c_[th, p - p[m].mean()], delimiter=",", header="phi_rad,p_minus_mean", comments="",
+                   fmt="%.10g")
     if U == 2.0:
         for t, v in zip(th[::N//16], p[::N//16]): print(f"  th {t:+.3f} p {v:8.3f}")

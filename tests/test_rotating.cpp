@@ -184,7 +184,8 @@ TEST(RotatingChannel, MovingAndFixedModelsAgreeAtSteadyState) {
 
 TEST(RotatingChannel, SteadyFlowIsSymmetricAtReOne) {
   // Stokes flow in the symmetric channel: u_r on arc 2 is odd in phi (the reflection reverses the barrel,
-  // linearity reverses it back). Over |phi| <= 0.4: the bins next to the flights scatter by up to 0.05.
+  // linearity reverses it back). Over |phi| <= 0.4: the bins next to the flights scatter more (over the whole
+  // span the defect is 0.037 with the defaults, 0.0185 over |phi| <= 0.4).
   const ChannelRun fixed = run_channel(rotating::Model::fixed);
   EXPECT_GT(rotating::range(fixed.arc2, 0.4), 0.3);
   EXPECT_LT(rotating::odd_defect(fixed.arc2, 0.4), 0.03);

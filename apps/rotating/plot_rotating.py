@@ -1,8 +1,11 @@
 """Curves of the rotating app -> PNG.
 
 usage: /usr/bin/python3 plot_rotating.py couette OUT.png RUN_DIR [RUN_DIR ...]   u_theta(r) against exact
-       /usr/bin/python3 plot_rotating.py channel OUT.png RUN_DIR [RUN_DIR ...]   line 1, arc 2, barrel pressure
+       /usr/bin/python3 plot_rotating.py channel OUT.png [--reference CSV] RUN_DIR [RUN_DIR ...]
+                                                   line 1, arc 2, barrel pressure
 Each RUN_DIR is an --out directory (for --model both: OUT/moving and OUT/fixed); its name labels the curves.
+--reference: a barrel pressure curve to draw with them (bench/results/rotating_reference.csv, the finite-difference
+steady flow of bench/rotating_reference.py).
 """
 import csv
 import os
@@ -47,6 +50,9 @@ def couette(out, runs):
 
 
 def channel(out, runs):
+    reference = None
+    if runs and runs[0] == "--reference":
+        reference, runs = read(runs[1])[1], runs[2:]
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
     files = [("line1.csv", "r (line 1, channel centre line)", "u_theta,rel / (omega R)"),
              ("arc2.csv", "phi [rad] (arc 2, r = 1.5)", "u_r,rel / (omega R)"),
@@ -61,6 +67,9 @@ def channel(out, runs):
                         lw=0.7, label=f"{label(run)}, t = {t} s")
         ax.set_xlabel(xl)
         ax.set_ylabel(yl)
+        if name == "barrel_pressure.csv" and reference:
+            ax.plot(reference[0], reference[1], "k-", lw=1.0, label="finite differences, steady, Re = 2")
+            ax.legend(fontsize=7)
         if name == "barrel_pressure.csv":  # the corner values, hundreds, would flatten the rest
             inner = [v for run in runs for h, c in [read(os.path.join(run, name))] for k in range(1, len(h))
                      for x, v in zip(c[0], c[k]) if abs(x) <= 0.45 and v == v]

@@ -62,7 +62,7 @@ SCENES = {
         "title": "Taylor-Couette annulus (t = 1 s)",
         "error": "max |u_theta - exact| / (omega R1) [%]",
         "spacings": [8, 10, 13], "middle": 10, "full_spacings": [8, 10, 13, 16, 20], "default_across": 20,
-        "gamma": 0.05, "gammas": [0.01, 0.1, 0.5],
+        "gamma": 0.01, "gammas": [0.05, 0.1, 0.5],
     },
 }
 

@@ -40,7 +40,8 @@ test-sanitize: deps
 	cd build/sanitize && OMP_NUM_THREADS=1 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	  ctest --output-on-failure -j$(JOBS) -LE install
 
-# The quick pass over every benchmark: small sizes, the quick sweeps and a 2 x 3 corner of each stability map; CSV + PNG into
+# The quick pass over every benchmark: small sizes, the quick sweeps and a 2 x 3 corner of each stability map (the
+# scenes' default gammas, 0.01 and 0.99, around their default step); CSV + PNG into
 # bench/results/quick/ (not committed: the README's charts come from make bench-full).
 QUICK := bench/results/quick
 bench: deps build/release/CMakeCache.txt
@@ -52,7 +53,7 @@ bench: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/plot_solvers.py $(QUICK)/solvers.csv $(QUICK)/solvers.png
 	$(MAKE) --no-print-directory bench-scaling SCALING_SIZES=1e4,3e4,1e5 SCALING_OUT=$(QUICK)
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release --results $(QUICK) --runs runs/pareto-quick
-	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release --gammas 0.05,0.99 --factors 0.5,1,2 \
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release --gammas 0.01,0.99 --factors 0.5,1,2 \
 	  --results $(QUICK) --runs runs/stability-quick
 
 # Every benchmark at full size, into bench/results/ (the README's charts): core phases and solvers to 1e6, the

@@ -1,0 +1,103 @@
+#!/usr/bin/python3
+"""Runs every scene at a small size and records what it computed, so a refactor can show its numbers did not move.
+
+  scripts/compare_results.py record BUILD_DIR RECORD.json   # before the change
+  scripts/compare_results.py check  BUILD_DIR RECORD.json   # after: exit 1 and list every difference
+
+Recorded per case: the exit status, summary.json without its timings (wall-clock figures differ run to run), and the
+SHA-256 of every other file the run wrote (frames, CSVs). One OpenMP thread, so that reductions add in one order.
+"""
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+# name -> (app, arguments); each a few seconds at these sizes.
+CASES = {
+    "demo-inlet-re40": ("poiseuille", "--mode inlet --re 40 --across 10 --end-time 3 --frames 2"),
+    "inlet-re4-shifting-implicit": ("poiseuille", "--mode inlet --re 4 --across 10 --end-time 0.5 --frames 2 "
+                                                  "--shifting 1 --implicit-viscosity"),
+    "inlet-re400-open-end": ("poiseuille", "--mode inlet --re 400 --across 10 --end-time 2 --frames 2 "
+                                           "--outlet-buffer 0 --compression 0 --solver hypre-pcg"),
+    "body-force": ("poiseuille", "--mode body-force --across 10 --end-time 5 --frames 2"),
+    "couette-channel": ("poiseuille", "--mode couette --across 10 --end-time 5 --frames 2 --solver cholmod"),
+    "hydrostatic": ("hydrostatic", "--end-time 0.3 --window 0.1 --frames 2"),
+    "hydrostatic-gamma0.01": ("hydrostatic", "--end-time 0.3 --window 0.1 --frames 2 --gamma 0.01"),
+    "screw-channel-both": ("rotating", "--scene channel --model both --across 8 --times 0.05,0.1 --frames 2"),
+    "screw-channel-plain-lattice": ("rotating", "--scene channel --model moving --across 8 --times 0.1 --frames 2 "
+                                                "--walls plain --lattice-reference --shifting 0"),
+    "taylor-couette": ("rotating", "--scene couette --across 8 --times 0.05,0.1 --frames 2"),
+    **{f"acoustic-{c}": ("acoustic", f"--case {c} --size 20 --l0 0.5 --end-time 0.05 --no-maps --frames 2")
+       for c in ("free", "hard", "mur", "flow")},
+    "acoustic-two-pulse": ("acoustic", "--case two-pulse --size 40 --l0 0.5 --end-time 0.05 --no-maps --frames 2"),
+}
+TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
+
+
+def without_timings(value):
+    if isinstance(value, dict):
+        return {k: without_timings(v) for k, v in value.items() if k not in TIMING_KEYS}
+    if isinstance(value, list):
+        return [without_timings(v) for v in value]
+    return value
+
+
+def run_case(build: Path, app: str, args: str) -> dict:
+    with tempfile.TemporaryDirectory() as out:
+        exe = build / "apps" / app / app
+        env = dict(os.environ, OMP_NUM_THREADS="1")
+        proc = subprocess.run([str(exe), *args.split(), "--out", out], env=env, capture_output=True, text=True)
+        record = {"status": proc.returncode, "files": {}}
+        for f in sorted(Path(out).rglob("*")):
+            if not f.is_file():
+                continue
+            rel = str(f.relative_to(out))
+            if f.name == "summary.json":
+                record["summary"] = without_timings(json.loads(f.read_text()))
+            else:
+                record["files"][rel] = hashlib.sha256(f.read_bytes()).hexdigest()
+        if "summary" not in record:
+            record["stderr"] = proc.stderr[-2000:]
+        return record
+
+
+def differences(path: str, old, new) -> list[str]:
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for k in sorted(set(old) | set(new)):
+            if k not in old or k not in new:
+                out.append(f"{path}/{k}: {'added' if k in new else 'missing'}")
+            else:
+                out += differences(f"{path}/{k}", old[k], new[k])
+        return out
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        return [d for i, (a, b) in enumerate(zip(old, new)) for d in differences(f"{path}[{i}]", a, b)]
+    return [] if old == new else [f"{path}: {old!r} -> {new!r}"]
+
+
+def main() -> int:
+    if len(sys.argv) != 4 or sys.argv[1] not in ("record", "check"):
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
+    mode, build, record_file = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
+    results = {}
+    for name, (app, args) in CASES.items():
+        results[name] = run_case(build, app, args)
+        print(f"{name}: status {results[name]['status']}, {len(results[name]['files'])} files", flush=True)
+    if mode == "record":
+        record_file.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+        print(f"recorded {len(results)} cases in {record_file}")
+        return 0
+    recorded = json.loads(record_file.read_text())
+    diffs = differences("", recorded, results)
+    for d in diffs:
+        print("DIFF", d)
+    print(f"{len(results)} cases: " + ("all bitwise the same" if not diffs else f"{len(diffs)} differences"))
+    return 1 if diffs else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

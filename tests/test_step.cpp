@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "mps/components.hpp"
 #include "mps/geometry.hpp"
 #include "mps/step.hpp"
 #include "tank.hpp"
@@ -309,7 +310,7 @@ TEST(Stability, AVoidInAConfinedLiquidClosesWhenItIsNotReadAsFreeSurface) {
   c.clamp_negative_pressure = false;
   auto smallest_density = [&](bool confined) {
     mps::Simulation sim(holed, {0, W, 0, W, true, true}, c);
-    if (confined) sim.set_free_surface_region([](double, double) { return false; });
+    if (confined) sim.add<mps::SurfaceRegion>([](double, double) { return false; });
     for (int s = 0; s < 60; ++s) sim.step();
     EXPECT_EQ(sim.last_step().free_surface > 0, !confined);
     const auto& n = sim.number_density();

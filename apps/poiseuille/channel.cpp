@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "mps/components.hpp"
 #include "mps/geometry.hpp"
 
 namespace poiseuille {
@@ -161,7 +162,7 @@ mps::Simulation make_simulation(const Params& p) {
   std::shared_ptr<mps::PushingPlate> plate;
   if (!p.periodic()) plate = std::make_shared<mps::PushingPlate>(particles, kPlateGroup, p.U(), l0, L);
   mps::Simulation sim(std::move(particles), domain, c);
-  if (plate) sim.set_boundary_motion([plate](mps::Particles& s, double t) { (*plate)(s, t); });
+  if (plate) sim.add<mps::BoundaryMotion>([plate](mps::Particles& s, double t) { (*plate)(s, t); });
   // The liquid is confined but for its open outlet (and the dry wall ends behind the plate). A void opened by
   // the shear elsewhere, read as free surface, stayed open at P = 0 and was carried downstream until the
   // inrush blew up (15 D at Re 40, 20 across: stopped at 4.5 D/U); left to the source term, it closes.
@@ -169,19 +170,19 @@ mps::Simulation make_simulation(const Params& p) {
   const bool buffer = !p.periodic() && p.outlet_buffer_l0 > 0.0;
   const double outlet_zone = L - 4.0 * l0;
   if (p.periodic())
-    sim.set_free_surface_region([](double, double) { return false; });
+    sim.add<mps::SurfaceRegion>([](double, double) { return false; });
   else if (buffer)
-    sim.set_free_surface_region([](double x, double) { return x < 0.0; });
+    sim.add<mps::SurfaceRegion>([](double x, double) { return x < 0.0; });
   else
-    sim.set_free_surface_region([outlet_zone](double x, double) { return x < 0.0 || x > outlet_zone; });
+    sim.add<mps::SurfaceRegion>([outlet_zone](double x, double) { return x < 0.0 || x > outlet_zone; });
   // The walls run 5 l0 past the outlet line, so that the buffer's last particles keep their wall support.
-  if (buffer) sim.set_outflow_buffer({L, 0.0, 1.0, 0.0, p.outlet_buffer_l0 * l0});
+  if (buffer) sim.add<mps::OpenOutlet>(mps::OutflowBuffer{L, 0.0, 1.0, 0.0, p.outlet_buffer_l0 * l0});
   const double top_speed = p.mode == Mode::couette ? p.U() : 0.0;
-  sim.add_mirror_wall({0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1});
-  sim.add_mirror_wall({0.0, p.D, 0.0, -1.0, top_speed, 0.0, 2});
+  sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1});
+  sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, p.D, 0.0, -1.0, top_speed, 0.0, 2});
   if (!p.periodic()) {
-    sim.add_mirror_wall({0.0, 0.0, 0.0, 1.0, p.U(), 0.0, kBottomConveyorGroup});
-    sim.add_mirror_wall({0.0, p.D, 0.0, -1.0, p.U(), 0.0, kTopConveyorGroup});
+    sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, 0.0, 0.0, 1.0, p.U(), 0.0, kBottomConveyorGroup});
+    sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, p.D, 0.0, -1.0, p.U(), 0.0, kTopConveyorGroup});
   }
   return sim;
 }

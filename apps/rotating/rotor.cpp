@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "mps/boundary.hpp"
+#include "mps/components.hpp"
 #include "mps/geometry.hpp"
 
 namespace rotating {
@@ -135,12 +136,12 @@ mps::Simulation make_simulation(const Params& p) {
   }
   for (const mps::RigidMotion& m : motions) m(particles, 0.0);  // walls start at their velocity
   mps::Simulation sim(std::move(particles), {-half, half, -half, half}, c);
-  sim.set_boundary_motion([motions](mps::Particles& s, double t) {
+  sim.add<mps::BoundaryMotion>([motions](mps::Particles& s, double t) {
     for (const mps::RigidMotion& m : motions) m(s, t);
   });
   // Closed: a low number density is a void for the source term to close, not a free surface at P = 0 (at small
   // gamma a few particles by the corners were flagged, which anchored the gauge and clamped their pressure).
-  sim.set_free_surface_region([](double, double) { return false; });
+  sim.add<mps::SurfaceRegion>([](double, double) { return false; });
   if (p.mirror) {
     mps::MirrorWall inner, outer;
     inner.group = kInnerGroup;
@@ -150,8 +151,8 @@ mps::Simulation make_simulation(const Params& p) {
     outer.radius = p.R2;
     outer.fluid_inside = true;
     outer.omega = w_outer;
-    sim.add_mirror_wall(inner);
-    sim.add_mirror_wall(outer);
+    sim.add<mps::MirrorNoSlip>(inner);
+    sim.add<mps::MirrorNoSlip>(outer);
   }
   return sim;
 }

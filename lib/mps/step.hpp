@@ -1,12 +1,15 @@
 #pragma once
-// The semi-implicit MPS step (design §3), time-step control and the stability guard:
-// neighbours -> predictor (viscosity, body force) -> n*, div u* -> PPE -> solve -> pressure-gradient corrector.
+// The semi-implicit MPS step (design §3), time-step control and the stability guard. A step runs named stages,
+// neighbours -> predictor -> n*, div u* -> free surface -> PPE source -> assemble -> solve -> pressure boundary
+// values -> corrector -> post-step, and a scene adds components (mps/components.hpp) that hook in between them.
+// docs/step.md describes the stages, the hooks and each component.
 #include <functional>
 #include <limits>
 #include <memory>
-#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mps/boundary.hpp"
 #include "mps/kernel.hpp"
@@ -18,15 +21,11 @@
 
 namespace mps {
 
+// The physics and numerics of a run; docs/step.md gives the reason and the measurement behind each default.
 struct SimulationConfig {
   double l0 = 0;  // initial particle spacing [m]
-  // Kernel radii in units of l0. Seed 004: 2.1 for number density and gradient, 4.1 for the Laplacian.
-  // The PPE source's number density is measured at radius_density = 4.1, the Laplacian's: with n* at 2.1
-  // against a 4.1 Laplacian, short waves (k ~ 0.8 pi/l0) are corrected with the wrong sign and grow by
-  // ~(1 + 0.03 gamma) per step whatever dt is (a closed box jittered by 1 % blows up within ~60 steps at
-  // gamma = 0.99; with 4.1 it relaxes). Where that kernel reaches a free-surface particle its deficit is
-  // geometry, so those particles take the divergence source alone. Free-surface detection keeps the 2.1
-  // number density (radius_surface). README, "Numerics and stability".
+  // Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1 Laplacian,
+  // short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
   double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;
   Weight weight = Weight::bounded;
   double rho = 1000.0;          // density [kg/m^3]
@@ -38,54 +37,31 @@ struct SimulationConfig {
   double dt_max = 0;            // the time step when neither limit below binds [s]
   double cfl = 0.2;             // dt <= cfl l0 / |u|max
   double viscous_number = 0.2;  // dt <= viscous_number l0^2 / nu (explicit viscosity)
-  // Implicit viscosity: the predictor solves (I - dt nu L) u* = u^n + dt f over the fluid, wall and dummy
-  // velocities (mirror values included) taken as known, with `viscosity_solver`; the viscous limit on dt
-  // is then dropped. For slow flows (seed 004's Re = 4) whose explicit dt would be far below the CFL bound.
+  // Implicit viscosity: (I - dt nu L) u* = u^n + dt f, solved with `viscosity_solver`; drops the viscous limit.
   bool implicit_viscosity = false;
   std::string viscosity_solver = "eigen-cg:precond=jacobi";
-  // The density source's reference number density: the lattice n0 for every particle (false), or each wall
-  // particle's own number density at t = 0 and the fluid's mean at t = 0 (true). Packings other than the square
-  // lattice (seed 000's concentric rings) differ from the lattice n0 by a few per cent, by an amount that varies
-  // with the curvature. Walls cannot move to remove that error, so read as compression it drives a standing
-  // pressure ~ gamma rho/dt^2 (n - n0)/n0, which grows as the spacing shrinks and outweighs a slow flow's
-  // pressure (README, "Rotating boundary"). Wall groups must keep their layout relative to the fluid (rigid
-  // walls, not a free surface drying them).
+  // Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
+  // the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
   bool initial_reference_density = false;
   GradientVariant pressure_gradient = GradientVariant::min_reference;
-  // Min-reference variants: take the minimum of P less its hydrostatic part rho f . r (true), or of P as
-  // published (false). The published form destabilises a liquid at rest under gravity (README, "Numerics").
+  // Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
+  // destabilises a liquid at rest under gravity).
   bool min_reference_tilt = true;
-  // Hydrostatic split (with min_reference_tilt): the body force along non-periodic axes, f_h, is balanced by
-  // P_h = rho f_h . r exactly. The predictor leaves f_h out, the PPE solves for P' = P - P_h (walls zero-flux for
-  // P', i.e. dP/dn = rho f_h . n; free-surface particles at P = rho |f_h| l0/2, the surface lying half a spacing
-  // above their centres) and the corrector takes the particle gradient of P' alone. A liquid at rest is then an
-  // equilibrium on any particle arrangement, corners and truncated kernels included. Without it the PPE's
-  // zero-flux walls and the particle gradient of the hydrostatic pressure disagree near wall corners, and a
-  // closed tank at g = 9.81 drifted 0.95 l0 in 0.5 s (README, "Numerics and stability").
+  // With min_reference_tilt: the body force along non-periodic axes is balanced by P_h = rho f_h . r exactly and
+  // the PPE solves for P - P_h (component HydrostaticSplit), so a liquid at rest is an equilibrium on any packing.
   bool hydrostatic_split = true;
-  // Artificial sound speed [m/s] (0: incompressible). The PPE becomes (-lap + 1/(c dt)^2) P = -source, the
-  // compressibility term design section 3 lists for closed domains: a density error of wavelength well below c dt
-  // is corrected as before, a longer one gets the pressure rho c^2 (n - n0)/n0 of a compressible liquid instead of
-  // one growing with the square of its length. Incompressible, the source of a long open channel turns any
-  // coherent density error, however small, into a pressure ~ gamma rho (L/dt)^2 (n - n0)/n0 that expels it through
-  // the outlet within one step: fluid rows sliding along a wall's particle lattice change their number density in
-  // step (1e-3 in the near-wall rows, a mean of 4e-5 over the fluid), and in a channel 750 l0 long that moved the
-  // plate pressure by +-4 Pa from step to step (the Poiseuille drop is 0.002 Pa) and the outlet flow by +-40 %
-  // (README, "Poiseuille"). Choose c so that the flow's pressures compress the liquid little, e.g. by Morris et
-  // al.'s (1997) c^2 = max(u^2, dP/rho)/delta for a density variation delta.
+  // Artificial sound speed [m/s] (0: incompressible): the PPE becomes (-lap + 1/(c dt)^2) P = -source, so a long
+  // channel's coherent density error is not expelled within one step.
   double sound_speed = 0;
-  // Particle shifting coefficient A (0: off): after each step, fluid away from free surfaces and the outflow buffer
-  // moves down the particle concentration gradient (shift_particles) with the diffusion A l0 |u|max dt (Lind et al.
-  // 2012), at most 0.2 l0 per step. For flows that draw the lattice apart over many steps: the Re = 4 inlet
-  // channel's entrance region (README, "Poiseuille").
+  // Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
+  // the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
   double shifting = 0;
   bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
   std::string solver = "eigen-cg";
-  // Initial guess of each pressure solve: the previous step's pressure (true, design section 5) or zeros (false,
-  // the classic baseline that ignores the last step). Direct solvers (cholmod) ignore it either way.
+  // Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
   bool warm_start = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad parameter and its valid range
@@ -106,6 +82,54 @@ struct PhaseTimes {
   [[nodiscard]] double total() const { return neighbors + predict + assemble + solver_setup + solve + correct; }
 };
 
+// What one step's stages hand on to the next, per particle unless said. Kept by the simulation so that its memory
+// is reused from step to step. Components read and write it at their hooks.
+struct StepFields {
+  double dt = 0;
+  double time = 0;  // at the end of the step
+  // The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
+  double balanced_fx = 0, balanced_fy = 0;
+  std::vector<char> prescribed;  // fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
+  std::vector<double> n_star;    // number density at r* (density kernel)
+  std::vector<double> n_source;  // the density the source reads in place of n_star (empty: n_star)
+  std::vector<double> div;       // div u*
+  std::vector<char> surface;     // free-surface particles
+  std::vector<double> source;    // right-hand side of lap P = source
+  std::vector<char> held;        // particles held at a given pressure in the PPE (empty: the free surface)
+  std::vector<double> held_value;       // the pressure they are held at (empty: 0)
+  std::vector<double> pressure_offset;  // the PPE solves for P - offset (empty: for P)
+  bool surface_own_reference = false;   // free-surface particles take their own P as the gradient's reference
+  std::vector<char> carriers;    // particles whose pressure the gradient sees
+  std::vector<double> lu, lv, pressure, residual, gx, gy;  // scratch
+};
+
+// max |u|^2 over the fluid particles.
+double max_fluid_speed_squared(const Particles& particles);
+
+class Simulation;
+
+// What a hook sees: the simulation (configuration, domain, kernels, grid and neighbour lists), its particles and
+// this step's fields.
+struct StepContext {
+  const Simulation& sim;
+  Particles& particles;
+  StepFields& fields;
+};
+
+// A scene-specific treatment hooked into the step. Each hook runs at a named point, components in the order they
+// were added; a component overrides the hooks it needs (docs/step.md lists which one each uses).
+class StepComponent {
+ public:
+  virtual ~StepComponent() = default;
+  virtual void before_predictor(StepContext&) {}   // neighbours of r^n found, grid binned at r^n
+  virtual void after_predictor(StepContext&) {}    // particles at r*, fields.time the new time
+  virtual void before_projection(StepContext&) {}  // before n* and div u*
+  virtual void before_source(StepContext&) {}      // n*, div u* and the free surface known
+  virtual void before_assembly(StepContext&) {}    // source known
+  virtual void after_pressure(StepContext&) {}     // pressures scattered, dummies set, carriers known
+  virtual void after_corrector(StepContext&) {}    // velocities and positions at n+1
+};
+
 class Simulation {
  public:
   Simulation(Particles particles, Domain domain, SimulationConfig config);
@@ -114,25 +138,21 @@ class Simulation {
   // Advances one step or throws SimulationError and keeps the previous state.
   const StepInfo& step();
 
-  // Called after the predictor with the particles and the new time: sets wall/dummy positions and
-  // velocities of moving boundaries.
-  using BoundaryMotion = std::function<void(Particles&, double time)>;
-  void set_boundary_motion(BoundaryMotion motion) { motion_ = std::move(motion); }
-
-  // No-slip by mirror velocities on a flat wall (see MirrorWall): its particles' velocities are set from
-  // the fluid before the viscous term; the PPE's divergence then sees them at the wall's own velocity.
-  void add_mirror_wall(const MirrorWall& wall);
-
-  // Where a free surface may exist (unset: everywhere). Outside it no particle is flagged free surface,
-  // whatever its number density: in a confined liquid a low n* is a void to be closed by the source term,
-  // and P = 0 there, with no ambient pressure around it to collapse the void, keeps it open.
-  using SurfaceRegion = std::function<bool(double x, double y)>;
-  void set_free_surface_region(SurfaceRegion region) { surface_region_ = std::move(region); }
-  // An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0 and its fluid
-  // leaves at the velocity of the fluid upstream, unmoved by the pressure gradient and the viscous term.
-  void set_outflow_buffer(const OutflowBuffer& buffer);
-  [[nodiscard]] const std::optional<OutflowBuffer>& outflow_buffer() const { return outflow_; }
-  [[nodiscard]] const std::vector<MirrorWall>& mirror_walls() const { return mirror_walls_; }
+  // Adds a component (mps/components.hpp, or a scene's own) after those already there; returns it.
+  template <class Component, class... Args>
+  Component& add(Args&&... args) {
+    auto component = std::make_unique<Component>(std::forward<Args>(args)...);
+    Component& added = *component;
+    components_.push_back(std::move(component));
+    return added;
+  }
+  // The first component of that type, or nullptr.
+  template <class Component>
+  [[nodiscard]] const Component* find() const {
+    for (const auto& c : components_)
+      if (const auto* found = dynamic_cast<const Component*>(c.get())) return found;
+    return nullptr;
+  }
 
   [[nodiscard]] const Particles& particles() const { return particles_; }
   [[nodiscard]] const Domain& domain() const { return domain_; }
@@ -145,15 +165,34 @@ class Simulation {
   [[nodiscard]] const Kernel& surface_kernel() const { return k_surface_; }
   [[nodiscard]] const Kernel& gradient_kernel() const { return k_gradient_; }
   [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
-  [[nodiscard]] const std::vector<double>& number_density() const { return n_star_; }  // source n* of the last step
+  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  // n* of the last step
   [[nodiscard]] const PpeSystem& last_ppe() const { return ppe_; }
+  [[nodiscard]] const CellGrid& grid() const { return grid_; }
+  // Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
+  // largest of the smaller ones.
+  [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
+    return k.re <= small_radius_ ? close_star_ : near_star_;
+  }
 
  private:
   void advance();
   void check_guard() const;
-  void apply_mirror_walls();
-  void implicit_viscous_predictor(const Stencil& s, double dt, double fx, double fy);
   [[nodiscard]] double choose_dt(std::string& limit) const;
+  void run(void (StepComponent::*hook)(StepContext&));
+  // The stages, in order.
+  void find_neighbors_now();
+  void predict();
+  void explicit_viscous_predictor();
+  void implicit_viscous_predictor();
+  void find_neighbors_at_star();
+  void number_density_and_divergence();
+  void detect_surface();
+  void compute_source();
+  void assemble();
+  void solve();
+  void set_pressure_boundary_values();
+  void correct();
+  void finish_step();
 
   Particles particles_;
   Domain domain_;
@@ -162,18 +201,13 @@ class Simulation {
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
   CellGrid grid_;
-  BoundaryMotion motion_;
-  SurfaceRegion surface_region_;
-  std::vector<MirrorWall> mirror_walls_;
-  std::optional<OutflowBuffer> outflow_;
-  std::vector<char> in_buffer_;  // this step's outflow-buffer particles, by position at its start
+  std::vector<std::unique_ptr<StepComponent>> components_;
   StepInfo info_;
   PhaseTimes times_;
-  // Kept between steps so that their memory is reused, not allocated (and page-faulted) anew each step.
+  StepFields fields_;
   NeighborList near_now_, near_star_, close_star_;
+  double small_radius_ = 0;
   Particles before_step_;  // the state a failed step rolls back to
-  std::vector<double> n_star_;
-  std::vector<double> n_reference_;  // by particle id, with initial_reference_density
   PpeSystem ppe_;
 };
 

@@ -1,0 +1,150 @@
+#include "mps/components.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+namespace mps {
+
+void BoundaryMotion::after_predictor(StepContext& c) { motion_(c.particles, c.fields.time); }
+
+MirrorNoSlip::MirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }
+
+void MirrorNoSlip::before_predictor(StepContext& c) {
+  apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
+}
+
+// Mirrored values in div u* would put the fluid's streamwise changes into the source wherever the flow develops
+// or the wall changes speed (an inlet channel grew a period-2 pressure oscillation that way).
+void MirrorNoSlip::before_projection(StepContext& c) {
+  Particles& p = c.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall_.group) {
+      const auto U = wall_.velocity_at(p.x[i], p.y[i]);
+      p.u[i] = U[0];
+      p.v[i] = U[1];
+    }
+}
+
+OpenOutlet::OpenOutlet(const OutflowBuffer& buffer) : buffer_(buffer) { buffer_.validate(); }
+
+void OpenOutlet::before_predictor(StepContext& c) {
+  Particles& p = c.particles;
+  in_buffer_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    in_buffer_[i] = p.kind[i] != Kind::ghost && buffer_.contains(p.x[i], p.y[i]);
+  apply_outflow_velocity(buffer_, c.sim.grid(), c.sim.gradient_kernel().re, in_buffer_, p);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (in_buffer_[i]) c.fields.prescribed[i] = 1;
+}
+
+// A pushing plate may recycle buffer fluid that crossed the outlet into a fresh inlet particle within the step:
+// left flagged, it was held at P = 0 beside the plate and sucked its neighbours in.
+void OpenOutlet::before_projection(StepContext& c) {
+  const Particles& p = c.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !buffer_.contains(p.x[i], p.y[i]))) {
+      in_buffer_[i] = 0;
+      c.fields.prescribed[i] = 0;
+    }
+}
+
+// Held at P = 0 like a free surface, but no surface: the fluid beside it has full kernels, so its number density
+// stays in the source.
+void OpenOutlet::before_assembly(StepContext& c) {
+  StepFields& f = c.fields;
+  if (f.held.empty()) f.held = f.surface;
+  for (std::size_t i = 0; i < in_buffer_.size(); ++i)
+    if (in_buffer_[i]) {
+      f.held[i] = 1;
+      if (!f.held_value.empty()) f.held_value[i] = f.pressure_offset.empty() ? 0.0 : -f.pressure_offset[i];
+    }
+}
+
+void OpenOutlet::after_pressure(StepContext& c) {
+  for (std::size_t i = 0; i < in_buffer_.size(); ++i)
+    if (in_buffer_[i]) {
+      c.particles.p[i] = 0.0;
+      c.fields.carriers[i] = 1;
+    }
+}
+
+void SurfaceRegion::before_source(StepContext& c) {
+  const Particles& p = c.particles;
+  std::vector<char>& surface = c.fields.surface;
+  for (std::size_t i = 0; i < surface.size(); ++i)
+    if (surface[i] && !region_(p.x[i], p.y[i])) surface[i] = 0;
+}
+
+void HydrostaticSplit::before_predictor(StepContext& c) {
+  c.fields.balanced_fx = fx_;
+  c.fields.balanced_fy = fy_;
+}
+
+// The unknown is P' = P - P_h. Walls stay zero-flux for P', i.e. dP/dn = rho f . n for P.
+void HydrostaticSplit::before_assembly(StepContext& c) {
+  const Particles& p = c.particles;
+  const SimulationConfig& config = c.sim.config();
+  StepFields& f = c.fields;
+  f.pressure_offset.resize(p.size());
+  f.held_value.resize(p.size());
+  const double surface_pressure = 0.5 * config.l0 * config.rho * std::hypot(fx_, fy_);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    f.pressure_offset[i] = config.rho * (fx_ * p.x[i] + fy_ * p.y[i]);
+    f.held_value[i] = surface_pressure - f.pressure_offset[i];
+  }
+  // The minimum reference balances only where the kernel is full: at a cut-off surface kernel it pushed particles
+  // up and into the wall at the contact lines (docs/numerics.md).
+  f.surface_own_reference = true;
+}
+
+InitialReferenceDensity::InitialReferenceDensity(const Particles& initial, const Domain& domain, CellGrid& grid,
+                                                 const Kernel& density) {
+  grid.bin(initial);
+  const NeighborList near = grid.neighbors(initial, density.re);
+  const std::vector<double> n = mps::number_density({initial, domain, near, density});
+  double fluid_sum = 0.0;
+  int max_id = 0;
+  for (std::size_t i = 0; i < initial.size(); ++i) {
+    if (initial.kind[i] == Kind::fluid) fluid_sum += n[i];
+    max_id = std::max(max_id, initial.id[i]);
+  }
+  // Fluid particles travel, so they share one reference; ghosts that become fluid take it too.
+  reference_.assign(static_cast<std::size_t>(max_id) + 1, fluid_sum / static_cast<double>(initial.count(Kind::fluid)));
+  for (std::size_t i = 0; i < initial.size(); ++i)
+    if (initial.kind[i] == Kind::wall || initial.kind[i] == Kind::dummy)
+      reference_[static_cast<std::size_t>(initial.id[i])] = n[i];
+}
+
+// Scaled so that the source's (n - n0)/n0 reads (n* - n_ref)/n_ref.
+void InitialReferenceDensity::before_source(StepContext& c) {
+  const Particles& p = c.particles;
+  StepFields& f = c.fields;
+  const double n0 = c.sim.density_kernel().n0;
+  f.n_source = f.n_star;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto id = static_cast<std::size_t>(p.id[i]);
+    if (id < reference_.size()) f.n_source[i] *= n0 / reference_[id];
+  }
+}
+
+void ParticleShifting::after_corrector(StepContext& c) {
+  Particles& p = c.particles;
+  const StepFields& f = c.fields;
+  const Kernel& k = c.sim.gradient_kernel();
+  const NeighborList& close = c.sim.neighbors_at_star(k);
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  movable_.assign(p.size(), 0);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::fluid || f.prescribed[i] || f.surface[i]) continue;
+    const auto near = close.of(i);
+    movable_[i] = std::none_of(near.begin(), near.end(), [&](int j) { return f.surface[static_cast<std::size_t>(j)] != 0; });
+  }
+  const double l0 = c.sim.config().l0;
+  const double diffusion = coefficient_ * l0 * std::sqrt(max_fluid_speed_squared(p)) * f.dt;
+  shift_particles({p, c.sim.domain(), close, k}, diffusion, 0.2 * l0, movable_, p);
+}
+
+}  // namespace mps

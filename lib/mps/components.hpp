@@ -1,0 +1,101 @@
+#pragma once
+// Components a scene adds to the step (Simulation::add), each a self-contained treatment hooked in at named
+// points; the last three the simulation adds itself from its configuration. docs/step.md says which hooks each
+// uses and why each exists.
+#include <functional>
+#include <vector>
+
+#include "mps/boundary.hpp"
+#include "mps/step.hpp"
+
+namespace mps {
+
+// Moves walls: called after the predictor with the particles and the new time (RigidMotion, PushingPlate, ...).
+class BoundaryMotion : public StepComponent {
+ public:
+  using Motion = std::function<void(Particles&, double time)>;
+  explicit BoundaryMotion(Motion motion) : motion_(std::move(motion)) {}
+  void after_predictor(StepContext& c) override;
+
+ private:
+  Motion motion_;
+};
+
+// No-slip by mirror velocities (see MirrorWall): the wall's particles take the mirrored fluid velocity for the
+// viscous term, and the wall's own velocity for the projection (no penetration).
+class MirrorNoSlip : public StepComponent {
+ public:
+  explicit MirrorNoSlip(const MirrorWall& wall);
+  void before_predictor(StepContext& c) override;
+  void before_projection(StepContext& c) override;
+  [[nodiscard]] const MirrorWall& wall() const { return wall_; }
+
+ private:
+  MirrorWall wall_;
+};
+
+// An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0, and its fluid
+// leaves at the upstream fluid's velocity, unmoved by viscosity, the pressure gradient and shifting.
+class OpenOutlet : public StepComponent {
+ public:
+  explicit OpenOutlet(const OutflowBuffer& buffer);
+  void before_predictor(StepContext& c) override;
+  void before_projection(StepContext& c) override;
+  void before_assembly(StepContext& c) override;
+  void after_pressure(StepContext& c) override;
+  [[nodiscard]] const OutflowBuffer& buffer() const { return buffer_; }
+
+ private:
+  OutflowBuffer buffer_;
+  std::vector<char> in_buffer_;  // this step's buffer particles, by position at its start
+};
+
+// Where a free surface may exist: outside it no particle is flagged free surface, since in a confined liquid a low
+// n* is a void for the source term to close, not a surface to hold at P = 0.
+class SurfaceRegion : public StepComponent {
+ public:
+  using Region = std::function<bool(double x, double y)>;
+  explicit SurfaceRegion(Region region) : region_(std::move(region)) {}
+  void before_source(StepContext& c) override;
+
+ private:
+  Region region_;
+};
+
+// SimulationConfig::hydrostatic_split: the body force (fx, fy) along non-periodic axes is balanced by
+// P_h = rho f . r; the predictor leaves it out, the PPE solves for P - P_h, free-surface particles are held at
+// P = rho |f| l0/2 (the surface lies half a spacing above them) and take their own P' as gradient reference.
+class HydrostaticSplit : public StepComponent {
+ public:
+  HydrostaticSplit(double fx, double fy) : fx_(fx), fy_(fy) {}
+  void before_predictor(StepContext& c) override;
+  void before_assembly(StepContext& c) override;
+
+ private:
+  double fx_, fy_;
+};
+
+// SimulationConfig::initial_reference_density: the source reads each wall particle's number density against its
+// own at t = 0, and the fluid's against the fluid's t = 0 mean.
+class InitialReferenceDensity : public StepComponent {
+ public:
+  InitialReferenceDensity(const Particles& initial, const Domain& domain, CellGrid& grid, const Kernel& density);
+  void before_source(StepContext& c) override;
+
+ private:
+  std::vector<double> reference_;  // by particle id
+};
+
+// SimulationConfig::shifting: after the corrector, fluid that is not on or beside a free surface (it would be
+// pushed out through it) and not prescribed moves down the concentration gradient (shift_particles).
+class ParticleShifting : public StepComponent {
+ public:
+  explicit ParticleShifting(double coefficient) : coefficient_(coefficient) {}
+  void after_corrector(StepContext& c) override;
+
+ private:
+  double coefficient_;
+  std::vector<char> movable_;
+};
+
+}  // namespace mps

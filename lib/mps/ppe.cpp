@@ -21,6 +21,54 @@ int find_root(std::vector<int>& parent, int a) {
   return a;
 }
 
+// Connected groups of unknowns; those without a Dirichlet neighbour (anchored) are singular and get the gauge
+// described in ppe.hpp: their right-hand side's mean removed and one member's diagonal doubled.
+void gauge_floating_groups(PpeSystem& sys, std::span<const char> anchored) {
+  CsrMatrix& a = sys.matrix;
+  const auto m = static_cast<Index>(sys.particle.size());
+  std::vector<int> parent(static_cast<std::size_t>(m));
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int r = 0; r < m; ++r) {
+    int ra = find_root(parent, r);  // kept current through the row's unions: one find per edge, not two
+    for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+      const int col = a.col[static_cast<std::size_t>(k)];
+      if (col >= r) break;  // the pattern is symmetric: the lower triangle holds every edge once
+      if (parent[static_cast<std::size_t>(col)] == ra) continue;  // the common case once the region is joined
+      const int rb = find_root(parent, col);
+      if (ra == rb) continue;
+      parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
+      ra = std::min(ra, rb);
+    }
+  }
+  std::vector<char> root_anchored(static_cast<std::size_t>(m), 0);
+  for (int r = 0; r < m; ++r)
+    if (anchored[static_cast<std::size_t>(r)]) root_anchored[static_cast<std::size_t>(find_root(parent, r))] = 1;
+  sys.group.assign(static_cast<std::size_t>(m), -1);
+  std::vector<int> group_of_root(static_cast<std::size_t>(m), -1);
+  for (int r = 0; r < m; ++r) {
+    const int root = find_root(parent, r);
+    if (root_anchored[static_cast<std::size_t>(root)]) continue;
+    int& g = group_of_root[static_cast<std::size_t>(root)];
+    if (g < 0) {
+      g = static_cast<int>(sys.floating.size());
+      sys.floating.push_back({r, 0, 0.0});  // roots are the lowest member, met first
+    }
+    sys.group[static_cast<std::size_t>(r)] = g;
+    ++sys.floating[static_cast<std::size_t>(g)].size;
+    sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean += sys.rhs[static_cast<std::size_t>(r)];
+  }
+  for (auto& g : sys.floating) {
+    g.removed_rhs_mean /= g.size;
+    const int pin = g.pinned;
+    for (int k = a.row_ptr[static_cast<std::size_t>(pin)]; k < a.row_ptr[static_cast<std::size_t>(pin) + 1]; ++k)
+      if (a.col[static_cast<std::size_t>(k)] == pin) a.val[static_cast<std::size_t>(k)] *= 2.0;
+  }
+  for (Index r = 0; r < m; ++r) {
+    const int g = sys.group[static_cast<std::size_t>(r)];
+    if (g >= 0) sys.rhs[static_cast<std::size_t>(r)] -= sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean;
+  }
+}
+
 }  // namespace
 
 std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
@@ -163,48 +211,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
 
-  // Connected groups of unknowns; those without a Dirichlet neighbour are singular and get the gauge.
-  std::vector<int> parent(static_cast<std::size_t>(m));
-  std::iota(parent.begin(), parent.end(), 0);
-  for (int r = 0; r < m; ++r) {
-    int ra = find_root(parent, r);  // kept current through the row's unions: one find per edge, not two
-    for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
-      const int col = a.col[static_cast<std::size_t>(k)];
-      if (col >= r) break;  // the pattern is symmetric: the lower triangle holds every edge once
-      if (parent[static_cast<std::size_t>(col)] == ra) continue;  // the common case once the region is joined
-      const int rb = find_root(parent, col);
-      if (ra == rb) continue;
-      parent[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);
-      ra = std::min(ra, rb);
-    }
-  }
-  std::vector<char> root_anchored(static_cast<std::size_t>(m), 0);
-  for (int r = 0; r < m; ++r)
-    if (anchored[static_cast<std::size_t>(r)]) root_anchored[static_cast<std::size_t>(find_root(parent, r))] = 1;
-  sys.group.assign(static_cast<std::size_t>(m), -1);
-  std::vector<int> group_of_root(static_cast<std::size_t>(m), -1);
-  for (int r = 0; r < m; ++r) {
-    const int root = find_root(parent, r);
-    if (root_anchored[static_cast<std::size_t>(root)]) continue;
-    int& g = group_of_root[static_cast<std::size_t>(root)];
-    if (g < 0) {
-      g = static_cast<int>(sys.floating.size());
-      sys.floating.push_back({r, 0, 0.0});  // roots are the lowest member, met first
-    }
-    sys.group[static_cast<std::size_t>(r)] = g;
-    ++sys.floating[static_cast<std::size_t>(g)].size;
-    sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean += sys.rhs[static_cast<std::size_t>(r)];
-  }
-  for (auto& g : sys.floating) {
-    g.removed_rhs_mean /= g.size;
-    const int pin = g.pinned;
-    for (int k = a.row_ptr[static_cast<std::size_t>(pin)]; k < a.row_ptr[static_cast<std::size_t>(pin) + 1]; ++k)
-      if (a.col[static_cast<std::size_t>(k)] == pin) a.val[static_cast<std::size_t>(k)] *= 2.0;
-  }
-  for (Index r = 0; r < m; ++r) {
-    const int g = sys.group[static_cast<std::size_t>(r)];
-    if (g >= 0) sys.rhs[static_cast<std::size_t>(r)] -= sys.floating[static_cast<std::size_t>(g)].removed_rhs_mean;
-  }
+  gauge_floating_groups(sys, anchored);
 }
 
 std::vector<double> PpeSystem::gather(const Particles& particles, std::span<const double> offset) const {

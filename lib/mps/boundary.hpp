@@ -20,18 +20,9 @@ class SimulationError : public std::runtime_error {
 };
 
 // A flat no-slip wall by mirror velocities (seed 004): every wall and dummy particle of `group` takes
-// 2 U - u(m), u(m) the fluid velocity at its mirror image m across the wall line. The fluid's velocity then
-// passes through U on the line itself. Wall particles at U alone pin the velocity at their own row, half a
-// spacing outside the line, and the dummy rows behind them at U flatten the near-wall Laplacian: a body-force
-// channel comes out ~20 % too fast (README, "Poiseuille"). The mirror values serve the viscous term only;
-// the projection takes the wall at U (no penetration).
-//
-// A circular wall (radius > 0: the circle of that radius about (px, py); the normal is then unused) mirrors
-// along the radius, r -> 2 R - r, which keeps the reflection's linear extrapolation across a curved wall
-// (Taylor-Couette: plain walls at the wall speed miss the exact profile by 12 % at 20 across, README
-// "Rotating boundary"). omega adds a rigid rotation about (px, py) to the wall velocity, U(q) = (u, v) +
-// omega z x (q - (px, py)): a cylinder turning about its axis, whose particles may move with it
-// (mps::RigidMotion) or not; its geometry is the same either way.
+// 2 U - u(m), u(m) the fluid velocity at its mirror image m across the wall line, so the fluid's velocity passes
+// through U on the line itself. A circular wall (radius > 0, centre (px, py)) mirrors along the radius,
+// r -> 2 R - r; omega adds a rigid rotation about (px, py) to the wall velocity. Why: docs/step.md.
 struct MirrorWall {
   double px = 0, py = 0;  // a point of the wall line; a circle's centre
   double nx = 0, ny = 1;  // unit normal pointing into the fluid (lines only)
@@ -52,17 +43,10 @@ struct MirrorWall {
 // a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
 void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
 
-// An open outlet with an outflow buffer, the usual open boundary of particle channel flows: the layer of
-// `thickness` upstream of the outlet line, and everything beyond it, is held at gauge pressure 0, and its fluid
-// leaves at the velocity of the fluid just upstream (zero gradient along the outflow), taken along the outflow
-// direction (parallel outflow, as in a developed channel). The buffer's particles are not moved by the pressure
-// gradient or the viscous term.
-// Why not an outlet of free-surface particles at P = 0: their kernels are cut off downstream, and where the
-// channel's walls run on past the outlet (so that the fluid there keeps its wall support) the dry wall
-// extension carries no pressure. The fluid particle in each outlet corner was then pushed into the wall
-// extension with nothing pushing back, and the Re = 400 channel at 50 across was stopped by the guard at step
-// 67 (README, "Poiseuille"). Buffer particles keep their packing, so the fluid upstream of the buffer has full
-// kernels and a P = 0 neighbourhood, and nothing at the outlet is driven by a truncated kernel.
+// An open outlet with an outflow buffer: the layer of `thickness` upstream of the outlet line, and everything
+// beyond it, is held at gauge pressure 0, and its fluid leaves at the velocity of the fluid just upstream, along the
+// outflow direction, unmoved by the pressure gradient and the viscous term. Why not free-surface particles at
+// P = 0: docs/step.md.
 struct OutflowBuffer {
   double px = 0, py = 0;  // a point of the outlet line, where fluid leaves
   double nx = 1, ny = 0;  // unit normal of the line, pointing out of the fluid (the outflow direction)
@@ -96,7 +80,7 @@ RigidPath steady_path(double omega, double vx = 0.0, double vy = 0.0);
 // The velocity path is the position path unless velocity_from() sets another: seed 000's barrel particles over
 // the channel opening follow the channel but are at rest (velocity path: steady_path(0)), and in its fixed-
 // boundary model the barrel stays put while its particles carry the barrel's relative rotation (position path:
-// steady_path(0), velocity path: steady_path(omega)). Call it as, or from, Simulation::set_boundary_motion, and
+// steady_path(0), velocity path: steady_path(omega)). Call it from a BoundaryMotion component, and
 // once at t = 0 so the walls start with their velocity.
 class RigidMotion {
  public:
@@ -119,7 +103,7 @@ class RigidMotion {
 // spacing l0 it steps back by l0 and, one spacing ahead of its wall layer, a column of ghosts becomes fluid
 // moving at `speed` (one particle per plate wall particle, at its height). Fluid past `outlet_x` becomes ghosts,
 // the pool the inlet draws from. With the outlet open, the fluid next to it is free surface (P = 0).
-// Pass it to Simulation::set_boundary_motion; it is called after the predictor with the new time.
+// Call it from a BoundaryMotion component (after the predictor, with the new time).
 class PushingPlate {
  public:
   PushingPlate(const Particles& initial, int plate_group, double speed, double l0, double outlet_x, int fluid_group = 0);

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mps/version.hpp"
 #include "mps/acoustic.hpp"
 #include "mps/io.hpp"
 #include "mps/step.hpp"
@@ -81,6 +82,7 @@ int main(int argc, char** argv) {
   bool no_maps = false;
   mps::AcousticConfig config;
   CLI::App app{"SparseMPS acoustics (MPS-WP, seed 001): Gaussian pulses against the exact solution"};
+  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--case", case_name, "free | hard | mur | two-pulse | flow")->capture_default_str();
   app.add_option("--size", size, "side of the square box [m]")->capture_default_str();
   app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str();

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
@@ -37,6 +38,7 @@ int main(int argc, char** argv) {
   int frames = 20;
   double tolerance = 0.05;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
+  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(CLI::PositiveNumber);

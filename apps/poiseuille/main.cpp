@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "channel.hpp"
+#include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
   double tolerance = 0.02;
   CLI::App app{"SparseMPS plane channel: the pushing-plate inlet channel against the developed parabola, or the "
                "periodic body-force Poiseuille / Couette start-up against the exact series"};
+  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str();
   app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
       ->capture_default_str()->check(CLI::PositiveNumber);

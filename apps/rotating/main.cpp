@@ -11,6 +11,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "rotor.hpp"
 #include "run_json.hpp"
@@ -197,6 +198,7 @@ int main(int argc, char** argv) {
   p.across = 0;
   CLI::App app{"SparseMPS rotating boundaries (seed 000): Taylor-Couette flow against the exact profile, and the "
                "screw channel in the moving- and fixed-boundary models"};
+  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--scene", scene, "couette | channel")->capture_default_str();
   app.add_option("--model", model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
                  "compares them)")->capture_default_str();

@@ -1,12 +1,18 @@
 // Assembles the PPE of a small water tank through the installed headers and library, solves it, and checks
 // the solution: exits non-zero if anything is off.
 #include <cstdio>
+#include <cstring>
 
 #include "mps/geometry.hpp"
 #include "mps/ppe.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/version.hpp"
 
 int main() {
+  if (std::strcmp(mps::version, EXPECTED_VERSION) != 0) {
+    std::printf("consumer: mps/version.hpp says %s, the package %s\n", mps::version, EXPECTED_VERSION);
+    return 1;
+  }
   const double l0 = 0.05;
   mps::Particles p;
   mps::fill_rectangle(p, {0, 0, 1, 0.6}, l0, mps::Kind::fluid);

@@ -345,3 +345,108 @@ TEST(Stability, DensitySourceAtTheLaplacianRadiusDampsWhatTheSeedRadiusAmplifies
 }
 
 }  // namespace
+
+namespace {
+
+// Records each hook it sees, with the state of the fields a hook may rely on at that point.
+class HookRecorder : public mps::StepComponent {
+ public:
+  HookRecorder(std::string name, std::vector<std::string>& log) : name_(std::move(name)), log_(log) {}
+  void before_predictor(mps::StepContext& c) override {
+    const std::size_t n = c.particles.size();
+    EXPECT_EQ(c.fields.prescribed.size(), n);
+    EXPECT_DOUBLE_EQ(c.fields.time, c.sim.time() + c.fields.dt);
+    log_.push_back(name_ + ".before_predictor");
+  }
+  void after_predictor(mps::StepContext&) override { log_.push_back(name_ + ".after_predictor"); }
+  void before_projection(mps::StepContext&) override { log_.push_back(name_ + ".before_projection"); }
+  void before_source(mps::StepContext& c) override {
+    const std::size_t n = c.particles.size();
+    EXPECT_EQ(c.fields.n_star.size(), n);
+    EXPECT_EQ(c.fields.div.size(), n);
+    EXPECT_EQ(c.fields.surface.size(), n);
+    log_.push_back(name_ + ".before_source");
+  }
+  void before_assembly(mps::StepContext& c) override {
+    EXPECT_EQ(c.fields.source.size(), c.particles.size());
+    log_.push_back(name_ + ".before_assembly");
+  }
+  void after_pressure(mps::StepContext& c) override {
+    EXPECT_EQ(c.fields.carriers.size(), c.particles.size());
+    log_.push_back(name_ + ".after_pressure");
+  }
+  void after_corrector(mps::StepContext&) override { log_.push_back(name_ + ".after_corrector"); }
+
+ private:
+  std::string name_;
+  std::vector<std::string>& log_;
+};
+
+// Holds one fluid particle (found by id: the step reorders particles) at a fixed velocity, as an inflow would.
+class HoldParticle : public mps::StepComponent {
+ public:
+  HoldParticle(int id, double u, double v) : id_(id), u_(u), v_(v) {}
+  void before_predictor(mps::StepContext& c) override {
+    mps::Particles& p = c.particles;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (p.id[i] == id_) {
+        p.u[i] = u_;
+        p.v[i] = v_;
+        c.fields.prescribed[i] = 1;
+      }
+  }
+
+ private:
+  int id_;
+  double u_, v_;
+};
+
+}  // namespace
+
+TEST(StepComponents, HooksRunInTheAlgorithmsOrderComponentsInTheOrderAddedWithTheirFieldsReady) {
+  tank::Params p;
+  mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), tank::make_config(p));
+  std::vector<std::string> log;
+  sim.add<HookRecorder>("a", log);
+  sim.add<HookRecorder>("b", log);
+  sim.step();
+  const std::vector<std::string> expected{
+      "a.before_predictor", "b.before_predictor", "a.after_predictor", "b.after_predictor",
+      "a.before_projection", "b.before_projection", "a.before_source", "b.before_source",
+      "a.before_assembly", "b.before_assembly", "a.after_pressure", "b.after_pressure",
+      "a.after_corrector", "b.after_corrector"};
+  EXPECT_EQ(log, expected);
+  EXPECT_NE(sim.find<HookRecorder>(), nullptr);
+  EXPECT_EQ(sim.find<mps::OpenOutlet>(), nullptr);
+}
+
+// A prescribed particle is passed by viscosity, gravity, the pressure gradient and the corrector: it moves at the
+// velocity its component sets, exactly, while the water around it is pushed about by it.
+TEST(StepComponents, PrescribedFluidMovesAtItsOwnVelocityOnly) {
+  tank::Params p;
+  mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), tank::make_config(p));
+  const mps::Particles& s = sim.particles();
+  std::size_t middle = 0;  // the fluid particle nearest the tank's centre
+  double best = INFINITY;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const double d = std::hypot(s.x[i] - p.width / 2, s.y[i] - p.water_height / 2);
+    if (s.kind[i] == mps::Kind::fluid && d < best) {
+      best = d;
+      middle = i;
+    }
+  }
+  const int id = s.id[middle];
+  const double x0 = s.x[middle], y0 = s.y[middle], u = 0.02, v = -0.01;
+  sim.add<HoldParticle>(id, u, v);
+  double elapsed = 0.0;
+  for (int step = 0; step < 30; ++step) elapsed += sim.step().dt;
+  const auto at = static_cast<std::size_t>(std::find(s.id.begin(), s.id.end(), id) - s.id.begin());
+  EXPECT_EQ(s.u[at], u);
+  EXPECT_EQ(s.v[at], v);
+  EXPECT_NEAR(s.x[at], x0 + u * elapsed, 1e-12);
+  EXPECT_NEAR(s.y[at], y0 + v * elapsed, 1e-12);
+  double disturbed = 0.0;  // the fluid it pushes through no longer rests
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid && i != at) disturbed = std::max(disturbed, std::hypot(s.u[i], s.v[i]));
+  EXPECT_GT(disturbed, 0.1 * std::hypot(u, v));
+}

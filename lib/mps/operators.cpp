@@ -74,15 +74,20 @@ CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient
 }  // namespace
 
 std::vector<double> number_density(const Stencil& s) {
+  std::vector<double> out;
+  number_density(s, out);
+  return out;
+}
+
+void number_density(const Stencil& s, std::vector<double>& out) {
   const Index n = count(s);
-  std::vector<double> out(static_cast<std::size_t>(n), 0.0);
+  out.assign(static_cast<std::size_t>(n), 0.0);
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) {
     double sum = 0.0;
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double, double, double, double w) { sum += w; });
     out[static_cast<std::size_t>(i)] = sum;
   }
-  return out;
 }
 
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,

@@ -23,6 +23,7 @@ struct Stencil {
 
 // n_i = sum_j w_ij
 std::vector<double> number_density(const Stencil& s);
+void number_density(const Stencil& s, std::vector<double>& out);  // reusing out's memory
 
 enum class GradientVariant {
   plain,          // (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij

@@ -73,27 +73,40 @@ void gauge_floating_groups(PpeSystem& sys, std::span<const char> anchored) {
 
 std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
                                  double rho, double dt, double gamma) {
+  std::vector<double> s;
+  mixed_source(n_star, n0, div_u_star, rho, dt, gamma, s);
+  return s;
+}
+
+void mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star, double rho,
+                  double dt, double gamma, std::vector<double>& s) {
   if (!(gamma >= 0.0 && gamma <= 1.0))
     throw std::invalid_argument("mixed source: gamma must be in [0, 1], got " + std::to_string(gamma));
   if (!(dt > 0.0)) throw std::invalid_argument("mixed source: time step must be positive");
   if (n_star.size() != div_u_star.size()) throw std::invalid_argument("mixed source: n* and div u* differ in length");
-  std::vector<double> s(n_star.size());
+  s.resize(n_star.size());
   for (std::size_t i = 0; i < s.size(); ++i)
     s[i] = (1.0 - gamma) * rho / dt * div_u_star[i] - gamma * rho / (dt * dt) * (n_star[i] - n0) / n0;
-  return s;
 }
 
 std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
                                       double beta, const NeighborList* neighbors, int lattice_neighbors, double theta) {
+  std::vector<char> surface;
+  detect_free_surface(particles, n_star, n0, beta, neighbors, lattice_neighbors, theta, surface);
+  return surface;
+}
+
+void detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0, double beta,
+                         const NeighborList* neighbors, int lattice_neighbors, double theta,
+                         std::vector<char>& surface) {
   if (!(beta > 0.0 && beta < 1.0)) throw std::invalid_argument("free surface: beta must be in (0, 1)");
   if (theta > 0.0 && !neighbors) throw std::invalid_argument("free surface: the count test needs the neighbour list");
   const double max_count = theta * lattice_neighbors;
-  std::vector<char> surface(particles.size(), 0);
+  surface.assign(particles.size(), 0);
   for (std::size_t i = 0; i < surface.size(); ++i)
     surface[i] = in_ppe_sum(particles.kind[i]) && n_star[i] < beta * n0 &&
                  (theta <= 0.0 || particles.kind[i] == Kind::wall ||
                   static_cast<double>(neighbors->of(i).size()) < max_count);
-  return surface;
 }
 
 PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
@@ -215,12 +228,17 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
 }
 
 std::vector<double> PpeSystem::gather(const Particles& particles, std::span<const double> offset) const {
-  std::vector<double> x(particle.size());
+  std::vector<double> x;
+  gather(particles, x, offset);
+  return x;
+}
+
+void PpeSystem::gather(const Particles& particles, std::vector<double>& x, std::span<const double> offset) const {
+  x.resize(particle.size());
   for (std::size_t r = 0; r < x.size(); ++r) {
     const auto i = static_cast<std::size_t>(particle[r]);
     x[r] = particles.p[i] - (offset.empty() ? 0.0 : offset[i]);
   }
-  return x;
 }
 
 void PpeSystem::scatter(std::span<const double> solution, Particles& particles, bool clamp_negative,
@@ -245,8 +263,15 @@ void PpeSystem::scatter(std::span<const double> solution, Particles& particles, 
 
 std::vector<char> set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> free_surface, double rho,
                                      double fx, double fy) {
+  std::vector<char> carrier;
+  set_dummy_pressure(s, p, free_surface, rho, fx, fy, carrier);
+  return carrier;
+}
+
+void set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> free_surface, double rho, double fx,
+                        double fy, std::vector<char>& carrier) {
   const auto n = static_cast<Index>(p.size());
-  std::vector<char> carrier(p.size(), 0);
+  carrier.assign(p.size(), 0);
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
@@ -266,7 +291,6 @@ std::vector<char> set_dummy_pressure(const Stencil& s, Particles& p, std::span<c
     }
     p.p[i] = pressure;
   }
-  return carrier;
 }
 
 }  // namespace mps

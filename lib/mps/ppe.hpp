@@ -27,6 +27,8 @@ namespace mps {
 // (1 - gamma) (rho/dt) div u*_i - gamma (rho/dt^2) (n*_i - n0)/n0, the right-hand side of lap P = ...
 std::vector<double> mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star,
                                  double rho, double dt, double gamma);
+void mixed_source(std::span<const double> n_star, double n0, std::span<const double> div_u_star, double rho,
+                  double dt, double gamma, std::vector<double>& out);  // reusing out's memory
 
 // Wall particles with n* < beta n0, and fluid particles with n* < beta n0 and fewer than theta N0 neighbours
 // (N0: the perfect lattice's count; theta <= 0 skips the count test). The count keeps the fluid flag from
@@ -39,6 +41,9 @@ std::vector<double> mixed_source(std::span<const double> n_star, double n0, std:
 std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
                                       double beta, const NeighborList* neighbors = nullptr, int lattice_neighbors = 0,
                                       double theta = 0.0);
+void detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0, double beta,
+                         const NeighborList* neighbors, int lattice_neighbors, double theta,
+                         std::vector<char>& out);  // reusing out's memory
 
 struct FloatingGroup {
   int pinned = -1;              // unknown whose diagonal was doubled
@@ -58,6 +63,7 @@ struct PpeSystem {
   // Particle pressures of the unknowns, as an initial guess (warm start).
   // `offset` (per particle, optional): the unknowns are p - offset (see assemble_ppe's `dirichlet`).
   [[nodiscard]] std::vector<double> gather(const Particles& particles, std::span<const double> offset = {}) const;
+  void gather(const Particles& particles, std::vector<double>& out, std::span<const double> offset = {}) const;
   // Writes the solution to the particles: unknowns get it (floating groups shifted to zero mean), fluid
   // and wall particles that are not unknowns get 0; dummies are left for set_dummy_pressure.
   // clamp_negative sets negative pressures to 0 in groups that touch a free surface: liquid there cannot
@@ -88,5 +94,7 @@ void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, 
 // P = 0 neighbours, they change a contact-line particle's support from that of the open surface next to it.
 std::vector<char> set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface,
                                      double rho, double fx, double fy);
+void set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface, double rho,
+                        double fx, double fy, std::vector<char>& carriers);  // reusing carriers' memory
 
 }  // namespace mps

@@ -294,7 +294,7 @@ void Simulation::find_neighbors_at_star() {
 
 void Simulation::number_density_and_divergence() {
   const Particles& p = particles_;
-  fields_.n_star = mps::number_density({p, domain_, neighbors_at_star(k_density_), k_density_});
+  mps::number_density({p, domain_, neighbors_at_star(k_density_), k_density_}, fields_.n_star);
   fields_.div.assign(p.size(), 0.0);
   divergence({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, p.u, p.v, fields_.div);
 }
@@ -302,18 +302,18 @@ void Simulation::number_density_and_divergence() {
 void Simulation::detect_surface() {
   const Particles& p = particles_;
   const NeighborList& list = neighbors_at_star(k_surface_);
-  std::vector<double> own_radius;  // only when the surface kernel differs from the density kernel
-  if (k_surface_.re != k_density_.re) own_radius = mps::number_density({p, domain_, list, k_surface_});
-  fields_.surface = detect_free_surface(p, own_radius.empty() ? fields_.n_star : own_radius, k_surface_.n0,
-                                        config_.beta, &list, k_surface_.lattice_neighbors, config_.theta);
+  const bool own_radius = k_surface_.re != k_density_.re;
+  if (own_radius) mps::number_density({p, domain_, list, k_surface_}, fields_.n_surface);
+  detect_free_surface(p, own_radius ? fields_.n_surface : fields_.n_star, k_surface_.n0, config_.beta, &list,
+                      k_surface_.lattice_neighbors, config_.theta, fields_.surface);
 }
 
 void Simulation::compute_source() {
   const Particles& p = particles_;
   StepFields& f = fields_;
   const auto n = static_cast<Index>(p.size());
-  f.source = mixed_source(f.n_source.empty() ? f.n_star : f.n_source, k_density_.n0, f.div, config_.rho, f.dt,
-                          config_.gamma);
+  mixed_source(f.n_source.empty() ? f.n_star : f.n_source, k_density_.n0, f.div, config_.rho, f.dt, config_.gamma,
+               f.source);
   if (std::find(f.surface.begin(), f.surface.end(), 1) == f.surface.end()) return;
   // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
   // expansion, and would ask for suction growing as 1/dt^2: there the divergence term alone drives the PPE.
@@ -348,7 +348,7 @@ void Simulation::solve() {
   const Particles& p = particles_;
   std::vector<double>& pressure = fields_.pressure;
   // Warm start from the previous step, or the zero guess of a cold start.
-  if (config_.warm_start) pressure = ppe_.gather(p, fields_.pressure_offset);
+  if (config_.warm_start) ppe_.gather(p, pressure, fields_.pressure_offset);
   else pressure.assign(ppe_.size(), 0.0);
   // A zero right-hand side (a liquid at rest on the lattice, hydrostatic part split off) has the solution 0,
   // which iterative solvers measuring a residual relative to |b| cannot confirm.
@@ -374,8 +374,8 @@ void Simulation::set_pressure_boundary_values() {
     for (std::size_t i = 0; i < p.size(); ++i)
       if (p.kind[i] == Kind::fluid && f.surface[i])
         p.p[i] = f.held_value[i] + (f.pressure_offset.empty() ? 0.0 : f.pressure_offset[i]);
-  f.carriers = set_dummy_pressure({p, domain_, neighbors_at_star(k_laplacian_), k_laplacian_}, p, f.surface,
-                                  config_.rho, config_.fx, config_.fy);
+  set_dummy_pressure({p, domain_, neighbors_at_star(k_laplacian_), k_laplacian_}, p, f.surface, config_.rho,
+                     config_.fx, config_.fy, f.carriers);
 }
 
 // u^{n+1} = u* - (dt/rho) grad P, x^{n+1} = x^n + dt u^{n+1}. With a pressure offset the gradient is of P - offset,

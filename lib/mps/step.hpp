@@ -91,6 +91,7 @@ struct StepFields {
   double balanced_fx = 0, balanced_fy = 0;
   std::vector<char> prescribed;  // fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
   std::vector<double> n_star;    // number density at r* (density kernel)
+  std::vector<double> n_surface;  // at the surface kernel's radius, when it differs
   std::vector<double> n_source;  // the density the source reads in place of n_star (empty: n_star)
   std::vector<double> div;       // div u*
   std::vector<char> surface;     // free-surface particles

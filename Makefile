@@ -42,7 +42,7 @@ test-sanitize: deps
 
 # The quick pass over every benchmark: small sizes, the quick sweeps and a 2 x 3 corner of each stability map (the
 # scenes' default gammas, 0.01 and 0.99, around their default step); CSV + PNG into
-# bench/results/quick/ (not committed: the README's charts come from make bench-full).
+# bench/results/quick/ (not committed: the charts in docs/ come from make bench-full).
 QUICK := bench/results/quick
 bench: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core bench_solvers bench_scaling poiseuille rotating
@@ -56,7 +56,7 @@ bench: deps build/release/CMakeCache.txt
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release --gammas 0.01,0.99 --factors 0.5,1,2 \
 	  --results $(QUICK) --runs runs/stability-quick
 
-# Every benchmark at full size, into bench/results/ (the README's charts): core phases and solvers to 1e6, the
+# Every benchmark at full size, into bench/results/ (the charts in docs/): core phases and solvers to 1e6, the
 # per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
 bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability
 
@@ -81,7 +81,7 @@ poiseuille: deps build/release/CMakeCache.txt
 	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/body-force/profile.csv runs/poiseuille/body-force/profile.png
 	/usr/bin/python3 apps/poiseuille/plot_profile.py runs/poiseuille/couette/profile.csv runs/poiseuille/couette/profile.png
 
-# Acoustic scenes (seed 001) at the paper's settings, then the README's map and centreline panels.
+# Acoustic scenes (seed 001) at the paper's settings, then the map and centreline panels of docs/acoustics.md.
 acoustic: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target acoustic
 	for c in free hard mur two-pulse flow; do ./build/release/apps/acoustic/acoustic --case $$c --frames 0 || exit 1; done
@@ -97,12 +97,12 @@ bench-acoustic: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/plot_acoustic.py spacing bench/results/acoustic_spacing.csv bench/results/acoustic_spacing.png
 
 # Rotating boundaries (seed 000): Taylor-Couette at 20 across to 1 s, and the screw channel in both models at 24
-# across to 0.5 s (the paper's 49 across: --across 49, or leave --across out), with the README's plots.
+# across to 0.5 s (the paper's 49 across: --across 49, or leave --across out), with the plots of docs/rotating.md.
 ROTATING_ACROSS ?= 24
 rotating: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target rotating
 	OMP_NUM_THREADS=1 ./build/release/apps/rotating/rotating --scene couette --out runs/rotating/couette
-	# Status 2 is a check missed (reported in the check lines, README "Rotating boundary"): plot anyway.
+	# Status 2 is a check missed (reported in the check lines, docs/rotating.md): plot anyway.
 	OMP_NUM_THREADS=1 ./build/release/apps/rotating/rotating --scene channel --model both --across $(ROTATING_ACROSS) \
 	  --average 0.5 --out runs/rotating/channel || [ $$? -eq 2 ]
 	/usr/bin/python3 apps/rotating/plot_rotating.py couette bench/results/rotating_couette.png runs/rotating/couette
@@ -119,7 +119,7 @@ bench-rotating: deps build/release/CMakeCache.txt
 
 # Error against wall time (design section 7) for the body-force channel and Taylor-Couette: spacing x backend, then
 # tolerance and gamma one at a time; one thread, one run at a time. The quick sweep takes ~6 min; --defaults adds
-# the two apps' defaults at their own spacings (~2 min more; the README's charts); PARETO_FLAGS=--full enlarges it.
+# the two apps' defaults at their own spacings (~2 min more; the charts in docs/); PARETO_FLAGS=--full enlarges it.
 PARETO_FLAGS ?= --defaults
 bench-pareto: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating

@@ -1,4 +1,4 @@
-"""A grid reference for the inlet channel (seed 004's set-up, README "Poiseuille"): the same flow solved by finite
+"""A grid reference for the inlet channel (seed 004's set-up, docs/poiseuille.md): the same flow solved by finite
 differences, to tell how far the developed parabola is from the true flow at the station at the paper's end time.
 
 Incompressible Navier-Stokes on a staggered (MAC) grid of spacing h = D / ny over the channel [0, L] x [0, D]:

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Charts of the acoustic studies and the README's pressure-map panel.
+"""Charts of the acoustic studies and the pressure-map panel of docs/acoustics.md.
 
   plot_acoustic.py cfl     bench/results/acoustic_cfl.csv     bench/results/acoustic_cfl.png
   plot_acoustic.py spacing bench/results/acoustic_spacing.csv bench/results/acoustic_spacing.png

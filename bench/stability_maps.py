@@ -76,7 +76,7 @@ SCENES = {
         "title": "Screw channel (moving model), 16 across, to t = 0.5 s",
         "error_name": "arc-2 odd defect max |u_r(φ) + u_r(-φ)| / ωR over |φ| ≤ 0.4",
         "bound": 0.03,
-        # The viscous limit sets dt here (nu = 1, 16 across); the README found viscous number 1.0 (factor 5)
+        # The viscous limit sets dt here (nu = 1, 16 across); docs/numerics.md found viscous number 1.0 (factor 5)
         # stable and 1.6 (factor 8) stopped by the guard.
         "factors": [0.25, 0.5, 1.0, 2.0, 4.0, 6.0, 8.0],
         "percent": False,

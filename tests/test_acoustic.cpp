@@ -281,7 +281,7 @@ TEST(AcousticStability, JustBelowTheLimitStaysStableForLong) {
 }
 
 // Mur's formula applied at every RK4 stage keeps the interior's stability limit (applied once per step with
-// the virtual particles frozen through the stages, it goes unstable from CFL ~0.85: README, Acoustics).
+// the virtual particles frozen through the stages, it goes unstable from CFL ~0.85: docs/acoustics.md).
 TEST(AcousticStability, MurAtEveryStageIsStableNearTheInteriorLimit) {
   auto c = coarse(10.0, mps::AcousticBoundary::mur);
   c.cfl = 0.95 * mps::AcousticSolver(c).stable_cfl_estimate();

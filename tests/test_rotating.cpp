@@ -194,7 +194,7 @@ TEST(RotatingChannel, SteadyFlowIsSymmetricAtReOne) {
 // The barrel pressure is odd by the same argument (a finite-difference solution of this steady flow at Re = 2,
 // bench/rotating_reference.py, is odd within 0.028 of its range). With the density source at gamma = 0.05 and no
 // shifting it was not: 0.112 of the range here, and 0.13 / 0.19-0.22 at 24 / 49 across. The defaults (gamma = 0.01,
-// shifting A = 1) gave 0.057 here, 0.031 and 0.029 at 24 and 49 across (README, "Rotating boundary").
+// shifting A = 1) gave 0.057 here, 0.031 and 0.029 at 24 and 49 across (docs/rotating.md).
 TEST(RotatingChannel, BarrelPressureIsOddAtReOne) {
   const ChannelRun fixed = run_channel(rotating::Model::fixed);
   const double prange = rotating::range(fixed.barrel, 0.4);

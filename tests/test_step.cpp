@@ -287,7 +287,7 @@ TEST(Stability, InAClosedBoxGravityOnlyChangesThePressureWithTheHydrostaticSplit
 
 TEST(Stability, ColumnShearModeGrowsWithPublishedMinReferenceAndDecaysWithTiltedOne) {
   const double published = shear_growth_rate(false), tilted = shear_growth_rate(true);
-  EXPECT_GT(published, 10.0) << "the published reference no longer drives the mode: re-check README numbers";
+  EXPECT_GT(published, 10.0) << "the published reference no longer drives the mode: re-check the numbers in docs/numerics.md";
   EXPECT_LT(tilted, 0.0);
 }
 

@@ -34,7 +34,7 @@ struct Params {
   double dt_factor = 1;    // multiplies both time-step limits (CFL 0.2, viscous number 0.2); > 1 probes stability
   bool implicit_viscosity = false;  // lifts the viscous limit (Re = 4 at dx = 0.004 m: ~31,000 explicit steps)
   // inlet: the outlet as an outflow buffer this many l0 thick (mps::OutflowBuffer; 0: an open end of free-surface
-  // particles, which the guard stopped at step 67 at Re = 400, 50 across: README, "Poiseuille")
+  // particles, which the guard stopped at step 67 at Re = 400, 50 across: docs/poiseuille.md)
   double outlet_buffer_l0 = 5;
   // inlet: the density variation an artificial compressibility may cause (0: incompressible). Its sound speed
   // follows Morris et al.'s (1997) criterion c^2 = max(u_max^2, dP/rho) / compression, u_max = 1.5 U and dP the

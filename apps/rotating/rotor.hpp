@@ -40,11 +40,8 @@ struct Params {
   double omega = 1;        // couette: inner cylinder, counter-clockwise; channel: the channel, clockwise [rad/s]
   double rho = 1, nu = 1;
   double across = 49;      // fluid rings across the gap, l0 = (R2 - R1)/across; 49: seed 000's 3,626 fluid particles
-  // Small: the density-error part of the source turns the particle layout's number density errors dn into
-  // pressure ~ gamma rho dn/dt^2, and the viscous limit makes dt ~ l0^2, so at a fixed gamma that pressure grows
-  // with the resolution until it outweighs this slow flow's pressure (README, "Rotating boundary"). Shifting keeps
-  // the layout even instead. The minimum-reference gradient alone runs at small gamma only with shifting; the
-  // corrective matrix runs either way and gave the smaller odd defect with it (0.023 against 0.028, 24 across).
+  // Small: the density part of the source turns layout errors into pressure ~ gamma rho dn/dt^2, which grows with
+  // resolution at a viscous dt; shifting keeps the layout even instead (docs/rotating.md).
   double gamma = 0.01;
   double dt_factor = 1;    // multiplies both time-step limits (CFL 0.2, viscous number 0.2)
   bool mirror = true;      // mirror velocities on the circular walls

@@ -157,13 +157,9 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
   // Without an inner list its radius is 0: no pair is closer, and its counts stay unused.
   const double r2 = radius * radius, inner_r2 = inner ? inner->radius * inner->radius : 0.0;
 
-  // One pass: each thread fills its own contiguous share of the rows into a buffer, then copies it to its
-  // place once the counts are known; the lists do not depend on how many threads there are. The first share
-  // starts at 0, so the first thread writes straight into the list, whose memory a time loop keeps from step to
-  // step: a lone thread copies nothing and, after the first step, allocates nothing (a fresh buffer growing to
-  // the 64 MB of a 3e5-particle list cost copies and page faults every step). The loops are branch-free over
-  // contiguous runs of cell-ordered coordinates: every candidate is written and the count of kept ones
-  // advanced, with no branch to mispredict.
+  // One pass: each thread fills its contiguous share of the rows, then copies it into place; the first share is
+  // written straight into the kept list, so one thread copies and allocates nothing after the first step. The
+  // loops write every candidate and advance the count of kept ones: no branch to mispredict.
   auto scan = [&](std::ptrdiff_t i, auto&& run_kernel) {
     const auto si = static_cast<std::size_t>(i);
     double x = particles.x[si], y = particles.y[si];

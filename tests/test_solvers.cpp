@@ -364,6 +364,57 @@ TEST(SolverFailure, CholmodChecksSymmetryOfValuesAndPattern) {
   EXPECT_LT(solver->solve(explicit_zero, b, x).relative_residual, 1e-14) << "a stored zero needs no partner";
 }
 
+// Malformed input is refused by every backend with a message naming the defect, before any backend touches it
+// (these crashed Eigen and hypre, or "solved", before the checks): each case's words must appear in the message.
+TEST(SolverFailure, EveryBackendRefusesMalformedMatricesWithAMessageNamingTheDefect) {
+  struct Case {
+    const char* what;
+    mps::CsrMatrix a;
+    const char* words;
+    bool symmetric_backends_only = false;
+  };
+  auto csr = [](int n, std::vector<int> row_ptr, std::vector<int> col, std::vector<double> val) {
+    mps::CsrMatrix m;
+    m.rows = m.cols = n;
+    m.row_ptr = std::move(row_ptr);
+    m.col = std::move(col);
+    m.val = std::move(val);
+    return m;
+  };
+  const std::vector<Case> cases{
+      {"last row empty", csr(3, {0, 2, 4, 4}, {0, 1, 0, 1}, {4, 1, 1, 4}), "row 2 is empty"},
+      {"no entries", csr(5, {0, 0, 0, 0, 0, 0}, {}, {}), "row 0 is empty"},
+      {"column out of range", csr(3, {0, 2, 4, 5}, {0, 7, 0, 1, 2}, {4, 1, 1, 4, 4}), "column index 7 in row 0"},
+      {"entry counts disagree", csr(3, {0, 2, 4, 5}, {0, 1, 0, 1}, {4, 1, 1, 4, 4}), "sizes are inconsistent"},
+      {"column past the end", csr(3, {0, 2, 4, 5}, {0, 1, 0, 1, 3}, {4, 1, 1, 4, 4}), "column index 3 in row 2"},
+      {"negative column", csr(3, {0, 2, 4, 5}, {0, -1, 0, 1, 2}, {4, 1, 1, 4, 4}), "column index -1 in row 0"},
+      {"short row_ptr", csr(3, {0, 2, 4}, {0, 1, 0, 1}, {4, 1, 1, 4}), "row_ptr needs rows + 1"},
+      {"unsorted columns", csr(3, {0, 2, 4, 5}, {1, 0, 0, 1, 2}, {1, 4, 1, 4, 4}), "not ascending"},
+      {"missing diagonal", csr(3, {0, 2, 4, 5}, {0, 1, 0, 2, 2}, {4, 1, 1, 1, 4}), "row 1 has no diagonal"},
+      {"nonsymmetric", csr(3, {0, 2, 4, 5}, {0, 1, 0, 1, 2}, {4, 1, 2, 4, 4}), "not symmetric", true},
+      {"negative diagonal", csr(2, {0, 1, 2}, {0, 1}, {4, -1}), "diagonal entry <= 0", true},
+  };
+  for (const auto& spec : all_backends()) {
+    const bool symmetric_method = spec.rfind("eigen-bicgstab", 0) != 0;
+    for (const Case& c : cases) {
+      if (c.symmetric_backends_only && !symmetric_method) continue;
+      auto solver = mps::make_solver(spec);
+      const std::vector<double> b(static_cast<std::size_t>(c.a.rows), 1.0);
+      std::vector<double> x(b.size(), 0.0);
+      try {
+        (void)solver->solve(c.a, b, x);
+        ADD_FAILURE() << spec << " accepted: " << c.what;
+      } catch (const mps::SolverError& e) {
+        EXPECT_NE(std::string(e.what()).find(c.words), std::string::npos) << spec << ", " << c.what << ": " << e.what();
+      }
+    }
+    // A 0 x 0 system is solved by nothing: no iterations, no error.
+    auto solver = mps::make_solver(spec);
+    std::vector<double> none;
+    EXPECT_EQ(solver->solve(csr(0, {0}, {}, {}), none, none).iterations, 0) << spec;
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------------
 
 TEST(SolverReuse, AKeptAmgHierarchySolvesPerturbedSystemsLikeAFreshSetup) {

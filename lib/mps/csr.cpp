@@ -26,30 +26,57 @@ double CsrMatrix::at(int i, int j) const {
   return (it != e && *it == j) ? val[static_cast<std::size_t>(it - col.begin())] : 0.0;
 }
 
+// One pass over the sorted arrays (a binary search per entry cost a tenth of a numeric factorisation at 1e5
+// unknowns): one cursor per row j pairs each a_ij (j < i) with its a_ji; entries left unpaired must be zero.
 bool CsrMatrix::is_symmetric(double tol) const {
   if (rows != cols) return false;
+  const CsrMatrix& a = *this;
   double scale = 0.0;
-  for (double v : val) scale = std::max(scale, std::abs(v));
-  for (int i = 0; i < rows; ++i)
-    for (int k = row_ptr[static_cast<std::size_t>(i)]; k < row_ptr[static_cast<std::size_t>(i) + 1]; ++k) {
-      const int j = col[static_cast<std::size_t>(k)];
-      if (std::abs(val[static_cast<std::size_t>(k)] - at(j, i)) > tol * scale) return false;
+  for (double v : a.val) scale = std::max(scale, std::abs(v));
+  const double limit = tol * scale;
+  const auto n = static_cast<std::size_t>(a.rows);
+  std::vector<int> cursor(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    int k = a.row_ptr[j];
+    while (k < a.row_ptr[j + 1] && static_cast<std::size_t>(a.col[static_cast<std::size_t>(k)]) <= j) ++k;
+    cursor[j] = k;
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    for (int k = a.row_ptr[i]; k < a.row_ptr[i + 1]; ++k) {
+      const auto j = static_cast<std::size_t>(a.col[static_cast<std::size_t>(k)]);
+      if (j >= i) break;
+      int& c = cursor[j];
+      // entries (j, col < i) of row j had no partner in their rows: they must be zero
+      while (c < a.row_ptr[j + 1] && static_cast<std::size_t>(a.col[static_cast<std::size_t>(c)]) < i)
+        if (std::abs(a.val[static_cast<std::size_t>(c++)]) > limit) return false;
+      const bool paired = c < a.row_ptr[j + 1] && static_cast<std::size_t>(a.col[static_cast<std::size_t>(c)]) == i;
+      const double partner = paired ? a.val[static_cast<std::size_t>(c++)] : 0.0;
+      if (std::abs(a.val[static_cast<std::size_t>(k)] - partner) > limit) return false;
     }
+  for (std::size_t j = 0; j < n; ++j)
+    for (int c = cursor[j]; c < a.row_ptr[j + 1]; ++c)
+      if (std::abs(a.val[static_cast<std::size_t>(c)]) > limit) return false;
   return true;
 }
 
 void CsrMatrix::validate() const {
   if (rows < 0 || cols < 0 || row_ptr.size() != static_cast<std::size_t>(rows) + 1 || row_ptr.front() != 0 ||
       static_cast<std::size_t>(row_ptr.back()) != col.size() || col.size() != val.size())
-    throw std::invalid_argument("CsrMatrix: row_ptr, col and val sizes are inconsistent");
+    throw std::invalid_argument("CsrMatrix: row_ptr, col and val sizes are inconsistent (rows " + std::to_string(rows) +
+                                ", row_ptr " + std::to_string(row_ptr.size()) + " entries, col " +
+                                std::to_string(col.size()) + ", val " + std::to_string(val.size()) +
+                                "; row_ptr needs rows + 1 entries from 0 to the entry count)");
   for (int i = 0; i < rows; ++i) {
     const int b = row_ptr[static_cast<std::size_t>(i)], e = row_ptr[static_cast<std::size_t>(i) + 1];
     if (e < b) throw std::invalid_argument("CsrMatrix: row_ptr decreases at row " + std::to_string(i));
     for (int k = b; k < e; ++k) {
       const int j = col[static_cast<std::size_t>(k)];
-      if (j < 0 || j >= cols || (k > b && j <= col[static_cast<std::size_t>(k) - 1]))
-        throw std::invalid_argument("CsrMatrix: columns must be in range and ascending (row " +
-                                    std::to_string(i) + ")");
+      if (j < 0 || j >= cols)
+        throw std::invalid_argument("CsrMatrix: column index " + std::to_string(j) + " in row " + std::to_string(i) +
+                                    " is outside [0, " + std::to_string(cols) + ")");
+      if (k > b && j <= col[static_cast<std::size_t>(k) - 1])
+        throw std::invalid_argument("CsrMatrix: columns of row " + std::to_string(i) +
+                                    " are not ascending (sort each row's columns and merge duplicates)");
     }
   }
 }

@@ -1,5 +1,6 @@
 #pragma once
 // Small helpers shared by the solver backends (private to lib/mps/solvers/*.cpp).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <span>
@@ -19,11 +20,44 @@ inline bool all_finite(std::span<const double> x) {
   return true;
 }
 
-// The checks every serial backend makes before touching the numbers: square matrix, matching vector sizes,
-// finite matrix and right-hand side. A non-finite initial guess is replaced by zeros (a broken warm start
-// must not poison the solve).
+// Every row holds its diagonal entry, positive where the method needs a positive definite matrix: an empty row
+// or a missing diagonal is a singular matrix, whatever the method.
+inline void check_diagonal(const std::string& backend, const CsrMatrix& a, int first_row, bool positive,
+                           const SolveReport& report) {
+  for (int i = 0; i < a.rows; ++i) {
+    const auto b = a.col.begin() + a.row_ptr[static_cast<std::size_t>(i)];
+    const auto e = a.col.begin() + a.row_ptr[static_cast<std::size_t>(i) + 1];
+    const auto it = std::lower_bound(b, e, first_row + i);
+    const bool stored = it != e && *it == first_row + i;
+    const double d = stored ? a.val[static_cast<std::size_t>(it - a.col.begin())] : 0.0;
+    if (!stored || (positive ? !(d > 0.0) : d == 0.0))
+      throw SolverError(backend + ": row " + std::to_string(first_row + i) +
+                            (b == e      ? " is empty"
+                             : !stored   ? " has no diagonal entry"
+                             : positive  ? " has a diagonal entry <= 0"
+                                         : " has a zero diagonal entry") +
+                            ", so the matrix is singular" + (positive ? " or not positive definite" : "") +
+                            " (a PPE row per unknown, each with its own diagonal, is what the solvers expect)",
+                        report);
+  }
+}
+
+// A CSR structure that is not one (CsrMatrix::validate), as a SolverError naming the backend.
+inline void check_structure(const std::string& backend, const CsrMatrix& a, const SolveReport& report) {
+  try {
+    a.validate();
+  } catch (const std::invalid_argument& e) {
+    throw SolverError(backend + ": " + e.what(), report);
+  }
+}
+
+// The checks every serial backend makes before touching the numbers: a valid CSR structure, square matrix, matching
+// vector sizes, finite matrix and right-hand side, every diagonal stored (positive and the matrix symmetric for the
+// symmetric positive definite methods: a cheap one-pass check). A non-finite initial guess is replaced by zeros (a
+// broken warm start must not poison the solve).
 inline void check_serial_input(const std::string& backend, const CsrMatrix& a, std::span<const double> b,
-                               std::span<double> x, const SolveReport& report) {
+                               std::span<double> x, const SolveReport& report, bool spd) {
+  check_structure(backend, a, report);
   if (a.rows != a.cols || b.size() != static_cast<std::size_t>(a.rows) || x.size() != b.size())
     throw SolverError(backend + ": matrix and vector sizes do not match (matrix " + std::to_string(a.rows) + " x " +
                           std::to_string(a.cols) + ", b " + std::to_string(b.size()) + ", x " +
@@ -31,6 +65,11 @@ inline void check_serial_input(const std::string& backend, const CsrMatrix& a, s
                       report);
   if (!all_finite(a.val)) throw SolverError(backend + ": NaN or Inf in the matrix", report);
   if (!all_finite(b)) throw SolverError(backend + ": NaN or Inf in the right-hand side", report);
+  check_diagonal(backend, a, 0, spd, report);
+  if (spd && !a.is_symmetric(1e-12))
+    throw SolverError(backend + ": the matrix is not symmetric, which this method needs; use eigen-bicgstab for a "
+                                "nonsymmetric matrix",
+                      report);
   if (!all_finite(x))
     for (double& v : x) v = 0.0;
 }

@@ -25,11 +25,12 @@ Eigen::Map<const RowMatrix> as_eigen(const CsrMatrix& a) {
 // Eigen keeps no per-iteration residuals, so the history holds the initial and the final true relative
 // residual.
 template <class Solver, class Configure>
-SolveReport run_eigen(const std::string& backend, const std::string& label, double tol, int max_iter,
+SolveReport run_eigen(const std::string& backend, const std::string& label, double tol, int max_iter, bool spd,
                       const CsrMatrix& a, std::span<const double> b, std::span<double> x, Configure configure) {
   SolveReport report;
   report.backend = backend;
-  solver_detail::check_serial_input(backend, a, b, x, report);
+  solver_detail::check_serial_input(backend, a, b, x, report, spd);
+  if (b.empty()) return report;  // nothing to solve (Eigen divides by the size)
   report.residual_history.push_back(relative_residual(a, x, b));
 
   const auto t0 = Clock::now();
@@ -92,7 +93,7 @@ class EigenCg final : public LinearSolver {
   template <class Preconditioner>
   SolveReport run(const CsrMatrix& a, std::span<const double> b, std::span<double> x) {
     using Cg = Eigen::ConjugateGradient<RowMatrix, Eigen::Lower | Eigen::Upper, Preconditioner>;
-    return run_eigen<Cg>("eigen-cg", "precond=" + precond_, tol_, max_iter_, a, b, x, [](Cg&) {});
+    return run_eigen<Cg>("eigen-cg", "precond=" + precond_, tol_, max_iter_, true, a, b, x, [](Cg&) {});
   }
 
   std::string precond_, ordering_;
@@ -115,10 +116,10 @@ class EigenBicgstab final : public LinearSolver {
     const std::string label = "precond=" + precond_;
     if (precond_ == "jacobi") {
       using Bicg = Eigen::BiCGSTAB<RowMatrix, Eigen::DiagonalPreconditioner<double>>;
-      return run_eigen<Bicg>("eigen-bicgstab", label, tol_, max_iter_, a, b, x, [](Bicg&) {});
+      return run_eigen<Bicg>("eigen-bicgstab", label, tol_, max_iter_, false, a, b, x, [](Bicg&) {});
     }
     using Bicg = Eigen::BiCGSTAB<RowMatrix, Eigen::IncompleteLUT<double, int>>;
-    return run_eigen<Bicg>("eigen-bicgstab", label, tol_, max_iter_, a, b, x, [this](Bicg& s) {
+    return run_eigen<Bicg>("eigen-bicgstab", label, tol_, max_iter_, false, a, b, x, [this](Bicg& s) {
       s.preconditioner().setDroptol(droptol_);
       s.preconditioner().setFillfactor(fill_);
     });

@@ -327,9 +327,23 @@ class HypreSolver final : public LinearSolver {
     p.iupper = static_cast<HYPRE_BigInt>(before + local - 1);
     p.global_rows = static_cast<HYPRE_BigInt>(total);
 
-    const bool sizes_bad = any_rank(b.size() != static_cast<std::size_t>(a.rows) || x.size() != b.size() ||
-                                        a.cols != total || a.row_ptr.size() != static_cast<std::size_t>(a.rows) + 1,
-                                    comm_);
+    // Structure, diagonals and (on one rank, where the whole matrix is here) symmetry, as the serial backends check.
+    std::string bad_input;
+    try {
+      solver_detail::check_structure(name_, a, report);
+      solver_detail::check_diagonal(name_, a, static_cast<int>(p.ilower), true, report);
+      if (p.ranks == 1 && !a.is_symmetric(1e-12))
+        throw SolverError(name_ + ": the matrix is not symmetric, which PCG and the symmetric smoothers need; use "
+                                  "eigen-bicgstab for a nonsymmetric matrix",
+                          report);
+    } catch (const SolverError& e) {
+      bad_input = e.what();
+    }
+    if (any_rank(!bad_input.empty(), comm_))
+      throw SolverError(bad_input.empty() ? name_ + ": another rank's block of the matrix is malformed" : bad_input,
+                        report);
+    const bool sizes_bad =
+        any_rank(b.size() != static_cast<std::size_t>(a.rows) || x.size() != b.size() || a.cols != total, comm_);
     if (sizes_bad)
       throw SolverError(name_ + ": matrix and vector sizes do not match (each rank passes its block of rows of a " +
                             "square matrix, with a.cols the global size)",

@@ -203,6 +203,11 @@ TEST(SolverSpec, DuplicateAndMalformedOptionsAreRejected) {
   EXPECT_THROW((void)mps::make_solver("hypre-pcg:tol=1e-8,tol=1e-9"), std::invalid_argument);
   EXPECT_THROW((void)mps::make_solver("hypre-pcg:tol"), std::invalid_argument);
   EXPECT_THROW((void)mps::make_solver(":tol=1e-8"), std::invalid_argument);
+  // An empty item is no option: a trailing comma and a bare colon are refused like "eigen-cg:,".
+  EXPECT_THROW((void)mps::make_solver("eigen-cg:precond=ic,"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver("eigen-cg:"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver("eigen-cg:,"), std::invalid_argument);
+  EXPECT_THROW((void)mps::make_solver("eigen-cg:tol=nan"), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------------------------

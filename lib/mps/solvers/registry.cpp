@@ -33,8 +33,9 @@ SolverSpec parse_solver_spec(std::string_view spec) {
   out.name = trim(spec.substr(0, colon));
   if (out.name.empty()) throw std::invalid_argument("solver spec '" + std::string(spec) + "' names no solver");
   if (colon == std::string_view::npos) return out;
+  // Every item after the colon must be key=value: "name:" and a trailing comma are refused, not read as no option.
   std::string_view rest = spec.substr(colon + 1);
-  while (!rest.empty()) {
+  for (;;) {
     const auto comma = rest.find(',');
     const std::string_view item = rest.substr(0, comma);
     const auto eq = item.find('=');

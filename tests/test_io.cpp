@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <signal.h>
+#include <sys/resource.h>
+
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -149,6 +152,72 @@ TEST(Io, CsvAndJsonAreWrittenWholeOrNotAtAll) {
   EXPECT_FALSE(fs::exists(scratch("u.csv")));
   mps::write_json(scratch("s.json"), {{"x", 1.5}});
   EXPECT_EQ(nlohmann::json::parse(slurp(scratch("s.json")))["x"], 1.5);
+}
+
+// Each broken file is refused with a message naming the file, the line and the defect.
+TEST(Io, MatrixMarketReaderNamesTheLineAndTheDefectOfEveryBrokenFile) {
+  const std::string head = "%%MatrixMarket matrix coordinate real general\n";
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {head + "2 2 1\n1 1 nan\n", "line 3: value 'nan' is not a finite number"},
+      {head + "2 2 1\n1 1 inf\n", "value 'inf' is not a finite number"},
+      {head + "2 2 1\n1 1 1e999\n", "value '1e999' is not a finite number"},
+      {head + "2 2 1000000000000000000\n1 1 1\n", "entry count (bounded by the file size)"},
+      {head + "2 2 1\n1 1 1\n2 2 1\n", "more entries than the 1"},
+      {head + "2 2 2\n1 1 1\n", "expected 2 entries, found 1"},
+      {head + "2 2 1\n3 1 1\n", "row '3' is not a whole number in [1, 2]"},
+      {head + "2 2 1\n1 1.5 1\n", "column '1.5'"},
+      {head + "2 -2 1\n", "column count '-2'"},
+      {head + "3000000000 2 1\n1 1 1\n", "row count '3000000000'"},
+      {head + "2 2 1\n1 1 1 7\n", "expected 'row column value'"},
+  };
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const fs::path file = scratch("broken" + std::to_string(k) + ".mtx");
+    std::ofstream(file) << cases[k].first;
+    try {
+      (void)mps::read_matrix_market(file);
+      ADD_FAILURE() << "accepted: " << cases[k].first;
+    } catch (const std::runtime_error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(cases[k].second), std::string::npos) << msg;
+      EXPECT_NE(msg.find(file.string()), std::string::npos) << msg;
+    }
+  }
+  std::ofstream(scratch("v_extra.mtx")) << "%%MatrixMarket matrix array real general\n2 1\n1\n2\n3\n";
+  std::ofstream(scratch("v_nan.mtx")) << "%%MatrixMarket matrix array real general\n2 1\n1\nnan\n";
+  EXPECT_THROW((void)mps::read_matrix_market_vector(scratch("v_extra.mtx")), std::runtime_error);
+  EXPECT_THROW((void)mps::read_matrix_market_vector(scratch("v_nan.mtx")), std::runtime_error);
+}
+
+// A write that fails (here at a file-size limit, as on a full disk) leaves the previous file as it was and no
+// temporary file, and says why; so does a target that is a directory.
+TEST(Io, AFailedWriteKeepsThePreviousFileRemovesItsTemporaryAndSaysWhy) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 1, 1}, 0.01, mps::Kind::fluid);  // 10,000 particles: about 1 MB of VTP
+  const fs::path file = scratch("limited.vtp");
+  std::ofstream(file) << "previous";
+  rlimit old{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+  const auto old_handler = signal(SIGXFSZ, SIG_IGN);  // a write past the limit fails with EFBIG instead
+  rlimit small = old;
+  small.rlim_cur = 100000;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string message;
+  try {
+    mps::write_vtp(file, p);
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  setrlimit(RLIMIT_FSIZE, &old);
+  signal(SIGXFSZ, old_handler);
+  EXPECT_NE(message.find("File too large"), std::string::npos) << message;
+  EXPECT_EQ(slurp(file), "previous");
+  EXPECT_FALSE(fs::exists(scratch("limited.vtp.tmp")));
+
+  const fs::path dir = scratch("a_directory");
+  fs::create_directories(dir);
+  mps::CsrMatrix a;
+  EXPECT_THROW(mps::write_matrix_market(dir, a), std::runtime_error);
+  EXPECT_FALSE(fs::exists(scratch("a_directory.tmp")));
 }
 
 }  // namespace

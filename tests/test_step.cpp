@@ -450,3 +450,31 @@ TEST(StepComponents, PrescribedFluidMovesAtItsOwnVelocityOnly) {
     if (s.kind[i] == mps::Kind::fluid && i != at) disturbed = std::max(disturbed, std::hypot(s.u[i], s.v[i]));
   EXPECT_GT(disturbed, 0.1 * std::hypot(u, v));
 }
+
+// Whatever a stage throws (here the neighbour search meeting positions that overflowed to infinity) is a failed step:
+// a SimulationError naming the step and the option to change, with the last good state kept, however often retried.
+TEST(Simulation, AFailureInsideAStageRollsBackAndIsASimulationError) {
+  tank::Params p;
+  auto c = tank::make_config(p);
+  c.hydrostatic_split = false;
+  c.nu = 0.0;         // no viscous limit: dt = dt_max
+  c.dt_max = 1e200;   // gravity moves the water by g dt^2 = inf in one step
+  c.dt_option = "--dt";
+  mps::Simulation sim(tank::make_particles(p), tank::make_domain(p), c);
+  const mps::Particles before = sim.particles();
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    try {
+      sim.step();
+      FAIL() << "an overflowing step went through";
+    } catch (const mps::SimulationError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("step 1"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("non-finite"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("reduce --dt"), std::string::npos) << msg;
+    }
+    EXPECT_EQ(sim.last_step().step, 0);
+    EXPECT_EQ(sim.particles().x, before.x);
+    EXPECT_EQ(sim.particles().y, before.y);
+    EXPECT_EQ(sim.particles().v, before.v);
+  }
+}

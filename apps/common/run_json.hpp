@@ -18,9 +18,14 @@ inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::siz
 // and on stderr. Returns the app's exit status.
 inline int report_guard_stop(const std::filesystem::path& dir, const mps::SimulationError& error,
                              const nlohmann::json& params, const mps::Simulation& sim) {
-  mps::write_vtp(dir / "last_good.vtp", sim.particles());
-  mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", error.what()}, {"parameters", params},
-                                         {"time_s", sim.time()}, {"steps", sim.last_step().step}});
-  std::cerr << "error: " << error.what() << "\nlast good state written to " << (dir / "last_good.vtp").string() << "\n";
+  std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
+  try {
+    mps::write_vtp(dir / "last_good.vtp", sim.particles());
+    mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", error.what()}, {"parameters", params},
+                                           {"time_s", sim.time()}, {"steps", sim.last_step().step}});
+    std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "error: the last good state could not be saved: " << e.what() << "\n";
+  }
   return 1;
 }

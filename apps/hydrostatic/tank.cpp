@@ -30,6 +30,7 @@ mps::SimulationConfig make_config(const Params& p) {
   c.gamma = p.gamma;
   c.dt_max = p.dt;
   c.solver = p.solver;
+  c.dt_option = "--dt";
   return c;
 }
 

@@ -152,6 +152,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
+  c.dt_option = "--dt-factor";
   c.warm_start = p.warm_start;
   c.sound_speed = p.periodic() ? 0.0 : p.sound_speed();  // the periodic channels are closed: the gauge serves them
   // The outlet is an open end at gauge pressure 0, not a liquid surface: the confined liquid may hold a

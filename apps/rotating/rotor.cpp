@@ -116,6 +116,7 @@ mps::Simulation make_simulation(const Params& p) {
   c.cfl *= p.dt_factor;
   c.viscous_number *= p.dt_factor;
   c.solver = p.solver;
+  c.dt_option = "--dt-factor";
   c.warm_start = p.warm_start;
   c.shifting = p.shifting;
   mps::Particles particles = make_particles(p);

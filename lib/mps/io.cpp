@@ -1,6 +1,12 @@
 #include "mps/io.hpp"
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <numeric>
 #include <sstream>
@@ -12,24 +18,47 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Writes through a temporary file in the same directory, then renames it over the target.
+// What the system said about the last failed call (errno), for messages: "No space left on device".
+std::string system_reason() { return errno != 0 ? std::string(": ") + std::strerror(errno) : std::string(); }
+
+// Writes through a temporary file in the same directory, then renames it over the target; on any failure the
+// temporary file is removed, the target left as it was, and the message says why (errno).
 template <class Body>
 void write_atomically(const fs::path& path, Body&& body) {
+  if (fs::is_directory(path)) throw std::runtime_error("cannot write " + path.string() + ": it is a directory");
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
   fs::path tmp = path;
   tmp += ".tmp";
+  auto fail = [&](const std::string& what) {
+    const std::string reason = system_reason();
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw std::runtime_error(what + reason);
+  };
+  errno = 0;
   {
     std::ofstream out(tmp);
-    if (!out) throw std::runtime_error("cannot open " + tmp.string() + " for writing");
+    if (!out) fail("cannot open " + tmp.string() + " for writing");
     out.precision(17);
-    body(out);
-    out.flush();
-    if (!out) throw std::runtime_error("failed while writing " + tmp.string());
+    try {
+      body(out);
+    } catch (...) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+      throw;
+    }
+    out.close();
+    if (!out) fail("failed while writing " + tmp.string());
   }
-  fs::rename(tmp, path);
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    errno = ec.value();
+    fail("cannot rename " + tmp.string() + " to " + path.string());
+  }
 }
 
-void read_error(const fs::path& path, const std::string& what) {
+[[noreturn]] void read_error(const fs::path& path, const std::string& what) {
   throw std::runtime_error("Matrix Market file " + path.string() + ": " + what);
 }
 
@@ -134,40 +163,94 @@ void write_matrix_market(const fs::path& path, std::span<const double> vector) {
 
 namespace {
 // Returns the banner's words (lower case) and leaves `in` after the comment lines.
-std::vector<std::string> read_banner(std::ifstream& in, const fs::path& path) {
-  std::string line;
-  if (!std::getline(in, line) || line.rfind("%%MatrixMarket", 0) != 0) read_error(path, "missing %%MatrixMarket banner");
-  std::istringstream words(line);
-  std::vector<std::string> out;
-  for (std::string w; words >> w;) {
-    std::transform(w.begin(), w.end(), w.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
-    out.push_back(w);
+// The data lines of a Matrix Market file after its banner and comments, with line numbers for messages, and
+// strict numbers: every token must be a whole number or a finite value ("nan", "inf" and "1e999" are errors).
+class MatrixMarketLines {
+ public:
+  explicit MatrixMarketLines(const fs::path& path) : path_(path), in_(path) {
+    if (!in_) read_error(path, std::string("cannot open") + system_reason());
+    size_ = fs::file_size(path);
   }
-  while (in.peek() == '%') std::getline(in, line);
-  return out;
-}
+  [[nodiscard]] std::uintmax_t file_size() const { return size_; }
+  [[noreturn]] void fail(const std::string& what) const {
+    read_error(path_, (line_ > 0 ? "line " + std::to_string(line_) + ": " : std::string()) + what);
+  }
+  // The banner's words, lower case.
+  std::vector<std::string> banner() {
+    std::string line;
+    ++line_;
+    if (!std::getline(in_, line) || line.rfind("%%MatrixMarket", 0) != 0) fail("missing %%MatrixMarket banner");
+    std::istringstream words(line);
+    std::vector<std::string> out;
+    for (std::string w; words >> w;) {
+      std::transform(w.begin(), w.end(), w.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+      out.push_back(w);
+    }
+    return out;
+  }
+  // The next line that is neither a comment nor blank, split into words; false at the end of the file.
+  bool next(std::vector<std::string>& words) {
+    for (std::string line; std::getline(in_, line);) {
+      ++line_;
+      if (line.empty() || line[0] == '%') continue;
+      std::istringstream split(line);
+      words.clear();
+      for (std::string w; split >> w;) words.push_back(w);
+      if (!words.empty()) return true;
+    }
+    return false;
+  }
+  long whole(const std::string& word, long min, long max, const char* what) const {
+    long value = 0;
+    const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), value);
+    if (ec != std::errc() || end != word.data() + word.size() || value < min || value > max)
+      fail(std::string(what) + " '" + word + "' is not a whole number in [" + std::to_string(min) + ", " +
+           std::to_string(max) + "]");
+    return value;
+  }
+  double finite(const std::string& word) const {
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(word.c_str(), &end);
+    if (end != word.c_str() + word.size() || !std::isfinite(value) || errno == ERANGE)
+      fail("value '" + word + "' is not a finite number");
+    return value;
+  }
+
+ private:
+  fs::path path_;
+  std::ifstream in_;
+  std::uintmax_t size_ = 0;
+  long line_ = 0;
+};
+
+constexpr long kMaxIndex = std::numeric_limits<int>::max();
+
 }  // namespace
 
 CsrMatrix read_matrix_market(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) read_error(path, "cannot open");
-  const auto banner = read_banner(in, path);
+  MatrixMarketLines in(path);
+  const auto banner = in.banner();
   if (banner.size() < 5 || banner[1] != "matrix" || banner[2] != "coordinate" || banner[3] != "real")
-    read_error(path, "only 'matrix coordinate real' is supported");
+    in.fail("only 'matrix coordinate real' is supported");
   const bool symmetric = banner[4] == "symmetric";
-  if (!symmetric && banner[4] != "general") read_error(path, "only general or symmetric storage is supported");
-  long rows = 0, cols = 0, entries = 0;
-  if (!(in >> rows >> cols >> entries) || rows < 0 || cols < 0 || entries < 0) read_error(path, "bad size line");
+  if (!symmetric && banner[4] != "general") in.fail("only general or symmetric storage is supported");
+  std::vector<std::string> w;
+  if (!in.next(w) || w.size() != 3) in.fail("expected the size line 'rows columns entries'");
+  const long rows = in.whole(w[0], 0, kMaxIndex, "row count"), cols = in.whole(w[1], 0, kMaxIndex, "column count");
+  // Each entry takes at least 6 bytes ("1 1 1\n"): a count beyond that is a broken header, not a big matrix.
+  const long entries = in.whole(w[2], 0, static_cast<long>(in.file_size() / 6), "entry count (bounded by the file size)");
   std::vector<std::tuple<int, int, double>> triplets;
   triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
   for (long e = 0; e < entries; ++e) {
-    long i = 0, j = 0;
-    double v = 0;
-    if (!(in >> i >> j >> v)) read_error(path, "expected " + std::to_string(entries) + " entries, got " + std::to_string(e));
-    if (i < 1 || i > rows || j < 1 || j > cols) read_error(path, "entry out of range");
+    if (!in.next(w)) in.fail("expected " + std::to_string(entries) + " entries, found " + std::to_string(e));
+    if (w.size() != 3) in.fail("expected 'row column value'");
+    const long i = in.whole(w[0], 1, rows, "row"), j = in.whole(w[1], 1, cols, "column");
+    const double v = in.finite(w[2]);
     triplets.emplace_back(static_cast<int>(i - 1), static_cast<int>(j - 1), v);
     if (symmetric && i != j) triplets.emplace_back(static_cast<int>(j - 1), static_cast<int>(i - 1), v);
   }
+  if (in.next(w)) in.fail("more entries than the " + std::to_string(entries) + " the size line announces");
   std::sort(triplets.begin(), triplets.end(),
             [](const auto& a, const auto& b) { return std::tie(std::get<0>(a), std::get<1>(a)) < std::tie(std::get<0>(b), std::get<1>(b)); });
   CsrMatrix a;
@@ -187,15 +270,19 @@ CsrMatrix read_matrix_market(const fs::path& path) {
 }
 
 std::vector<double> read_matrix_market_vector(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) read_error(path, "cannot open");
-  const auto banner = read_banner(in, path);
-  if (banner.size() < 4 || banner[2] != "array" || banner[3] != "real") read_error(path, "expected 'matrix array real'");
-  long rows = 0, cols = 0;
-  if (!(in >> rows >> cols) || rows < 0 || cols != 1) read_error(path, "expected a single column");
+  MatrixMarketLines in(path);
+  const auto banner = in.banner();
+  if (banner.size() < 4 || banner[2] != "array" || banner[3] != "real") in.fail("expected 'matrix array real'");
+  std::vector<std::string> w;
+  if (!in.next(w) || w.size() != 2) in.fail("expected the size line 'rows 1'");
+  const long rows = in.whole(w[0], 0, static_cast<long>(in.file_size() / 2), "row count (bounded by the file size)");
+  in.whole(w[1], 1, 1, "column count");
   std::vector<double> v(static_cast<std::size_t>(rows));
-  for (auto& x : v)
-    if (!(in >> x)) read_error(path, "fewer values than announced");
+  for (auto& x : v) {
+    if (!in.next(w) || w.size() != 1) in.fail("expected " + std::to_string(rows) + " values, one per line");
+    x = in.finite(w[0]);
+  }
+  if (in.next(w)) in.fail("more values than the " + std::to_string(rows) + " the size line announces");
   return v;
 }
 

@@ -132,6 +132,19 @@ const StepInfo& Simulation::step() {
     particles_ = before_step_;
     info_ = info_before;
     throw;
+  } catch (const std::bad_alloc&) {
+    particles_ = before_step_;
+    info_ = info_before;
+    throw SimulationError("step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
+                          " s): out of memory (" + std::to_string(particles_.size()) + " particles)");
+  } catch (const std::exception& e) {
+    // Anything else a stage throws (a non-finite position met by the neighbour search, ...) is a failed step too.
+    const std::string message = "step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
+                                " s, dt = " + fmt(fields_.dt) + " s, dt limit " + info_.dt_limit + "): " + e.what() +
+                                dt_advice();
+    particles_ = before_step_;
+    info_ = info_before;
+    throw SimulationError(message);
   }
   return info_;
 }
@@ -413,12 +426,19 @@ void Simulation::finish_step() {
   ++info_.step;
 }
 
+// Names the knob of the limit that set dt (lowering dt_max does nothing while cfl binds), or the host program's own
+// option for the time step when it set one.
+std::string Simulation::dt_advice() const {
+  const std::string limit = info_.dt_limit == "viscous" ? "viscous" : info_.dt_limit == "cfl" ? "CFL" : "dt_max";
+  if (!config_.dt_option.empty()) return " (reduce " + config_.dt_option + "; the " + limit + " limit set dt)";
+  return info_.dt_limit == "viscous" ? " (reduce viscous_number, the viscous limit set dt)"
+         : info_.dt_limit == "cfl"   ? " (reduce cfl, the CFL limit set dt)"
+                                     : " (reduce dt_max)";
+}
+
 void Simulation::check_guard() const {
   const Particles& p = particles_;
-  // The advice names the knob of the limit that set dt: lowering dt_max does nothing while cfl binds.
-  const std::string advice = info_.dt_limit == "viscous" ? " (reduce viscous_number, the viscous limit set dt)"
-                             : info_.dt_limit == "cfl"   ? " (reduce cfl, the CFL limit set dt)"
-                                                         : " (reduce dt_max)";
+  const std::string advice = dt_advice();
   auto fail = [&](const std::string& what) {
     throw SimulationError("step " + std::to_string(info_.step) + " (t = " + fmt(info_.time) + " s, dt = " +
                           fmt(info_.dt) + " s, dt limit " + info_.dt_limit + "): " + what + advice);

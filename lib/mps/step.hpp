@@ -60,6 +60,7 @@ struct SimulationConfig {
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
+  std::string dt_option;  // the host program's option for the time step, named in the guard's advice (e.g. --dt-factor)
   std::string solver = "eigen-cg";
   // Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
   bool warm_start = true;
@@ -178,6 +179,7 @@ class Simulation {
  private:
   void advance();
   void check_guard() const;
+  [[nodiscard]] std::string dt_advice() const;
   [[nodiscard]] double choose_dt(std::string& limit) const;
   void run(void (StepComponent::*hook)(StepContext&));
   // The stages, in order.

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "checks.hpp"
 #include "mps/version.hpp"
 #include "mps/acoustic.hpp"
 #include "mps/io.hpp"
@@ -84,29 +85,33 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS acoustics (MPS-WP, seed 001): Gaussian pulses against the exact solution"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--case", case_name, "free | hard | mur | two-pulse | flow")->capture_default_str();
-  app.add_option("--size", size, "side of the square box [m]")->capture_default_str();
-  app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str();
-  app.add_option("--cfl", config.cfl, "CFL number c0 dt / l0")->capture_default_str();
-  app.add_option("--b", half_width, "pulse half-width b [m]: dp = eps exp(-ln2 r^2/b^2)")->capture_default_str();
-  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str();
-  app.add_option("--c0", config.c0, "speed of sound [m/s]")->capture_default_str();
-  app.add_option("--rho0", config.rho0, "density [kg/m^3]")->capture_default_str();
-  app.add_option("--u0", u0, "mean flow along x [m/s] (default: 100 for flow, else 0)");
-  app.add_option("--frequency", frequency, "pulse repetition rate of the flow case [Hz]")->capture_default_str();
+  app.add_option("--size", size, "side of the square box [m]")->capture_default_str()->check(positive_up_to(1e5));
+  app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str()->check(positive_up_to(1e3));
+  app.add_option("--cfl", config.cfl, "CFL number c0 dt / l0")->capture_default_str()->check(positive_up_to(100));
+  app.add_option("--b", half_width, "pulse half-width b [m]: dp = eps exp(-ln2 r^2/b^2), at most a quarter of the box")->capture_default_str()->check(positive_up_to(1e5));
+  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str()->check(positive_up_to(1e100));
+  app.add_option("--c0", config.c0, "speed of sound [m/s]")->capture_default_str()->check(positive_up_to(1e5));
+  app.add_option("--rho0", config.rho0, "density [kg/m^3]")->capture_default_str()->check(positive_up_to(1e5));
+  app.add_option("--u0", u0, "mean flow along x [m/s], below c0 (default: 100 for flow, else 0)")->check(number_in(-1e5, 1e5));
+  app.add_option("--frequency", frequency, "pulse repetition rate of the flow case [Hz]")->capture_default_str()->check(positive_up_to(1e6));
   app.add_option("--boundary", boundary_name,
                  "hard | mur (Mur at every RK4 stage) | mur-step (Mur once per step, as published) (default: the case's)");
   app.add_option("--gradient", gradient_name, "mps (seed 001) | ls3 (least squares, cubic)")->capture_default_str();
   app.add_option("--weight", weight_name, "classic (re/r - 1, seed 001) | bounded")->capture_default_str();
-  app.add_option("--radius", config.radius, "kernel radius re / l0")->capture_default_str();
-  app.add_option("--end-time", end_time, "simulated time [s] (default: the case's)");
+  app.add_option("--radius", config.radius, "kernel radius re / l0")->capture_default_str()->check(number_in(1.5, 10.0));
+  app.add_option("--end-time", end_time, "simulated time [s] (default: the case's)")->check(positive_up_to(1e4));
   app.add_option("--samples", samples, "times at which error and energy are measured [s] (default: the case's)")
-      ->delimiter(',');
-  app.add_option("--maps", maps, "times of the pressure-map PNGs [s] (default: the paper's figure times)")->delimiter(',');
+      ->delimiter(',')->check(number_in(0.0, 1e4));
+  app.add_option("--maps", maps, "times of the pressure-map PNGs [s] (default: the paper's figure times)")->delimiter(',')
+      ->check(number_in(0.0, 1e4));
   app.add_flag("--no-maps", no_maps, "write no pressure maps (studies)");
-  app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)");
-  app.add_option("--tolerance", tolerance, "absolute quadrature tolerance of the exact solution, in eps")->capture_default_str();
+  app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)")
+      ->check(whole_in(0, 100000));
+  app.add_option("--tolerance", tolerance, "absolute quadrature tolerance of the exact solution, in eps")->capture_default_str()
+      ->check(number_in(1e-15, 1e-2));
   app.add_option("--guard-factor", config.guard_energy_factor,
-                 "stop when the energy exceeds this factor x the largest energy the pulses can carry")->capture_default_str();
+                 "stop when the energy exceeds this factor x the largest energy the pulses can carry")->capture_default_str()
+      ->check(number_in(1.0, 1e6));
   app.add_option("--out", out, "output directory (default: runs/acoustic/<case>)");
   CLI11_PARSE(app, argc, argv);
 
@@ -116,7 +121,9 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("unknown --case '" + case_name + "'; valid: free, hard, mur, two-pulse, flow");
     const Case& scene = found->second;
     if (!(size > 0.0)) throw std::invalid_argument("--size must be positive, got " + fmt(size));
-    if (!(half_width > 0.0)) throw std::invalid_argument("--b (pulse half-width) must be positive, got " + fmt(half_width));
+    if (!(half_width > 0.0 && half_width <= size / 4))
+      throw std::invalid_argument("--b (pulse half-width) must be in (0, size/4 = " + fmt(size / 4) + "] m, got " +
+                                  fmt(half_width));
     if (!(frequency > 0.0)) throw std::invalid_argument("--frequency must be positive, got " + fmt(frequency));
     config.box = {-size / 2, -size / 2, size / 2, size / 2};
     config.boundary = mps::parse_acoustic_boundary(boundary_name.empty() ? scene.boundary : boundary_name);
@@ -124,7 +131,14 @@ int main(int argc, char** argv) {
     config.weight = mps::parse_weight(weight_name);
     config.u0x = u0.value_or(scene.u0x);
     const double t_end = end_time.value_or(scene.end_time);
-    if (!(t_end > 0.0)) throw std::invalid_argument("--end-time must be positive");
+    if (!(std::abs(config.u0x) < config.c0))
+      throw std::invalid_argument("--u0 must be below the speed of sound " + fmt(config.c0) + " m/s, got " + fmt(config.u0x));
+    // A run shorter than one step would report success for nothing.
+    if (!(t_end >= config.dt()))
+      throw std::invalid_argument("--end-time " + fmt(t_end) + " s is shorter than one step (dt = cfl l0 / c0 = " +
+                                  fmt(config.dt()) + " s): lengthen --end-time or lower --cfl");
+    check_run_size(size * size / (config.l0 * config.l0), t_end / config.dt(), "raise --l0 or shrink --size",
+                   "shorten --end-time or raise --cfl");
     const bool default_samples = samples.empty();
     if (default_samples) samples = scene.samples;
     if (maps.empty()) maps = scene.maps;
@@ -188,6 +202,7 @@ int main(int argc, char** argv) {
                 solver.interior(), solver.particles().size() - solver.interior(), solver.gradient().x.nnz(), config.dt(),
                 cfl_limit, config.cfl);
 
+    clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json", "last_good.vtp"});
     fs::create_directories(dir / "frames");
     fs::create_directories(dir / "maps");
     const std::size_t n_in = solver.interior();
@@ -355,7 +370,7 @@ int main(int argc, char** argv) {
     std::printf("outputs: %s\n", dir.string().c_str());
     return 0;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << error_message(e) << "\n";
     return 1;
   }
 }

@@ -5,6 +5,7 @@
 #include <iostream>
 #include <string>
 
+#include "checks.hpp"
 #include "mps/solvers/solver.hpp"
 
 inline void add_list_solvers_flag(CLI::App& app) {
@@ -27,7 +28,7 @@ inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
 inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {
   return app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the particle "
                         "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(number_in(0.0, 10.0));
 }
 
 inline CLI::Option* add_solver_options(CLI::App& app, std::string& spec) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "checks.hpp"
 #include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "run_json.hpp"
@@ -39,26 +40,29 @@ int main(int argc, char** argv) {
   double tolerance = 0.05;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
-  app.add_option("--dt", p.dt, "time step dt_max [s]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--band", p.band, "height of averaging bands, in l0")->capture_default_str();
+  app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(positive_up_to(1e3));
+  app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()->check(positive_up_to(1e3));
+  app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(positive_up_to(1e3));
+  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")->capture_default_str()->check(number_in(0.0, 1.0));
+  app.add_option("--dt", p.dt, "time step dt_max [s]")->capture_default_str()->check(positive_up_to(10));
+  app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(positive_up_to(1e6));
+  app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds")->capture_default_str()->check(positive_up_to(1e6));
+  app.add_option("--band", p.band, "height of averaging bands, in l0 (at most H / l0)")->capture_default_str()->check(number_in(1.0, 1e6));
   add_solver_options(app, p.solver);
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")->capture_default_str();
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
+  app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
+    check_run_size((p.width / p.l0 + 10.0) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,
+                   "raise --dx", "shorten --end-time or raise --dt");
     tank::Tank scene(p);
     const mps::Simulation& sim = scene.sim();
     const nlohmann::json params = params_json(p, sim);
     std::cout << "hydrostatic tank: " << params.dump() << "\n";
     const fs::path dir(out);
+    clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp"});
     fs::create_directories(dir / "frames");
     mps::PvdSeries series(dir / "tank.pvd");
     auto write_frame = [&](int k) {
@@ -117,7 +121,7 @@ int main(int argc, char** argv) {
                 (dir / "summary.json").string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << error_message(e) << "\n";
     return 1;
   }
 }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "mps/geometry.hpp"
 
@@ -35,9 +37,20 @@ mps::SimulationConfig make_config(const Params& p) {
 }
 
 namespace {
+std::string fmt(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%g", v);
+  return s;
+}
+
 const Params& checked(const Params& p) {
-  if (!(p.end_time > p.window) || !(p.window > 0.0) || !(p.band >= 1.0))
-    throw std::invalid_argument("tank: need end_time > window > 0 and band >= 1 (in l0)");
+  if (!(p.end_time > p.window) || !(p.window > 0.0))
+    throw std::invalid_argument("tank: need end_time > window > 0, got end_time " + fmt(p.end_time) +
+                                " s and window " + fmt(p.window) + " s");
+  // At least one band of pressures, and every band at least one spacing high.
+  if (!(p.band >= 1.0 && p.band * p.l0 <= p.water_height))
+    throw std::invalid_argument("tank: the averaging band must be from 1 to H / l0 = " +
+                                fmt(p.water_height / p.l0) + " spacings high, got " + fmt(p.band));
   return p;
 }
 }  // namespace

@@ -131,6 +131,16 @@ mps::Particles make_particles(const Params& p) {
   return particles;
 }
 
+double estimated_particles(const Params& p) {
+  const double rows = p.across + 10.0;  // fluid and both walls' five layers
+  return rows * (p.periodic() ? p.length_l0 : p.length_D * p.across + 20.0);
+}
+
+double initial_dt(const Params& p) {
+  const double l0 = p.l0(), cfl_dt = 0.2 * l0 / (1.5 * p.U()), viscous_dt = 0.2 * l0 * l0 / p.nu;
+  return p.dt_factor * (p.implicit_viscosity ? cfl_dt : std::min(cfl_dt, viscous_dt));
+}
+
 mps::Simulation make_simulation(const Params& p) {
   const double l0 = p.l0(), L = channel_length(p);
   const mps::Domain domain = p.periodic() ? mps::Domain{0.0, L, -6.0 * l0, p.D + 6.0 * l0, true, false}

@@ -62,6 +62,10 @@ double exact_velocity(const Params& p, double y, double t);
 // Fluid group 0, bottom wall group 1, top wall group 2; inlet: plate group 3 and a pool of ghosts.
 mps::Particles make_particles(const Params& p);
 mps::Simulation make_simulation(const Params& p);
+// Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for
+// refusing runs too large to be meant).
+double estimated_particles(const Params& p);
+double initial_dt(const Params& p);
 
 // Velocity profile across the channel: fluid particles binned into rows of height l0 (their lattice rows),
 // averaged over x (inlet: over the two columns nearest the station) and over the samples taken; and errors

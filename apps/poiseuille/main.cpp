@@ -10,6 +10,7 @@
 
 #include "channel.hpp"
 #include "mps/version.hpp"
+#include "checks.hpp"
 #include "mps/io.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
@@ -57,47 +58,50 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
   app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str();
   app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(positive_up_to(1e6));
+  app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(positive_up_to(1e3));
   app.add_option("--across", p.across, "particles across the channel (l0 = D / across; 50: dx = 0.004 m)")
-      ->capture_default_str();
-  app.add_option("--length", p.length_l0, "periodic modes: periodic length in l0 (>= 13)")->capture_default_str();
-  app.add_option("--channel-length", p.length_D, "inlet: channel length in D")->capture_default_str();
-  app.add_option("--station", p.station_D, "inlet: measuring station x in D")->capture_default_str();
+      ->capture_default_str()->check(whole_in(4, 100000));
+  app.add_option("--length", p.length_l0, "periodic modes: periodic length in l0 (>= 13)")->capture_default_str()->check(whole_in(13, 10000000));
+  app.add_option("--channel-length", p.length_D, "inlet: channel length in D")->capture_default_str()->check(positive_up_to(1e4));
+  app.add_option("--station", p.station_D, "inlet: measuring station x in D")->capture_default_str()->check(positive_up_to(1e4));
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+      ->capture_default_str()->check(number_in(0.0, 1.0));
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(positive_up_to(100));
   app.add_flag("--implicit-viscosity", p.implicit_viscosity,
                "solve the viscous term implicitly (no viscous time-step limit; for low Re)");
   app.add_option("--outlet-buffer", p.outlet_buffer_l0, "inlet: the outlet as an outflow buffer this many l0 thick, "
                  "held at P = 0, leaving at the upstream velocity (0: an open end of free-surface particles)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(number_in(0.0, 1e4));
   app.add_option("--compression", p.compression, "density variation allowed to an artificial compressibility, "
                  "whose sound speed follows Morris et al. (1997) from 1.5 U and the Poiseuille drop (0: incompressible)")
-      ->capture_default_str()->check(CLI::Range(0.0, 0.5));
+      ->capture_default_str()->check(number_in(0.0, 0.5));
   add_shifting_option(app, p.shifting);
-  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e3));
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);
-  app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(positive_up_to(1e6));
   app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
-                 "compare snapshots with the transient series)")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
+                 "compare snapshots with the transient series)")->capture_default_str()->check(number_in(0.0, 1e6));
+  app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()->check(whole_in(1, 1000));
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
   app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error (inlet: peak velocity "
-                 "error) is below this")->capture_default_str();
+                 "error) is below this")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
     p.mode = poiseuille::parse_mode(mode);
     p.validate();
+    check_run_size(poiseuille::estimated_particles(p), end_time * p.convective_time() / poiseuille::initial_dt(p),
+                   "use fewer --across or a shorter channel", "shorten --end-time or raise --dt-factor");
     mps::Simulation sim = poiseuille::make_simulation(p);
     nlohmann::json params = params_json(p, sim, end_time);
     if (!p.periodic()) params["profile_average_D_over_U"] = average;
     std::cout << "channel: " << params.dump() << "\n";
     const fs::path dir(out);
+    clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp"});
     fs::create_directories(dir / "frames");
     mps::PvdSeries series(dir / "channel.pvd");
     const double t_end = end_time * p.convective_time();
@@ -188,7 +192,7 @@ int main(int argc, char** argv) {
                 (dir / "summary.json").string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << error_message(e) << "\n";
     return 1;
   }
 }

@@ -11,6 +11,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "checks.hpp"
 #include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "rotor.hpp"
@@ -179,8 +180,9 @@ std::vector<double> parse_times(const std::string& list) {
     } catch (const std::exception&) {
       used = 0;
     }
-    if (used != item.size() || !(v > 0) || (!t.empty() && v <= t.back()))
-      throw std::invalid_argument("--times must be a comma-separated list of increasing positive times, got '" + list + "'");
+    if (used != item.size() || !(v > 0) || !(v <= 1e6) || (!t.empty() && v <= t.back()))
+      throw std::invalid_argument("--times must be a comma-separated list of increasing times in (0, 1e6] s, got '" +
+                                  list + "'");
     t.push_back(v);
     at = comma + 1;
   }
@@ -203,13 +205,13 @@ int main(int argc, char** argv) {
   app.add_option("--model", model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
                  "compares them)")->capture_default_str();
   app.add_option("--across", p.across, "particles across the gap R2 - R1 (0: the scene's default, channel 49 = seed "
-                 "000's 3,626 fluid particles, couette 20)")->capture_default_str();
+                 "000's 3,626 fluid particles, couette 20)")->capture_default_str()->check(whole_in(0, 100000));
   app.add_option("--omega", p.omega, "angular speed [rad/s] (couette: inner cylinder ccw; channel: channel cw)")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--span", p.span, "channel opening angle [rad]")->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(positive_up_to(1e4));
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e4));
+  app.add_option("--span", p.span, "channel opening angle [rad]")->capture_default_str()->check(positive_up_to(6.3));
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+      ->capture_default_str()->check(number_in(0.0, 1.0));
   app.add_option("--walls", walls, "circular walls: mirror (mirror velocities across the circle) | plain (wall "
                  "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str();
   app.add_option("--gradient", gradient, "pressure gradient: min-reference | corrected-min-reference (with the "
@@ -217,20 +219,20 @@ int main(int argc, char** argv) {
   app.add_flag("!--lattice-reference", p.initial_reference, "density source against the square lattice's n0 instead "
                "of the initial packing (each wall particle's own, the fluid's mean)");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(positive_up_to(100));
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")
       ->capture_default_str();
   app.add_option("--average", average, "each curve is averaged over the last AVERAGE fraction of its time")
-      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--tolerance", tolerance, "couette: pass if max |u - exact| <= TOLERANCE omega R1")->capture_default_str();
+      ->capture_default_str()->check(number_in(0.0, 1.0));
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
+  app.add_option("--tolerance", tolerance, "couette: pass if max |u - exact| <= TOLERANCE omega R1")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--agreement", agreement, "channel: pass if arc 2 is odd (and, with --model both, the models agree "
-                 "on line 1 and arc 2) within AGREEMENT omega R2")->capture_default_str();
+                 "on line 1 and arc 2) within AGREEMENT omega R2")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--symmetry", symmetry, "channel: pass if the barrel pressure is odd in phi within SYMMETRY of its "
-                 "range over |phi| <= 0.4")->capture_default_str();
+                 "range over |phi| <= 0.4")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -249,7 +251,13 @@ int main(int argc, char** argv) {
     if (times_list.empty()) times_list = couette ? "0.1,1" : "0.05,0.5";
     const std::vector<double> times = parse_times(times_list);
     p.validate();
+    const double l0 = p.l0(), outer = p.R2 + 6.0 * l0;
+    check_run_size(std::numbers::pi * outer * outer / (l0 * l0),
+                   times.back() / (p.dt_factor * std::min(0.2 * l0 / (p.omega * p.R2), 0.2 * l0 * l0 / p.nu)),
+                   "use fewer --across", "shorten --times or raise --dt-factor");
     const fs::path dir(out);
+    clear_outputs(dir, {"frames", "couette.pvd", "channel.pvd", "couette.csv", "line1.csv", "arc2.csv",
+                        "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed"});
     std::vector<std::pair<std::string, RunResult>> runs;
     for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{model}) {
       if (!couette) p.model = rotating::parse_model(m);
@@ -293,7 +301,7 @@ int main(int argc, char** argv) {
     std::printf("result: %s; outputs in %s\n", pass ? "PASS" : "FAIL", dir.string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    std::cerr << "error: " << error_message(e) << "\n";
     return 1;
   }
 }

@@ -1,0 +1,109 @@
+#!/usr/bin/python3
+"""Seeded random sweep over the apps' options (run by ctest): each run must end with a clear error (exit 1 or 105,
+a message naming the cause) or a real result (exit 0 or 2 with a summary of at least one step, every number finite,
+as many frames on disk as the .pvd lists), never a crash, a hang or a NaN in a summary.
+
+  tests/fuzz_options.py BUILD_DIR [CASES]
+"""
+import json
+import random
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+# Each app from a small, quick base run; one or two options at a time take a hostile value.
+BASE = {
+    "poiseuille": "--mode body-force --across 8 --end-time 0.3 --frames 2",
+    "hydrostatic": "--end-time 0.02 --window 0.01 --frames 2",
+    "rotating": "--scene couette --across 6 --times 0.01 --frames 2",
+    "acoustic": "--size 20 --l0 0.5 --end-time 0.01 --maps 0.005 --frames 2",
+}
+OPTIONS = {
+    "poiseuille": ["--re", "--width", "--across", "--length", "--gamma", "--dt-factor", "--nu", "--end-time", "--average",
+                   "--profiles", "--frames", "--tolerance", "--shifting", "--compression", "--outlet-buffer", "--solver",
+                   "--mode"],
+    "hydrostatic": ["--width", "--height", "--dx", "--gamma", "--dt", "--end-time", "--window", "--band", "--frames",
+                    "--tolerance", "--solver"],
+    "rotating": ["--across", "--omega", "--nu", "--span", "--gamma", "--dt-factor", "--times", "--average", "--frames",
+                 "--tolerance", "--agreement", "--symmetry", "--shifting", "--scene", "--model", "--walls"],
+    "acoustic": ["--case", "--size", "--l0", "--cfl", "--b", "--amplitude", "--c0", "--rho0", "--u0", "--frequency",
+                 "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
+}
+# Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
+VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
+          "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard"]
+NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
+
+
+def numbers(value, key=""):
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from numbers(v, k)
+    elif isinstance(value, list):
+        for v in value:
+            yield from numbers(v, key)
+    else:
+        yield key, value
+
+
+def check(app, args, proc, out):
+    """Returns what is wrong with this run, or None."""
+    if proc.returncode < 0:
+        return f"killed by signal {-proc.returncode}"
+    if proc.returncode == 1 or 100 <= proc.returncode <= 114:  # ours, or CLI11's parse errors
+        return None if "error" in proc.stderr.lower() or "must" in proc.stderr or "--" in proc.stderr \
+            else f"exit {proc.returncode} without a message"
+    if proc.returncode not in (0, 2):
+        return f"exit {proc.returncode}"
+    summary_file = out / "summary.json"
+    if not summary_file.exists():
+        return "no summary.json"
+    summary = json.loads(summary_file.read_text())
+    for key, v in numbers(summary):
+        if v is None and key not in NULL_ALLOWED:
+            return f"null (NaN?) at {key!r} in summary.json"
+    if not summary.get("steps", 0) > 0:
+        return "a run of no steps reported " + str(summary.get("status"))
+    pvd = list(out.glob("*.pvd"))
+    if pvd:
+        listed = pvd[0].read_text().count("<DataSet")
+        on_disk = len(list((out / "frames").glob("*.vtp")))
+        if listed != on_disk:
+            return f"{on_disk} frames on disk, {listed} in the .pvd"
+    return None
+
+
+def main():
+    build = Path(sys.argv[1])
+    cases = int(sys.argv[2]) if len(sys.argv) > 2 else 60
+    rng = random.Random(2026)
+    failures, outcomes = [], {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for case in range(cases):
+            app = sorted(BASE)[case % len(BASE)]
+            words = BASE[app].split()
+            options = dict(zip(words[::2], words[1::2]))
+            options.update({rng.choice(OPTIONS[app]): rng.choice(VALUES) for _ in range(rng.choice((1, 1, 2)))})
+            args = [w for kv in options.items() for w in kv if w is not None]
+            out = Path(tmp) / f"run{case}"
+            (out / "frames").mkdir(parents=True)
+            (out / "frames" / "stale_0099.vtp").write_text("stale")  # a reused --out: must not survive a run
+            try:
+                proc = subprocess.run([str(build / "apps" / app / app), *args, "--out", str(out)], capture_output=True,
+                                      text=True, timeout=120, env={"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
+                problem = check(app, args, proc, out)
+                outcomes[proc.returncode] = outcomes.get(proc.returncode, 0) + 1
+            except subprocess.TimeoutExpired:
+                problem = "hung (no end within 120 s)"
+            if problem:
+                failures.append(f"{app} {' '.join(args)}: {problem}")
+    print("exit codes:", dict(sorted(outcomes.items())))
+    for f in failures:
+        print("FAIL", f)
+    print(f"{cases - len(failures)} passed, {len(failures)} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

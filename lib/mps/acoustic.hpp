@@ -107,7 +107,7 @@ enum class AcousticBoundary {
   mur,       // ... evaluated at each RK4 stage time too (dt -> the stage's offset 0, dt/2, dt/2, dt): stable up
              // to the interior's RK4 limit
   mur_step,  // ... once per step, the virtual particles frozen through the stages (as published): limits
-             // the stable CFL to ~0.8 with the MPS gradient (README, Acoustics)
+             // the stable CFL to ~0.8 with the MPS gradient (docs/acoustics.md)
 };
 AcousticBoundary parse_acoustic_boundary(std::string_view name);  // "hard" | "mur" | "mur-step"
 std::string_view to_string(AcousticBoundary boundary);

@@ -37,12 +37,11 @@ enum class GradientVariant {
 // `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
 // the particles that hold a value of phi at all (for pressure: not dry walls, see set_dummy_pressure).
 // `min_tilt` (the min-reference variants): the minimum is taken of phi_j - min_tilt . r_ij, i.e. of phi less a
-// known linear part. For pressure under a body force f pass rho f: the hydrostatic drop across the kernel
-// then no longer counts as a dip. Counted, it makes the repulsion ~ 2 rho g l0 everywhere, which on a lattice
-// whose columns slide past each other pushes each column further along its slide (growth ~ sqrt(g/l0)).
+// known linear part. For pressure under a body force f pass rho f, so that the hydrostatic drop across the kernel
+// is no dip (docs/numerics.md).
 // `own_reference` (the min-reference variants), if given: particles i with own_reference[i] != 0 take phi_i itself as
 // the reference instead of the minimum over their neighbours (for pressure: free-surface particles, whose phi is
-// imposed; see Simulation::advance).
+// imposed; see the HydrostaticSplit component).
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
               std::array<double, 2> min_tilt = {0.0, 0.0}, std::span<const char> own_reference = {});

@@ -31,13 +31,8 @@ void mixed_source(std::span<const double> n_star, double n0, std::span<const dou
                   double dt, double gamma, std::vector<double>& out);  // reusing out's memory
 
 // Wall particles with n* < beta n0, and fluid particles with n* < beta n0 and fewer than theta N0 neighbours
-// (N0: the perfect lattice's count; theta <= 0 skips the count test). The count keeps the fluid flag from
-// flickering: the row under a free surface sits near n* = beta n0 (it lacks only far, light neighbours), so
-// small motions would toggle it between Dirichlet P = 0 and ~rho g l0 every few steps, a pressure jump that
-// feeds on itself, while its neighbour count (11 of 12 at 2.1 l0; 8 for the surface row) changes only when a
-// pair crosses re. Walls do not move and take the density test alone: a wall at the water line keeps most
-// of its neighbours (the wall goes on above) yet must be as dry as the surface fluid beside it, or its
-// pressure pushes the contact line off the wall. Dummies and ghosts are never flagged.
+// (N0: the perfect lattice's count; theta <= 0 skips the count test). Dummies and ghosts are never flagged. The
+// count keeps the row under the surface from flickering; walls take the density test alone (docs/numerics.md).
 std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
                                       double beta, const NeighborList* neighbors = nullptr, int lattice_neighbors = 0,
                                       double theta = 0.0);

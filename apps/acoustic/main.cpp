@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
   app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str()->check(positive_up_to(1e3));
   app.add_option("--cfl", config.cfl, "CFL number c0 dt / l0")->capture_default_str()->check(positive_up_to(100));
   app.add_option("--b", half_width, "pulse half-width b [m]: dp = eps exp(-ln2 r^2/b^2), at most a quarter of the box")->capture_default_str()->check(positive_up_to(1e5));
-  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str()->check(positive_up_to(1e100));
+  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str()->check(number_in(1e-100, 1e100));
   app.add_option("--c0", config.c0, "speed of sound [m/s]")->capture_default_str()->check(positive_up_to(1e5));
   app.add_option("--rho0", config.rho0, "density [kg/m^3]")->capture_default_str()->check(positive_up_to(1e5));
   app.add_option("--u0", u0, "mean flow along x [m/s], below c0 (default: 100 for flow, else 0)")->check(number_in(-1e5, 1e5));

@@ -76,6 +76,18 @@ TEST(AcousticExact, TableInterpolatesTheQuadratureWithinItsTolerance) {
   EXPECT_EQ(table.at(table.r_max() + 1.0).pressure, 0.0);
 }
 
+// A table limited to the distances needed holds bitwise the values of the full one there, and refuses to guess beyond.
+TEST(AcousticExact, ATableLimitedToTheNeededDistancesMatchesTheFullOneAndRefusesBeyond) {
+  const double b = 3.0, age = 0.2;  // wavefront at 68 m
+  const mps::PulseTable full(b, kC0, age), limited(b, kC0, age, 1e-10, 20.0);
+  for (double r : {0.0, 1.3, 7.7, 14.2, 19.99, 20.0}) {
+    EXPECT_EQ(limited.at(r).pressure, full.at(r).pressure) << "r = " << r;
+    EXPECT_EQ(limited.at(r).radial_velocity, full.at(r).radial_velocity) << "r = " << r;
+  }
+  EXPECT_THROW((void)limited.at(30.0), std::out_of_range);
+  EXPECT_EQ(limited.at(full.r_max() + 1.0).pressure, 0.0);
+}
+
 // The pressure and velocity integrals are independent formulas; together they must conserve the energy
 // pi b^2 eps^2 / (2 ln2) / (2 rho0 c0^2) of the initial pulse.
 TEST(AcousticExact, PressureAndVelocityTogetherConserveEnergy) {

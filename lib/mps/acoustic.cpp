@@ -191,12 +191,13 @@ PulseProfile gaussian_pulse_exact(double r, double age, double half_width, doubl
   return {sp / (2.0 * a), su / (2.0 * a)};
 }
 
-PulseTable::PulseTable(double half_width, double c0, double age, double tolerance) {
+PulseTable::PulseTable(double half_width, double c0, double age, double tolerance, double r_needed) {
   check_pulse(half_width, c0, age, tolerance);
   h_ = half_width / 32.0;
   age_ = age;
   r_max_ = c0 * age + 6.5 * half_width;
-  const auto n = static_cast<Index>(std::ceil(r_max_ / h_)) + 3;
+  r_table_ = std::min(r_max_, r_needed);
+  const auto n = static_cast<Index>(std::ceil(r_table_ / h_)) + 3;
   p_.assign(static_cast<std::size_t>(n), 0.0);
   u_.assign(static_cast<std::size_t>(n), 0.0);
 #pragma omp parallel for schedule(dynamic, 8)
@@ -210,6 +211,7 @@ PulseTable::PulseTable(double half_width, double c0, double age, double toleranc
 PulseProfile PulseTable::at(double r) const {
   r = std::abs(r);
   if (r > r_max_) return {};
+  if (r > r_table_) throw std::out_of_range("PulseTable: r = " + fmt(r) + " beyond the tabulated " + fmt(r_table_));
   const double s = r / h_;
   const auto k = static_cast<long>(std::floor(s));
   const double t = s - static_cast<double>(k);
@@ -237,6 +239,16 @@ AcousticField exact_acoustic_field(std::span<const double> x, std::span<const do
                                 "(a mean flow through a wall is not a reflection problem)");
   if (hard_walls && !(hard_walls->x1 > hard_walls->x0 && hard_walls->y1 > hard_walls->y0))
     throw std::invalid_argument("exact_acoustic_field: hard-wall box is empty");
+  // Without walls no point is farther from a pulse than this: its table need reach no further (images, with hard
+  // walls, reach as far as the wavefront).
+  double r_needed = std::numeric_limits<double>::infinity();
+  if (!hard_walls) {
+    r_needed = 0.0;
+    for (const GaussianPulse& pulse : pulses) {
+      const double age = std::max(0.0, t - pulse.time), cx = pulse.x + u0x * age, cy = pulse.y + u0y * age;
+      for (std::size_t i = 0; i < x.size(); ++i) r_needed = std::max(r_needed, std::hypot(x[i] - cx, y[i] - cy));
+    }
+  }
   // One table per distinct (age, half-width): superposed pulses emitted together share it.
   std::map<std::pair<double, double>, PulseTable> tables;
   struct Source {
@@ -249,7 +261,7 @@ AcousticField exact_acoustic_field(std::span<const double> x, std::span<const do
     const double age = std::max(0.0, t - pulse.time);
     auto it = tables.find({age, pulse.half_width});
     if (it == tables.end())
-      it = tables.emplace(std::pair{age, pulse.half_width}, PulseTable(pulse.half_width, c0, age, tolerance)).first;
+      it = tables.emplace(std::pair{age, pulse.half_width}, PulseTable(pulse.half_width, c0, age, tolerance, r_needed)).first;
     sources.push_back({pulse.x + u0x * age, pulse.y + u0y * age, pulse.amplitude, pulse.amplitude / (rho0 * c0),
                        &it->second});
   }

@@ -10,6 +10,7 @@
 // - acoustic energy per unit depth [J/m]: E = l0^2 sum_i (dp_i^2 / (2 rho0 c0^2) + rho0 |du_i|^2 / 2) over the
 //   interior particles (virtual particles outside the box carry no energy of their own).
 #include <cstddef>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -50,16 +51,19 @@ PulseProfile gaussian_pulse_exact(double r, double age, double half_width, doubl
 
 // The profile at one age tabulated on r = 0, h, 2h, ... with h = b / 32 and interpolated by 4-point Lagrange
 // polynomials (the pressure is even in r, the radial velocity odd). Beyond r_max = c0 age + 6.5 b both are
-// below 1e-12 eps (the initial Gaussian there is) and the table returns 0.
+// below 1e-12 eps (the initial Gaussian there is) and the table returns 0. `r_needed` (optional) limits the table to
+// the distances a caller will ask for: the quadrature costs ~ (c0 age)^2 out to r_max, and long after a pulse has left
+// a box its points are far nearer than its wavefront. Asking beyond r_needed then throws std::out_of_range.
 class PulseTable {
  public:
-  PulseTable(double half_width, double c0, double age, double tolerance = 1e-10);
+  PulseTable(double half_width, double c0, double age, double tolerance = 1e-10,
+             double r_needed = std::numeric_limits<double>::infinity());
   [[nodiscard]] PulseProfile at(double r) const;
   [[nodiscard]] double r_max() const { return r_max_; }
   [[nodiscard]] double age() const { return age_; }
 
  private:
-  double h_ = 0, r_max_ = 0, age_ = 0;
+  double h_ = 0, r_max_ = 0, age_ = 0, r_table_ = 0;
   std::vector<double> p_, u_;
 };
 

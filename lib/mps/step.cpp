@@ -120,33 +120,25 @@ double Simulation::choose_dt(std::string& limit) const {
 const StepInfo& Simulation::step() {
   before_step_ = particles_;
   const StepInfo info_before = info_;
+  const std::string at = "step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) + " s";
+  std::string failure;
   try {
     advance();
     check_guard();
+    return info_;
+  } catch (const SimulationError& e) {
+    failure = e.what();
   } catch (const SolverError& e) {
-    particles_ = before_step_;
-    info_ = info_before;
-    throw SimulationError("step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
-                          " s): pressure solve failed: " + e.what());
-  } catch (const SimulationError&) {
-    particles_ = before_step_;
-    info_ = info_before;
-    throw;
+    failure = at + "): pressure solve failed: " + e.what();
   } catch (const std::bad_alloc&) {
-    particles_ = before_step_;
-    info_ = info_before;
-    throw SimulationError("step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
-                          " s): out of memory (" + std::to_string(particles_.size()) + " particles)");
+    failure = at + "): out of memory (" + std::to_string(particles_.size()) + " particles)";
   } catch (const std::exception& e) {
     // Anything else a stage throws (a non-finite position met by the neighbour search, ...) is a failed step too.
-    const std::string message = "step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) +
-                                " s, dt = " + fmt(fields_.dt) + " s, dt limit " + info_.dt_limit + "): " + e.what() +
-                                dt_advice();
-    particles_ = before_step_;
-    info_ = info_before;
-    throw SimulationError(message);
+    failure = at + ", dt = " + fmt(fields_.dt) + " s, dt limit " + info_.dt_limit + "): " + e.what() + dt_advice();
   }
-  return info_;
+  particles_ = before_step_;
+  info_ = info_before;
+  throw SimulationError(failure);
 }
 
 void Simulation::advance() {

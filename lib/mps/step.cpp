@@ -232,20 +232,23 @@ void Simulation::implicit_viscous_predictor() {
   const StepFields& f = fields_;
   const double dt = f.dt, fx = config_.fx - f.balanced_fx, fy = config_.fy - f.balanced_fy;
   const CsrMatrix lap = laplacian_matrix({p, domain_, near_now_, k_laplacian_});
-  std::vector<int> row(p.size(), -1);
-  std::vector<std::size_t> fluid;
+  // Kept between steps for their memory: the system over the fluid, its right-hand sides and solutions.
+  auto& [row, fluid, m, bu, bv, u, v] = viscous_;
+  row.assign(p.size(), -1);
+  fluid.clear();
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] == Kind::fluid && !f.prescribed[i]) {
       row[i] = static_cast<int>(fluid.size());
       fluid.push_back(i);
     }
   const double a = dt * config_.nu;
-  CsrMatrix m;
   m.rows = m.cols = static_cast<int>(fluid.size());
   m.row_ptr.assign(fluid.size() + 1, 0);
+  m.col.clear();
+  m.val.clear();
   m.col.reserve(lap.nnz());
   m.val.reserve(lap.nnz());
-  std::vector<double> bu(fluid.size()), bv(fluid.size()), u(fluid.size()), v(fluid.size());
+  for (auto* vec : {&bu, &bv, &u, &v}) vec->resize(fluid.size());
   for (std::size_t r = 0; r < fluid.size(); ++r) {
     const std::size_t i = fluid[r];
     bu[r] = p.u[i] + dt * fx;

@@ -212,6 +212,12 @@ class Simulation {
   double small_radius_ = 0;
   Particles before_step_;  // the state a failed step rolls back to
   PpeSystem ppe_;
+  struct ViscousSystem {
+    std::vector<int> row;             // particle -> row of the fluid system, or -1
+    std::vector<std::size_t> fluid;   // row -> particle
+    CsrMatrix matrix;                 // I - dt nu L over the fluid
+    std::vector<double> bu, bv, u, v;
+  } viscous_;  // implicit viscosity's system, kept between steps for its memory
 };
 
 }  // namespace mps

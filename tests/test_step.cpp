@@ -478,3 +478,23 @@ TEST(Simulation, AFailureInsideAStageRollsBackAndIsASimulationError) {
     EXPECT_EQ(sim.particles().v, before.v);
   }
 }
+
+// A drop thrown out of the tank is removed and counted; the run goes on and the fluid count falls by exactly that.
+TEST(StepComponents, FluidLeavingTheRegionBecomesACountedGhostAndTheRunGoesOn) {
+  tank::Params p;
+  mps::Particles start = tank::make_particles(p);
+  const double l0 = p.l0, top = 1.2 * p.water_height;  // the walls' top
+  start.add(p.width / 2, p.water_height + 5 * l0, mps::Kind::fluid);  // a drop above the water ...
+  start.v.back() = 3.0;                                                 // ... thrown upward
+  const std::size_t fluid = start.count(mps::Kind::fluid);
+  mps::Simulation sim(start, tank::make_domain(p), tank::make_config(p));
+  const auto& removal = sim.add<mps::RemoveEscaped>([top](double, double y) { return y < top; });
+  for (int step = 0; step < 60; ++step) sim.step();
+  EXPECT_EQ(removal.removed(), 1);
+  EXPECT_EQ(sim.particles().count(mps::Kind::fluid), fluid - 1);
+  for (std::size_t i = 0; i < sim.particles().size(); ++i) {
+    if (sim.particles().kind[i] == mps::Kind::fluid) {
+      ASSERT_LT(sim.particles().y[i], top);
+    }
+  }
+}

@@ -76,6 +76,16 @@ void SurfaceRegion::before_source(StepContext& c) {
     if (surface[i] && !region_(p.x[i], p.y[i])) surface[i] = 0;
 }
 
+void RemoveEscaped::after_corrector(StepContext& c) {
+  Particles& p = c.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && !inside_(p.x[i], p.y[i])) {
+      p.kind[i] = Kind::ghost;
+      p.u[i] = p.v[i] = p.p[i] = 0.0;
+      ++removed_;
+    }
+}
+
 void HydrostaticSplit::before_predictor(StepContext& c) {
   c.fields.balanced_fx = fx_;
   c.fields.balanced_fy = fy_;

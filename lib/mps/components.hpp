@@ -62,6 +62,20 @@ class SurfaceRegion : public StepComponent {
   Region region_;
 };
 
+// Fluid that leaves `inside` (spray over a tank's walls) becomes a ghost at rest and is counted, instead of running
+// on until the guard stops the run at the domain's edge.
+class RemoveEscaped : public StepComponent {
+ public:
+  using Region = std::function<bool(double x, double y)>;
+  explicit RemoveEscaped(Region inside) : inside_(std::move(inside)) {}
+  void after_corrector(StepContext& c) override;
+  [[nodiscard]] long removed() const { return removed_; }
+
+ private:
+  Region inside_;
+  long removed_ = 0;
+};
+
 // SimulationConfig::hydrostatic_split: the body force (fx, fy) along non-periodic axes is balanced by
 // P_h = rho f . r; the predictor leaves it out, the PPE solves for P - P_h, free-surface particles are held at
 // P = rho |f| l0/2 (the surface lies half a spacing above them) and take their own P' as gradient reference.

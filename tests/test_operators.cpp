@@ -153,6 +153,30 @@ TEST(Operators, NumberDensityOfInteriorLatticeParticleIsN0) {
 namespace {
 // The corrective matrix makes the gradient exact for linear fields where the neighbourhood is cut off (a
 // free-surface row), which the plain MPS gradient is not.
+TEST(Operators, NeighbourAsymmetryIsZeroInsideAndTheFlatSurfaceValueOnTheTopRow) {
+  Lattice L;
+  const mps::Kernel k = mps::make_kernel(2.1, L.l0);
+  const auto list = mps::find_neighbors(L.p, L.d, k.re);
+  std::vector<double> a;
+  mps::neighbour_asymmetry({L.p, L.d, list, k}, a);
+  const double flat = mps::asymmetry_of_flat_surface(k, L.l0);
+  EXPECT_NEAR(flat, 1.385 / 4.905, 1e-3);  // by hand: the lower half of the 2.1 l0 kernel over its full n0
+  int inside = 0, top = 0;
+  for (std::size_t i = 0; i < L.p.size(); ++i) {
+    if (L.interior(i, 2.2 * L.l0)) {
+      EXPECT_NEAR(a[i], 0.0, 1e-12);
+      ++inside;
+    }
+    // The top row away from the side edges sees the half kernel of a flat surface.
+    if (L.p.y[i] > 4 - L.l0 && L.p.x[i] > 2.2 * L.l0 && L.p.x[i] < 4 - 2.2 * L.l0) {
+      EXPECT_NEAR(a[i], flat, 1e-12);
+      ++top;
+    }
+  }
+  EXPECT_GT(inside, 1000);
+  EXPECT_GT(top, 30);
+}
+
 TEST(Operators, CorrectedGradientIsExactForLinearFieldsAtATruncatedSurface) {
   mps::Particles p;
   mps::fill_rectangle(p, {0, 0, 2, 1}, 0.1, mps::Kind::fluid);

@@ -76,6 +76,16 @@ void SurfaceRegion::before_source(StepContext& c) {
     if (surface[i] && !region_(p.x[i], p.y[i])) surface[i] = 0;
 }
 
+void AsymmetrySurface::before_source(StepContext& c) {
+  const Particles& p = c.particles;
+  const Kernel& k = c.sim.surface_kernel();
+  neighbour_asymmetry({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
+  const double limit = fraction_ * asymmetry_of_flat_surface(k, c.sim.config().l0);
+  std::vector<char>& surface = c.fields.surface;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
+}
+
 void RemoveEscaped::after_corrector(StepContext& c) {
   Particles& p = c.particles;
   for (std::size_t i = 0; i < p.size(); ++i)

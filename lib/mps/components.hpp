@@ -62,6 +62,20 @@ class SurfaceRegion : public StepComponent {
   Region region_;
 };
 
+// Free surface by the neighbours' distribution as well as their density (Khayyer et al. 2009): fluid whose neighbours
+// within the surface kernel lie one-sided, |sum w r/|r|| / n0 above `fraction` of a flat surface's value, is free
+// surface too. The density test misses particles whose kernel is full on one side only: the toe of a surge along
+// a wall, a thin jet.
+class AsymmetrySurface : public StepComponent {
+ public:
+  explicit AsymmetrySurface(double fraction) : fraction_(fraction) {}
+  void before_source(StepContext& c) override;
+
+ private:
+  double fraction_;
+  std::vector<double> asymmetry_;
+};
+
 // Fluid that leaves `inside` (spray over a tank's walls) becomes a ghost at rest and is counted, instead of running
 // on until the guard stops the run at the domain's edge.
 class RemoveEscaped : public StepComponent {

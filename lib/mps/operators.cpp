@@ -90,6 +90,34 @@ void number_density(const Stencil& s, std::vector<double>& out) {
   }
 }
 
+void neighbour_asymmetry(const Stencil& s, std::vector<double>& out) {
+  const Index n = count(s);
+  out.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    double fx = 0.0, fy = 0.0;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double dx, double dy, double r2, double w) {
+      const double r = std::sqrt(r2);
+      if (r > 0.0) {
+        fx += w * dx / r;
+        fy += w * dy / r;
+      }
+    });
+    out[static_cast<std::size_t>(i)] = std::hypot(fx, fy) / s.kernel.n0;
+  }
+}
+
+double asymmetry_of_flat_surface(const Kernel& k, double l0) {
+  const int n = static_cast<int>(std::ceil(k.re / l0));
+  double fy = 0.0;
+  for (int j = -n; j <= 0; ++j)
+    for (int i = -n; i <= n; ++i) {
+      const double r = l0 * std::hypot(i, j);
+      if (r > 0.0) fy += k.w(r) * j * l0 / r;
+    }
+  return std::abs(fy) / k.n0;
+}
+
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt,
               std::span<const char> own_reference) {

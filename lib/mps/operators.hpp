@@ -23,6 +23,10 @@ struct Stencil {
 
 // n_i = sum_j w_ij
 std::vector<double> number_density(const Stencil& s);
+// |sum_j w_ij r_ij / |r_ij|| / n0: how one-sided particle i's neighbours lie (Khayyer et al. 2009); 0 inside a full
+// kernel, asymmetry_of_flat_surface(kernel) in the top row of a lattice.
+void neighbour_asymmetry(const Stencil& s, std::vector<double>& out);
+double asymmetry_of_flat_surface(const Kernel& kernel, double l0);
 void number_density(const Stencil& s, std::vector<double>& out);  // reusing out's memory
 
 enum class GradientVariant {

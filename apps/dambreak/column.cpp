@@ -1,0 +1,253 @@
+#include "column.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "mps/geometry.hpp"
+
+namespace dambreak {
+
+Column column_from_name(const std::string& name) {
+  if (name == "classic") return Column::classic;
+  if (name == "seed") return Column::seed;
+  throw std::invalid_argument("unknown column '" + name + "': choose classic or seed");
+}
+
+std::string to_string(Column c) { return c == Column::classic ? "classic" : "seed"; }
+
+Params defaults(Column c) {
+  Params p;
+  p.column = c;
+  if (c == Column::classic) {
+    const double a = 0.146;
+    p.width = a;
+    p.height = 2 * a;
+    p.tank_length = 4 * a;
+    p.tank_height = 3 * a;
+    p.l0 = a / 20;
+    p.end_time = 2.5 / std::sqrt(2 * p.g / a);  // T = 2.5, the end of the front's comparison
+    p.level_probes = {0.5, 1.0, 1.653};
+    p.pressure_probes = {0.2};
+  } else {
+    const double H = 1.0;
+    p.width = 2 * H;
+    p.height = H;
+    p.tank_length = 5.366 * H;
+    p.tank_height = 3 * H;
+    p.l0 = H / 25;
+    p.end_time = 6.0 / std::sqrt(p.g / H);  // t sqrt(g/H) = 6: past Buchner's first impact and the run-up
+    p.level_probes = {1.653};
+    p.pressure_probes = {0.01, 0.05, 0.1, 0.2, 0.267};
+  }
+  return p;
+}
+
+namespace {
+std::string fmt(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%g", v);
+  return s;
+}
+
+const Params& checked(const Params& p) {
+  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!positive(p.width) || !positive(p.height) || !positive(p.l0) || !positive(p.end_time) || !positive(p.g))
+    throw std::invalid_argument("dam break: width, height, spacing, end time and g must be positive and finite");
+  if (!(p.width + 2 * p.l0 <= p.tank_length) || !(p.height + 2 * p.l0 <= p.tank_height))
+    throw std::invalid_argument("dam break: the column (" + fmt(p.width) + " x " + fmt(p.height) +
+                                " m) must fit in the tank (" + fmt(p.tank_length) + " x " + fmt(p.tank_height) + " m)");
+  if (p.width < 4 * p.l0 || p.height < 4 * p.l0)
+    throw std::invalid_argument("dam break: the column must be at least 4 spacings wide and high; lower the spacing (" +
+                                fmt(p.l0) + " m)");
+  if (!(p.asymmetry >= 0.0 && p.asymmetry <= 10.0))
+    throw std::invalid_argument("dam break: the asymmetry fraction must be in [0, 10] (0: off), got " + fmt(p.asymmetry));
+  if (!(p.pressure_patch >= 0.5 && p.pressure_patch <= 20))
+    throw std::invalid_argument("dam break: the pressure patch radius must be in [0.5, 20] l0, got " +
+                                fmt(p.pressure_patch));
+  for (double d : p.level_probes)
+    if (!(d > 0.0 && d * p.height < p.tank_length))
+      throw std::invalid_argument("dam break: a level probe must lie inside the tank, got " + fmt(d) + " H");
+  for (double h : p.pressure_probes)
+    if (!(h >= 0.0 && h * p.height < p.tank_height))
+      throw std::invalid_argument("dam break: a pressure probe must lie on the wall, got " + fmt(h) + " H");
+  return p;
+}
+
+bool has_fluid_neighbour(const mps::Particles& s, std::size_t i, double radius) {
+  for (std::size_t j = 0; j < s.size(); ++j)
+    if (j != i && s.kind[j] == mps::Kind::fluid && std::hypot(s.x[j] - s.x[i], s.y[j] - s.y[i]) < radius) return true;
+  return false;
+}
+}  // namespace
+
+mps::Particles make_particles(const Params& p) {
+  mps::Particles particles;
+  mps::fill_rectangle(particles, {0.0, 0.0, p.width, p.height}, p.l0, mps::Kind::fluid);
+  mps::add_rectangle_walls(particles, {0.0, 0.0, p.tank_length, p.tank_height}, p.l0,
+                           mps::left | mps::right | mps::bottom, 1, 4);
+  return particles;
+}
+
+// Room above the walls for a splash to rise and fall back before it is removed.
+mps::Domain make_domain(const Params& p) {
+  const double margin = 6.0 * p.l0;
+  return {-margin, p.tank_length + margin, -margin, p.tank_height + 0.5 * p.height + margin};
+}
+
+mps::SimulationConfig make_config(const Params& p) {
+  mps::SimulationConfig c;
+  c.l0 = p.l0;
+  c.rho = 1000.0;
+  c.nu = 1e-6;
+  c.fy = -p.g;
+  c.gamma = p.gamma;
+  c.cfl = p.cfl;
+  c.dt_max = c.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // the CFL step at the free-fall speed from H
+  c.solver = p.solver;
+  c.dt_option = "--cfl";
+  return c;
+}
+
+// Candidates are few (the rightmost particles), so the neighbour test scans all particles for each.
+double surge_front(const mps::Particles& s, double l0) {
+  std::vector<std::size_t> fluid;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid) fluid.push_back(i);
+  std::sort(fluid.begin(), fluid.end(), [&](std::size_t a, std::size_t b) { return s.x[a] > s.x[b]; });
+  for (std::size_t i : fluid)
+    if (has_fluid_neighbour(s, i, 2.1 * l0)) return s.x[i] + 0.5 * l0;
+  return 0.0;
+}
+
+double water_level(const mps::Particles& s, double x, double l0) {
+  std::vector<std::size_t> column;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid && std::abs(s.x[i] - x) < l0) column.push_back(i);
+  std::sort(column.begin(), column.end(), [&](std::size_t a, std::size_t b) { return s.y[a] > s.y[b]; });
+  for (std::size_t i : column)
+    if (has_fluid_neighbour(s, i, 2.1 * l0)) return s.y[i] + 0.5 * l0;
+  return 0.0;
+}
+
+double patch_pressure(const mps::Particles& s, double x, double y, double radius) {
+  double sum = 0.0;
+  int count = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if ((s.kind[i] == mps::Kind::fluid || s.kind[i] == mps::Kind::wall) &&
+        std::hypot(s.x[i] - x, s.y[i] - y) < radius) {
+      sum += s.p[i];
+      ++count;
+    }
+  return count > 0 ? sum / count : 0.0;
+}
+
+Scene::Scene(const Params& p)
+    : params_(checked(p)),
+      sim_(make_particles(p), make_domain(p), make_config(p)),
+      initial_fluid_(static_cast<long>(sim_.particles().count(mps::Kind::fluid))) {
+  const double L = p.tank_length, top = p.tank_height, ceiling = make_domain(p).ymax - 2 * p.l0;
+  // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
+  // (a particle inside a wall is counted, not hidden).
+  if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
+  sim_.add<mps::RemoveEscaped>(
+      [=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
+  sample();
+}
+
+long Scene::removed() const { return initial_fluid_ - static_cast<long>(sim_.particles().count(mps::Kind::fluid)); }
+
+void Scene::step() {
+  sim_.step();
+  sample();
+}
+
+void Scene::sample() {
+  const mps::Particles& s = sim_.particles();
+  const Params& p = params_;
+  Sample sample{sim_.time(), surge_front(s, p.l0), {}, {}};
+  for (double d : p.level_probes) sample.levels.push_back(water_level(s, p.tank_length - d * p.height, p.l0));
+  // The probe's patch is centred on the wall line; the first wall layer sits l0/2 behind it.
+  for (double h : p.pressure_probes)
+    sample.pressures.push_back(patch_pressure(s, p.tank_length, h * p.height, p.pressure_patch * p.l0));
+  samples_.push_back(std::move(sample));
+  long inside = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid && s.y[i] < p.tank_height && (s.x[i] < 0.0 || s.x[i] > p.tank_length || s.y[i] < 0.0))
+      ++inside;
+  most_inside_walls_ = std::max(most_inside_walls_, inside);
+}
+
+Table read_table(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read the experimental data " + path + ": " + std::strerror(errno));
+  Table table;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream fields(line);
+    std::array<double, 2> row{};
+    std::string extra;
+    if (!(fields >> row[0])) continue;  // blank or comment line
+    if (!(fields >> row[1]) || (fields >> extra) || !std::isfinite(row[0]) || !std::isfinite(row[1]))
+      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected two finite numbers");
+    table.push_back(row);
+  }
+  if (table.empty()) throw std::runtime_error(path + ": no data");
+  return table;
+}
+
+double max_front_error(const std::vector<Sample>& samples, const Params& p, const Table& data, double t_max) {
+  const double scale = front_time_scale(p);
+  double worst = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [T, x_exp] : data) {
+    if (T > t_max || samples.empty() || T > samples.back().time * scale) continue;
+    const auto after = std::lower_bound(samples.begin(), samples.end(), T,
+                                        [&](const Sample& s, double t) { return s.time * scale < t; });
+    double front = after->front;
+    if (after != samples.begin()) {
+      const Sample& before = *(after - 1);
+      const double w = (T - before.time * scale) / ((after->time - before.time) * scale);
+      front = (1 - w) * before.front + w * after->front;
+    }
+    const double error = std::abs(front / p.width - x_exp) / x_exp;
+    if (!(worst >= error)) worst = error;
+  }
+  return worst;
+}
+
+Impact impact(const std::vector<double>& t, const std::vector<double>& p, double threshold, double window,
+              double smooth) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  Impact r{nan, nan, nan};
+  const auto first = std::find_if(p.begin(), p.end(), [&](double v) { return v >= threshold; });
+  if (first == p.end()) return r;
+  const auto k0 = static_cast<std::size_t>(first - p.begin());
+  r.arrival = t[k0];
+  std::vector<double> smoothed(p.size());
+  std::size_t lo = 0, hi = 0;
+  double sum = 0.0;
+  for (std::size_t k = 0; k < p.size(); ++k) {  // moving window [t - smooth/2, t + smooth/2]
+    while (hi < p.size() && t[hi] <= t[k] + 0.5 * smooth) sum += p[hi++];
+    while (t[lo] < t[k] - 0.5 * smooth) sum -= p[lo++];
+    smoothed[k] = sum / static_cast<double>(hi - lo);
+  }
+  double lowest = p[k0], highest = p[k0], square = 0.0;
+  r.peak = smoothed[k0];
+  for (std::size_t k = k0; k < p.size(); ++k) {
+    if (t[k] <= r.arrival + window) r.peak = std::max(r.peak, smoothed[k]);
+    lowest = std::min(lowest, p[k]);
+    highest = std::max(highest, p[k]);
+    square += (p[k] - smoothed[k]) * (p[k] - smoothed[k]);
+  }
+  const double rms = std::sqrt(square / static_cast<double>(p.size() - k0));
+  r.noise = highest > lowest ? rms / (highest - lowest) : 0.0;
+  return r;
+}
+
+}  // namespace dambreak

@@ -1,0 +1,107 @@
+#pragma once
+// Dam break: a water column collapses under gravity in a tank with an open top (seed 003 §2.1). Two columns:
+// - classic: a wide, 2a high, a = 0.146 m, in a tank 4a wide (Martin & Moyce 1952, Koshizuka & Oka 1996: surge front);
+// - seed: 2H wide, H = 1 m high, in a tank 5.366H long and 3H high (Buchner 2002: downstream-wall pressure).
+// The scene samples the surge front, water levels at probe lines and wall pressures at probe patches as it runs.
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "mps/components.hpp"
+#include "mps/step.hpp"
+
+namespace dambreak {
+
+enum class Column { classic, seed };
+Column column_from_name(const std::string& name);  // "classic" or "seed"; throws std::invalid_argument otherwise
+std::string to_string(Column c);
+
+struct Params {
+  Column column = Column::classic;
+  double width = 0.146;        // the column's width a [m]
+  double height = 0.292;       // the column's height H [m]
+  double tank_length = 0.584;  // [m], the downstream wall at x = tank_length
+  double tank_height = 0.438;  // [m], the walls' height; fluid above it or beyond them is removed
+  double l0 = 0.0073;          // particle spacing [m]
+  double gamma = 0.01;         // mixed source weight
+  double cfl = 0.2;            // dt <= cfl l0 / |u|max
+  // Free surface also where the neighbours lie one-sided: above this fraction of a flat surface's asymmetry (0: off).
+  double asymmetry = 0.9;
+  double end_time = 0.3;       // [s]
+  double g = 9.81;
+  std::string solver = "eigen-cg";
+  // Level probes, as distances from the downstream wall in H; pressure probes, as heights on it in H.
+  std::vector<double> level_probes;
+  std::vector<double> pressure_probes;
+  double pressure_patch = 2.0;  // the pressure probe averages over a disc of this radius, in l0, on the wall line
+};
+
+// The column's geometry with the coarse spacing (20 particles across a for the classic column, H/25 for the seed's).
+Params defaults(Column c);
+
+struct Sample {
+  double time;
+  double front;                  // surge front's distance from the upstream wall [m]
+  std::vector<double> levels;    // water height at each level probe [m]
+  std::vector<double> pressures;  // mean pressure over each probe patch [Pa]
+};
+
+mps::Particles make_particles(const Params& p);
+mps::Domain make_domain(const Params& p);
+mps::SimulationConfig make_config(const Params& p);
+
+// The leading edge of the water: the largest x of a fluid particle with a fluid neighbour within 2.1 l0 (spray
+// ahead of the front is not the front), plus l0/2, from the upstream wall at x = 0.
+double surge_front(const mps::Particles& particles, double l0);
+// Height of the water column at x: the largest y + l0/2 of fluid particles within l0 of the line x, with a fluid
+// neighbour within 2.1 l0; 0 if none.
+double water_level(const mps::Particles& particles, double x, double l0);
+// Mean pressure of the wall and fluid particles within `radius` of (x, y) (the probe's patch); 0 if none.
+double patch_pressure(const mps::Particles& particles, double x, double y, double radius);
+
+class Scene {
+ public:
+  explicit Scene(const Params& p);
+  void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
+  [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
+  [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
+  [[nodiscard]] const Params& params() const { return params_; }
+  [[nodiscard]] const std::vector<Sample>& samples() const { return samples_; }  // t = 0 and after every step
+  // Fluid removed as spray over the walls: the initial count less the fluid there is now.
+  [[nodiscard]] long removed() const;
+  [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
+  // Fluid particles inside a wall (below its top and beyond its line) now; the most there were at any sample.
+  [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
+
+ private:
+  void sample();
+  Params params_;
+  mps::Simulation sim_;
+  long initial_fluid_;
+  long most_inside_walls_ = 0;
+  std::vector<Sample> samples_;
+};
+
+// Experimental data: two columns per line (whitespace separated), '#' starts a comment. Throws naming the file.
+using Table = std::vector<std::array<double, 2>>;
+Table read_table(const std::string& path);
+
+// The front against an experiment's (T, x/a) points with T <= t_max: the largest |x - x_exp| / x_exp, the run's
+// front interpolated linearly in time; points beyond the run's end are left out. NaN if no point was compared.
+double max_front_error(const std::vector<Sample>& samples, const Params& p, const Table& data, double t_max);
+
+// A wall-pressure signal, time ascending, in Buchner's units (t sqrt(g/H), p/(rho g H)). The impact's arrival is the first time the
+// signal reaches `threshold`; its first peak the largest value of the signal smoothed over `smooth` (a centred moving
+// average, in t sqrt(g/H)) within `window` after arrival; its noise the RMS of the signal less its smoothed self over
+// the signal's range, after arrival. Arrival and peak are NaN if the signal never reaches the threshold.
+struct Impact {
+  double arrival = 0, peak = 0, noise = 0;
+};
+Impact impact(const std::vector<double>& time, const std::vector<double>& pressure, double threshold = 0.25,
+              double window = 0.5, double smooth = 0.1);
+
+// Martin & Moyce's and Koshizuka & Oka's time unit: T = t sqrt(2 g / a).
+inline double front_time_scale(const Params& p) { return std::sqrt(2.0 * p.g / p.width); }
+
+}  // namespace dambreak

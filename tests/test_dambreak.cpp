@@ -1,0 +1,81 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "column.hpp"
+
+namespace {
+
+TEST(DamBreak, FrontAndLevelOfTheStandingColumnAreItsWidthAndHeight) {
+  const dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
+  mps::Particles s = dambreak::make_particles(p);
+  EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width, 1e-12);
+  EXPECT_NEAR(dambreak::water_level(s, 0.5 * p.width, p.l0), p.height, 1e-12);
+  EXPECT_EQ(dambreak::water_level(s, 2.0 * p.width, p.l0), 0.0);  // dry floor
+  s.add(3 * p.width, 0.5 * p.height, mps::Kind::fluid);            // a lone drop ahead is spray, not the front
+  EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width, 1e-12);
+}
+
+TEST(DamBreak, PatchPressureIsTheMeanOfTheWallAndFluidWithinTheRadius) {
+  mps::Particles s;
+  s.add(0.0, 0.0, mps::Kind::wall);
+  s.add(0.1, 0.0, mps::Kind::fluid);
+  s.add(0.0, 0.3, mps::Kind::fluid);  // outside the patch
+  s.add(0.0, 0.1, mps::Kind::dummy);  // dummies carry no pressure of their own
+  s.p = {10.0, 20.0, 1000.0, 5000.0};
+  EXPECT_DOUBLE_EQ(dambreak::patch_pressure(s, 0.0, 0.0, 0.2), 15.0);
+}
+
+// Samples of a front that is exactly the data, or 2 % ahead of it: the error is 0 or 0.02 at the worst point.
+TEST(DamBreak, FrontErrorInterpolatesTheRunAtTheExperimentsTimes) {
+  const dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
+  const dambreak::Table data{{0.5, 1.1}, {1.0, 1.4}, {2.0, 2.3}, {3.0, 3.5}};
+  const double scale = dambreak::front_time_scale(p);
+  auto exact = [&](double T) {  // the data joined by straight lines
+    for (std::size_t k = 1; k < data.size(); ++k)
+      if (T <= data[k][0]) {
+        const double w = (T - data[k - 1][0]) / (data[k][0] - data[k - 1][0]);
+        return (1 - w) * data[k - 1][1] + w * data[k][1];
+      }
+    return data.back()[1];
+  };
+  for (double ahead : {0.0, 0.02}) {
+    std::vector<dambreak::Sample> run;
+    for (int k = 0; k <= 300; ++k) {
+      const double T = 0.5 + k * 0.01;
+      run.push_back({T / scale, (1 + ahead) * exact(T) * p.width, {}, {}});
+    }
+    EXPECT_NEAR(dambreak::max_front_error(run, p, data, 2.5), ahead, 1e-12);
+    run.resize(100);  // the run ends at T = 1.49: later points are left out
+    EXPECT_NEAR(dambreak::max_front_error(run, p, data, 2.5), ahead, 1e-12);
+  }
+  EXPECT_TRUE(std::isnan(dambreak::max_front_error({}, p, data, 2.5)));
+}
+
+TEST(DamBreak, ImpactFindsTheArrivalThePeakAndNoNoiseInASmoothSignal) {
+  std::vector<double> t, pressure;
+  for (int k = 0; k <= 4000; ++k) {
+    t.push_back(k * 0.001);
+    const double s = t.back() - 2.0;  // a smooth pulse rising at t = 2
+    pressure.push_back(s > 0 ? 0.7 * std::sin(std::min(s, 0.5) * M_PI) : 0.0);
+  }
+  const dambreak::Impact smooth = dambreak::impact(t, pressure, 0.25, 0.5, 0.01);
+  EXPECT_NEAR(smooth.arrival, 2.0 + std::asin(0.25 / 0.7) / M_PI, 1e-3);
+  EXPECT_NEAR(smooth.peak, 0.7, 1e-3);
+  EXPECT_LT(smooth.noise, 1e-3);
+  for (std::size_t k = 0; k < pressure.size(); ++k) pressure[k] += (k % 2 ? 0.1 : -0.1);  // add a saw of +-0.1
+  const dambreak::Impact noisy = dambreak::impact(t, pressure, 0.25, 0.5, 0.01);
+  EXPECT_GT(noisy.noise, 0.1);
+  EXPECT_TRUE(std::isnan(dambreak::impact(t, std::vector<double>(t.size(), 0.1)).arrival));
+}
+
+TEST(DamBreak, RefusesAColumnThatDoesNotFitAndExperimentalDataThatIsNotNumbers) {
+  dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
+  p.width = p.tank_length;
+  EXPECT_THROW(dambreak::Scene{p}, std::invalid_argument);
+  EXPECT_THROW(dambreak::column_from_name("tall"), std::invalid_argument);
+  EXPECT_THROW(dambreak::read_table("/nonexistent/mm_data_1.txt"), std::runtime_error);
+}
+
+}  // namespace

@@ -18,6 +18,7 @@ BASE = {
     "hydrostatic": "--end-time 0.02 --window 0.01 --frames 2",
     "rotating": "--scene couette --across 6 --times 0.01 --frames 2",
     "acoustic": "--size 20 --l0 0.5 --end-time 0.01 --maps 0.005 --frames 2",
+    "dambreak": "--end-time 0.02 --frames 2",
 }
 OPTIONS = {
     "poiseuille": ["--re", "--width", "--across", "--length", "--gamma", "--dt-factor", "--nu", "--end-time", "--average",
@@ -29,10 +30,12 @@ OPTIONS = {
                  "--tolerance", "--agreement", "--symmetry", "--shifting", "--scene", "--model", "--walls"],
     "acoustic": ["--case", "--size", "--l0", "--cfl", "--b", "--amplitude", "--c0", "--rho0", "--u0", "--frequency",
                  "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
+    "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames", "--front-tolerance",
+                 "--solver", "--data"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
-          "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard"]
+          "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed"]
 NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
 
 

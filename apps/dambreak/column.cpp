@@ -65,6 +65,10 @@ const Params& checked(const Params& p) {
   if (p.width < 4 * p.l0 || p.height < 4 * p.l0)
     throw std::invalid_argument("dam break: the column must be at least 4 spacings wide and high; lower the spacing (" +
                                 fmt(p.l0) + " m)");
+  const double first_step = p.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // make_config's dt_max
+  if (!(p.end_time >= first_step))
+    throw std::invalid_argument("dam break: the run (" + fmt(p.end_time) + " s) is shorter than its first step (" +
+                                fmt(first_step) + " s); raise the end time");
   if (!(p.asymmetry >= 0.0 && p.asymmetry <= 10.0))
     throw std::invalid_argument("dam break: the asymmetry fraction must be in [0, 10] (0: off), got " + fmt(p.asymmetry));
   if (!(p.pressure_patch >= 0.5 && p.pressure_patch <= 20))

@@ -1,12 +1,39 @@
 #pragma once
 // What every app writes beside its outputs: the timing block of summary.json, and the record of a run the
 // stability guard stopped.
+#include <cstdio>
 #include <filesystem>
+#include <string>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "mps/io.hpp"
 #include "mps/step.hpp"
+
+// Frames at end_time / count intervals, the first at t = 0: dir/frames/<stem>_NNNN.vtp, listed in dir/<stem>.pvd
+// (count 0: none).
+class FrameSeries {
+ public:
+  FrameSeries(const std::filesystem::path& dir, const std::string& stem, int count, double end_time)
+      : dir_(dir), stem_(stem), count_(count), interval_(count > 0 ? end_time / count : 2 * end_time),
+        series_(dir / (stem + ".pvd")) {}
+  // Writes the next frame if its time has come.
+  void write_if_due(const mps::Simulation& sim) {
+    if (count_ <= 0 || sim.time() < next_ * interval_ - 1e-12) return;
+    char name[64];
+    std::snprintf(name, sizeof name, "frames/%s_%04d.vtp", stem_.c_str(), next_++);
+    mps::write_vtp(dir_ / name, sim.particles());
+    series_.add(sim.time(), dir_ / name);
+  }
+  [[nodiscard]] const std::filesystem::path& path() const { return series_.path(); }
+
+ private:
+  std::filesystem::path dir_;
+  std::string stem_;
+  int count_, next_ = 0;
+  double interval_;
+  mps::PvdSeries series_;
+};
 
 inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::size_t particles) {
   return {{"neighbors_s", t.neighbors}, {"predict_s", t.predict}, {"assemble_s", t.assemble},

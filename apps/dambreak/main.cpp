@@ -100,21 +100,13 @@ int main(int argc, char** argv) {
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
                         "last_good.vtp"});
     fs::create_directories(dir / "frames");
-    mps::PvdSeries series(dir / "dambreak.pvd");
-    auto write_frame = [&](int k) {
-      char name[40];
-      std::snprintf(name, sizeof name, "frames/dambreak_%04d.vtp", k);
-      mps::write_vtp(dir / name, sim.particles());
-      series.add(sim.time(), dir / name);
-    };
-    int frame = 0;
-    if (frames > 0) write_frame(frame++);
-    const double frame_dt = frames > 0 ? p.end_time / frames : 2 * p.end_time;
+    FrameSeries series(dir, "dambreak", frames, p.end_time);
+    series.write_if_due(sim);
     double next_report = p.end_time / 10;
     try {
       while (!scene.done()) {
         scene.step();
-        if (frames > 0 && sim.time() >= frame * frame_dt - 1e-12) write_frame(frame++);
+        series.write_if_due(sim);
         if (sim.time() >= next_report - 1e-12) {
           const auto& s = sim.last_step();
           std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "

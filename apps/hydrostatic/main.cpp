@@ -64,21 +64,13 @@ int main(int argc, char** argv) {
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp"});
     fs::create_directories(dir / "frames");
-    mps::PvdSeries series(dir / "tank.pvd");
-    auto write_frame = [&](int k) {
-      char name[32];
-      std::snprintf(name, sizeof name, "frames/tank_%04d.vtp", k);
-      mps::write_vtp(dir / name, sim.particles());
-      series.add(sim.time(), dir / name);
-    };
-    int frame = 0;
-    if (frames > 0) write_frame(frame++);
-    const double frame_dt = frames > 0 ? p.end_time / frames : 2 * p.end_time;
+    FrameSeries series(dir, "tank", frames, p.end_time);
+    series.write_if_due(sim);
     double next_report = 0.1;
     try {
       while (!scene.done()) {
         scene.step();
-        if (frames > 0 && sim.time() >= frame * frame_dt - 1e-12) write_frame(frame++);
+        series.write_if_due(sim);
         if (sim.time() >= next_report - 1e-12) {
           const auto& s = sim.last_step();
           std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",

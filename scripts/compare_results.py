@@ -33,6 +33,8 @@ CASES = {
     **{f"acoustic-{c}": ("acoustic", f"--case {c} --size 20 --l0 0.5 --end-time 0.05 --no-maps --frames 2")
        for c in ("free", "hard", "mur", "flow")},
     "acoustic-two-pulse": ("acoustic", "--case two-pulse --size 40 --l0 0.5 --end-time 0.05 --no-maps --frames 2"),
+    "dambreak-classic": ("dambreak", "--column classic --end-time 0.1 --frames 2"),
+    "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
 }
 TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
 

@@ -297,3 +297,61 @@ TEST(Shifting, RejectsNegativeCoefficients) {
   std::vector<char> movable(L.p.size(), 1);
   EXPECT_THROW(mps::shift_particles({L.p, L.d, list, k}, -1.0, 0.2 * L.l0, movable, L.p), std::invalid_argument);
 }
+
+namespace {
+
+struct Pair {
+  mps::Particles p;
+  mps::Domain d{-1, 1, -1, 1};
+  std::vector<char> movable;
+  mps::Particles after() {
+    movable.assign(p.size(), 1);
+    const auto list = mps::find_neighbors(p, d, 0.5);
+    mps::Particles out = p;
+    mps::collide_close_pairs(p, d, list, 0.1, 0.2, 0.01, movable, out);
+    return out;
+  }
+};
+
+TEST(Collisions, ApproachingFluidPairKeepsItsMomentumAndTurnsBackWithTheRestitution) {
+  Pair s;
+  s.p.add(0.0, 0.0, mps::Kind::fluid, 0, 1.0, 0.5);
+  s.p.add(0.05, 0.0, mps::Kind::fluid, 0, -1.0, 0.5);
+  const mps::Particles out = s.after();
+  EXPECT_NEAR(out.u[0], -0.2, 1e-15);  // approach speed 2 -> separation 0.2 * 2, shared
+  EXPECT_NEAR(out.u[1], 0.2, 1e-15);
+  EXPECT_DOUBLE_EQ(out.u[0] + out.u[1], 0.0);
+  EXPECT_DOUBLE_EQ(out.v[0], 0.5);  // the tangential velocity is untouched
+  EXPECT_NEAR(out.x[0], 0.01 * -1.2, 1e-15);  // moved by dt times the change
+}
+
+TEST(Collisions, SeparatingOrDistantPairsAndDummiesAreLeftAlone) {
+  Pair s;
+  s.p.add(0.0, 0.0, mps::Kind::fluid, 0, -1.0, 0.0);
+  s.p.add(0.05, 0.0, mps::Kind::fluid, 0, 1.0, 0.0);  // moving apart
+  s.p.add(0.5, 0.0, mps::Kind::fluid, 0, 1.0, 0.0);
+  s.p.add(0.7, 0.0, mps::Kind::fluid, 0, -1.0, 0.0);  // closing in, but 0.2 apart
+  const mps::Particles out = s.after();
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(out.u[i], s.p.u[i]);
+}
+
+TEST(Collisions, AFluidParticleTurnsBackFromAWallAloneAndTheOrderDoesNotMatter) {
+  Pair s;
+  s.p.add(0.0, 0.0, mps::Kind::wall);
+  s.p.add(0.0, 0.06, mps::Kind::fluid, 0, 0.3, -2.0);
+  s.p.add(0.085, 0.06, mps::Kind::fluid, 0, -1.0, 0.0);  // 0.104 from the wall: out of its reach
+  const mps::Particles out = s.after();
+  EXPECT_EQ(out.v[0], 0.0);  // the wall does not move
+  // Particle 1 meets the wall head-on (-2 -> +0.4) and particle 2 sideways (its x-approach 1.3 shared).
+  EXPECT_NEAR(out.v[1], 0.4, 1e-14);
+  EXPECT_NEAR(out.u[1], 0.3 - 0.5 * 1.2 * 1.3, 1e-14);
+  Pair reversed;
+  for (std::size_t i = 3; i-- > 0;) reversed.p.add(s.p.x[i], s.p.y[i], s.p.kind[i], 0, s.p.u[i], s.p.v[i]);
+  const mps::Particles back = reversed.after();
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(back.u[2 - i], out.u[i]);
+    EXPECT_EQ(back.v[2 - i], out.v[i]);
+  }
+}
+
+}  // namespace

@@ -69,6 +69,10 @@ const Params& checked(const Params& p) {
   if (!(p.end_time >= first_step))
     throw std::invalid_argument("dam break: the run (" + fmt(p.end_time) + " s) is shorter than its first step (" +
                                 fmt(first_step) + " s); raise the end time");
+  if (!(p.collision >= 0.0 && p.collision < 1.0))
+    throw std::invalid_argument("dam break: the collision distance must be in [0, 1) l0 (0: off), got " + fmt(p.collision));
+  if (!(p.restitution >= 0.0 && p.restitution <= 1.0))
+    throw std::invalid_argument("dam break: the restitution must be in [0, 1], got " + fmt(p.restitution));
   if (!(p.asymmetry >= 0.0 && p.asymmetry <= 10.0))
     throw std::invalid_argument("dam break: the asymmetry fraction must be in [0, 10] (0: off), got " + fmt(p.asymmetry));
   if (!(p.pressure_patch >= 0.5 && p.pressure_patch <= 20))
@@ -114,6 +118,7 @@ mps::SimulationConfig make_config(const Params& p) {
   c.cfl = p.cfl;
   c.dt_max = c.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // the CFL step at the free-fall speed from H
   c.solver = p.solver;
+  c.warm_start = p.warm_start;
   c.dt_option = "--cfl";
   return c;
 }
@@ -158,6 +163,7 @@ Scene::Scene(const Params& p)
   const double L = p.tank_length, top = p.tank_height, ceiling = make_domain(p).ymax - 2 * p.l0;
   // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
   // (a particle inside a wall is counted, not hidden).
+  if (p.collision > 0.0) sim_.add<mps::ParticleCollision>(p.collision, p.restitution);
   if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
   sim_.add<mps::RemoveEscaped>(
       [=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
@@ -180,10 +186,15 @@ void Scene::sample() {
   for (double h : p.pressure_probes)
     sample.pressures.push_back(patch_pressure(s, p.tank_length, h * p.height, p.pressure_patch * p.l0));
   samples_.push_back(std::move(sample));
+  // Below the walls' top, a fluid particle past a wall line is pressed towards the wall; past the first wall layer's
+  // centres (half a spacing further) it is inside the wall.
   long inside = 0;
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (s.kind[i] == mps::Kind::fluid && s.y[i] < p.tank_height && (s.x[i] < 0.0 || s.x[i] > p.tank_length || s.y[i] < 0.0))
-      ++inside;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] != mps::Kind::fluid || s.y[i] >= p.tank_height) continue;
+    const double depth = std::max({-s.x[i], s.x[i] - p.tank_length, -s.y[i]});
+    deepest_past_wall_line_ = std::max(deepest_past_wall_line_, depth);
+    inside += depth > 0.5 * p.l0;
+  }
   most_inside_walls_ = std::max(most_inside_walls_, inside);
 }
 

@@ -26,11 +26,15 @@ struct Params {
   double l0 = 0.0073;          // particle spacing [m]
   double gamma = 0.01;         // mixed source weight
   double cfl = 0.2;            // dt <= cfl l0 / |u|max
+  // Close pairs collide (mps::ParticleCollision): closer than `collision` l0 (0: off), with this restitution.
+  double collision = 0.8;
+  double restitution = 0.2;
   // Free surface also where the neighbours lie one-sided: above this fraction of a flat surface's asymmetry (0: off).
   double asymmetry = 0.9;
   double end_time = 0.3;       // [s]
   double g = 9.81;
   std::string solver = "eigen-cg";
+  bool warm_start = true;  // each pressure solve from the previous pressure (false: from zeros, the classic baseline)
   // Level probes, as distances from the downstream wall in H; pressure probes, as heights on it in H.
   std::vector<double> level_probes;
   std::vector<double> pressure_probes;
@@ -71,8 +75,10 @@ class Scene {
   // Fluid removed as spray over the walls: the initial count less the fluid there is now.
   [[nodiscard]] long removed() const;
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
-  // Fluid particles inside a wall (below its top and beyond its line) now; the most there were at any sample.
+  // Fluid particles inside a wall (below its top and past its first layer's centres, l0/2 beyond the wall line): the
+  // most there were at any sample. And the deepest any fluid went past a wall line [m] (<= 0: never reached it).
   [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
+  [[nodiscard]] double deepest_past_wall_line() const { return deepest_past_wall_line_; }
 
  private:
   void sample();
@@ -80,6 +86,7 @@ class Scene {
   mps::Simulation sim_;
   long initial_fluid_;
   long most_inside_walls_ = 0;
+  double deepest_past_wall_line_ = -1e300;
   std::vector<Sample> samples_;
 };
 

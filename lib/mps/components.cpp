@@ -86,6 +86,15 @@ void AsymmetrySurface::before_source(StepContext& c) {
     if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
 }
 
+void ParticleCollision::after_predictor(StepContext& c) {
+  const StepFields& f = c.fields;
+  before_ = c.particles;
+  movable_.assign(before_.size(), 0);
+  for (std::size_t i = 0; i < movable_.size(); ++i) movable_[i] = !f.prescribed[i];
+  collide_close_pairs(before_, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
+                      f.dt, movable_, c.particles);
+}
+
 void RemoveEscaped::after_corrector(StepContext& c) {
   Particles& p = c.particles;
   for (std::size_t i = 0; i < p.size(); ++i)

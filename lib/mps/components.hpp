@@ -76,6 +76,20 @@ class AsymmetrySurface : public StepComponent {
   std::vector<double> asymmetry_;
 };
 
+// Collisions of close pairs after the predictor (collide_close_pairs, pairs nearer than `distance` l0): the pressure
+// then need not stop a pair that nearly touches within one step, which gave single PPE rows spurious pressures and
+// stopped every dam-break run (docs/dambreak.md).
+class ParticleCollision : public StepComponent {
+ public:
+  ParticleCollision(double distance, double restitution) : distance_(distance), restitution_(restitution) {}
+  void after_predictor(StepContext& c) override;
+
+ private:
+  double distance_, restitution_;
+  Particles before_;
+  std::vector<char> movable_;
+};
+
 // Fluid that leaves `inside` (spray over a tank's walls) becomes a ghost at rest and is counted, instead of running
 // on until the guard stops the run at the domain's edge.
 class RemoveEscaped : public StepComponent {

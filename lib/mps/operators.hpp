@@ -77,4 +77,12 @@ GradientMatrices gradient_matrices(const Stencil& s);
 double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
                        Particles& particles);
 
+// Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
+// than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between
+// two fluid particles the impulse is shared (momentum conserved); a wall or dummy particle is fixed and the fluid
+// particle takes all of it. Every pair's impulse is taken from the velocities before any collision, so the result
+// does not depend on the particles' order. Positions move by dt times the velocity change. Returns the pairs found.
+long collide_close_pairs(const Particles& before, const Domain& domain, const NeighborList& neighbors, double reach,
+                         double restitution, double dt, std::span<const char> movable, Particles& particles);
+
 }  // namespace mps

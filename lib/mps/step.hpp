@@ -175,6 +175,8 @@ class Simulation {
   [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
     return k.re <= small_radius_ ? close_star_ : near_star_;
   }
+  // Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection).
+  [[nodiscard]] const NeighborList& neighbors_now() const { return near_now_; }
 
  private:
   void advance();

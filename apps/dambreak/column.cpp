@@ -161,10 +161,10 @@ Scene::Scene(const Params& p)
       sim_(make_particles(p), make_domain(p), make_config(p)),
       initial_fluid_(static_cast<long>(sim_.particles().count(mps::Kind::fluid))) {
   const double L = p.tank_length, top = p.tank_height, ceiling = make_domain(p).ymax - 2 * p.l0;
-  // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
-  // (a particle inside a wall is counted, not hidden).
   if (p.collision > 0.0) sim_.add<mps::ParticleCollision>(p.collision, p.restitution);
   if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
+  // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
+  // (a particle inside a wall is counted, not hidden).
   sim_.add<mps::RemoveEscaped>(
       [=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
   sample();

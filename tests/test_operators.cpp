@@ -307,8 +307,13 @@ struct Pair {
   mps::Particles after() {
     movable.assign(p.size(), 1);
     const auto list = mps::find_neighbors(p, d, 0.5);
+    std::vector<double> du, dv;
+    mps::collision_velocity_changes(p, d, list, 0.1, 0.2, movable, du, dv);
     mps::Particles out = p;
-    mps::collide_close_pairs(p, d, list, 0.1, 0.2, 0.01, movable, out);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      out.u[i] += du[i];
+      out.v[i] += dv[i];
+    }
     return out;
   }
 };
@@ -322,7 +327,6 @@ TEST(Collisions, ApproachingFluidPairKeepsItsMomentumAndTurnsBackWithTheRestitut
   EXPECT_NEAR(out.u[1], 0.2, 1e-15);
   EXPECT_DOUBLE_EQ(out.u[0] + out.u[1], 0.0);
   EXPECT_DOUBLE_EQ(out.v[0], 0.5);  // the tangential velocity is untouched
-  EXPECT_NEAR(out.x[0], 0.01 * -1.2, 1e-15);  // moved by dt times the change
 }
 
 TEST(Collisions, SeparatingOrDistantPairsAndDummiesAreLeftAlone) {

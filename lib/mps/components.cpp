@@ -87,12 +87,20 @@ void AsymmetrySurface::before_source(StepContext& c) {
 }
 
 void ParticleCollision::after_predictor(StepContext& c) {
+  Particles& p = c.particles;
   const StepFields& f = c.fields;
-  before_ = c.particles;
-  movable_.assign(before_.size(), 0);
-  for (std::size_t i = 0; i < movable_.size(); ++i) movable_[i] = !f.prescribed[i];
-  collide_close_pairs(before_, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
-                      f.dt, movable_, c.particles);
+  movable_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) movable_[i] = !f.prescribed[i];
+  collision_velocity_changes(p, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
+                             movable_, du_, dv_);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && movable_[i]) {
+      p.u[i] += du_[i];
+      p.v[i] += dv_[i];
+      p.x[i] += f.dt * du_[i];  // the predictor having moved it by dt u*
+      p.y[i] += f.dt * dv_[i];
+      c.sim.domain().wrap(p.x[i], p.y[i]);
+    }
 }
 
 void RemoveEscaped::after_corrector(StepContext& c) {

@@ -76,7 +76,7 @@ class AsymmetrySurface : public StepComponent {
   std::vector<double> asymmetry_;
 };
 
-// Collisions of close pairs after the predictor (collide_close_pairs, pairs nearer than `distance` l0): the pressure
+// Collisions of close pairs after the predictor (collision_velocity_changes, pairs nearer than `distance` l0): the pressure
 // then need not stop a pair that nearly touches within one step, which gave single PPE rows spurious pressures and
 // stopped every dam-break run (docs/dambreak.md).
 class ParticleCollision : public StepComponent {
@@ -86,8 +86,8 @@ class ParticleCollision : public StepComponent {
 
  private:
   double distance_, restitution_;
-  Particles before_;
   std::vector<char> movable_;
+  std::vector<double> du_, dv_;
 };
 
 // Fluid that leaves `inside` (spray over a tank's walls) becomes a ghost at rest and is counted, instead of running

@@ -276,18 +276,18 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
   return largest;
 }
 
-long collide_close_pairs(const Particles& before, const Domain& domain, const NeighborList& neighbors, double reach,
-                         double restitution, double dt, std::span<const char> movable, Particles& particles) {
-  const Particles& p = before;
+long collision_velocity_changes(const Particles& p, const Domain& domain, const NeighborList& neighbors, double reach,
+                                double restitution, std::span<const char> movable, std::vector<double>& du,
+                                std::vector<double>& dv) {
   check_size(movable.size(), p.size(), "movable");
-  check_size(particles.size(), p.size(), "particles");
   const auto n = static_cast<Index>(p.size());
+  du.assign(p.size(), 0.0);
+  dv.assign(p.size(), 0.0);
   long pairs = 0;
 #pragma omp parallel for schedule(static) reduction(+ : pairs)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || !movable[i]) continue;
-    double du = 0.0, dv = 0.0;
     for (int jn : neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jn);
       if (p.kind[j] == Kind::ghost) continue;
@@ -298,15 +298,10 @@ long collide_close_pairs(const Particles& before, const Domain& domain, const Ne
       const double approach = (p.u[i] - p.u[j]) * nx + (p.v[i] - p.v[j]) * ny;  // > 0: closing in
       if (approach <= 0.0) continue;
       const double share = p.kind[j] == Kind::fluid ? 0.5 : 1.0;
-      du -= share * (1.0 + restitution) * approach * nx;
-      dv -= share * (1.0 + restitution) * approach * ny;
+      du[i] -= share * (1.0 + restitution) * approach * nx;
+      dv[i] -= share * (1.0 + restitution) * approach * ny;
       ++pairs;
     }
-    particles.u[i] = p.u[i] + du;
-    particles.v[i] = p.v[i] + dv;
-    particles.x[i] = p.x[i] + dt * du;
-    particles.y[i] = p.y[i] + dt * dv;
-    domain.wrap(particles.x[i], particles.y[i]);
   }
   return pairs;
 }

@@ -23,11 +23,12 @@ struct Stencil {
 
 // n_i = sum_j w_ij
 std::vector<double> number_density(const Stencil& s);
+void number_density(const Stencil& s, std::vector<double>& out);  // reusing out's memory
+
 // |sum_j w_ij r_ij / |r_ij|| / n0: how one-sided particle i's neighbours lie (Khayyer et al. 2009); 0 inside a full
 // kernel, asymmetry_of_flat_surface(kernel) in the top row of a lattice.
 void neighbour_asymmetry(const Stencil& s, std::vector<double>& out);
 double asymmetry_of_flat_surface(const Kernel& kernel, double l0);
-void number_density(const Stencil& s, std::vector<double>& out);  // reusing out's memory
 
 enum class GradientVariant {
   plain,          // (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij
@@ -80,9 +81,10 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
 // Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
 // than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between
 // two fluid particles the impulse is shared (momentum conserved); a wall or dummy particle is fixed and the fluid
-// particle takes all of it. Every pair's impulse is taken from the velocities before any collision, so the result
-// does not depend on the particles' order. Positions move by dt times the velocity change. Returns the pairs found.
-long collide_close_pairs(const Particles& before, const Domain& domain, const NeighborList& neighbors, double reach,
-                         double restitution, double dt, std::span<const char> movable, Particles& particles);
+// particle takes all of it. Writes each particle's velocity change (du, dv) from the velocities as they are, so the
+// result does not depend on the particles' order; the caller applies it. Returns the pairs found.
+long collision_velocity_changes(const Particles& particles, const Domain& domain, const NeighborList& neighbors,
+                                double reach, double restitution, std::span<const char> movable,
+                                std::vector<double>& du, std::vector<double>& dv);
 
 }  // namespace mps

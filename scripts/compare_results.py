@@ -35,6 +35,8 @@ CASES = {
     "acoustic-two-pulse": ("acoustic", "--case two-pulse --size 40 --l0 0.5 --end-time 0.05 --no-maps --frames 2"),
     "dambreak-classic": ("dambreak", "--column classic --end-time 0.1 --frames 2"),
     "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
+    "dambreak-classic-shifting-plain-gradient": ("dambreak", "--column classic --end-time 0.1 --frames 2 --shifting 1 "
+                                                             "--gradient plain"),
 }
 TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
 

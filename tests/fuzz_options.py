@@ -31,6 +31,7 @@ OPTIONS = {
     "acoustic": ["--case", "--size", "--l0", "--cfl", "--b", "--amplitude", "--c0", "--rho0", "--u0", "--frequency",
                  "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
     "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames", "--front-tolerance",
+                 "--shifting", "--gradient", "--collision", "--restitution",
                  "--solver", "--data"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).

@@ -117,6 +117,9 @@ mps::SimulationConfig make_config(const Params& p) {
   c.gamma = p.gamma;
   c.cfl = p.cfl;
   c.dt_max = c.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // the CFL step at the free-fall speed from H
+  c.pressure_gradient = p.gradient;
+  c.shifting = p.shifting;
+  c.shift_along_free_surface = true;
   c.solver = p.solver;
   c.warm_start = p.warm_start;
   c.dt_option = "--cfl";

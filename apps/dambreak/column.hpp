@@ -31,6 +31,10 @@ struct Params {
   double restitution = 0.2;
   // Free surface also where the neighbours lie one-sided: above this fraction of a flat surface's asymmetry (0: off).
   double asymmetry = 0.9;
+  // Particle shifting coefficient (0: off); particles on or next to the free surface shift along it only.
+  double shifting = 0;
+  // The pressure gradient of the corrector (mps::GradientVariant).
+  mps::GradientVariant gradient = mps::GradientVariant::min_reference;
   double end_time = 0.3;       // [s]
   double g = 9.81;
   std::string solver = "eigen-cg";

@@ -24,10 +24,11 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
                                    "spray removal"};
   if (p.asymmetry > 0) physics.emplace_back("free surface by neighbour asymmetry");
   if (p.collision > 0) physics.emplace_back("particle collisions");
+  if (p.shifting > 0) physics.emplace_back("particle shifting (along the free surface near it)");
   return {{"scene", "dam break"}, {"column", dambreak::to_string(p.column)},
           {"column_width_m", p.width}, {"column_height_m", p.height}, {"tank_length_m", p.tank_length},
-          {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry}, {"collision_l0", p.collision},
-          {"restitution", p.restitution},
+          {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma}, {"gradient", mps::to_string(p.gradient)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry}, {"collision_l0", p.collision},
+          {"restitution", p.restitution}, {"shifting", p.shifting}, {"shifting_along_free_surface", true},
           {"dt_max_s", c.dt_max}, {"end_time_s", p.end_time}, {"g", p.g}, {"rho", c.rho}, {"nu", c.nu},
           {"beta", c.beta}, {"theta", c.theta},
           {"radii_l0", {{"density", c.radius_density}, {"surface", c.radius_surface}, {"gradient", c.radius_gradient},
@@ -44,7 +45,7 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string column_name = "classic", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;
+  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;
   double dx = 0, end_time = 0, front_tolerance = 0.03;
   int frames = 20;
   dambreak::Params p;
@@ -59,6 +60,9 @@ int main(int argc, char** argv) {
       ->check(positive_up_to(1.0));
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(number_in(0.0, 1.0));
+  app.add_option("--gradient", gradient, "pressure gradient: min-reference (Koshizuka's, repulsive) | plain | corrected "
+                 "(the corrective matrix) | corrected-min-reference")
+      ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}));
   app.add_option("--cfl", p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--end-time", end_time, "simulated time [s] (default: T = 2.5 for classic, t sqrt(g/H) = 6 for seed)")
       ->check(positive_up_to(1e4));
@@ -70,6 +74,7 @@ int main(int argc, char** argv) {
   app.add_option("--asymmetry", p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
                  "fraction of a flat surface's asymmetry (0: the density test alone)")
       ->capture_default_str()->check(number_in(0.0, 10.0));
+  add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
@@ -85,6 +90,7 @@ int main(int argc, char** argv) {
     const dambreak::Column column = dambreak::column_from_name(column_name);
     const dambreak::Params base = dambreak::defaults(column);
     p.column = column;
+    p.gradient = mps::gradient_variant_from_name(gradient);
     p.width = base.width;
     p.height = base.height;
     p.tank_length = base.tank_length;

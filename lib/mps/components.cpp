@@ -172,16 +172,29 @@ void ParticleShifting::after_corrector(StepContext& c) {
   const NeighborList& close = c.sim.neighbors_at_star(k);
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   movable_.assign(p.size(), 0);
+  near_surface_.assign(p.size(), 0);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    if (p.kind[i] != Kind::fluid || f.prescribed[i] || f.surface[i]) continue;
+    if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
     const auto near = close.of(i);
-    movable_[i] = std::none_of(near.begin(), near.end(), [&](int j) { return f.surface[static_cast<std::size_t>(j)] != 0; });
+    near_surface_[i] = f.surface[i] || std::any_of(near.begin(), near.end(), [&](int j) {
+                         return f.surface[static_cast<std::size_t>(j)] != 0;
+                       });
+    movable_[i] = along_surface_ || !near_surface_[i];
   }
   const double l0 = c.sim.config().l0;
   const double diffusion = coefficient_ * l0 * std::sqrt(max_fluid_speed_squared(p)) * f.dt;
-  shift_particles({p, c.sim.domain(), close, k}, diffusion, 0.2 * l0, movable_, p);
+  const Stencil stencil{p, c.sim.domain(), close, k};
+  if (!along_surface_) {
+    shift_particles(stencil, diffusion, 0.2 * l0, movable_, p);
+    return;
+  }
+  // The normal from the wider density kernel follows the surface; at the shift's own radius it would point along
+  // the shift itself and leave nothing to move.
+  const Kernel& wide = c.sim.density_kernel();
+  surface_normals({p, c.sim.domain(), c.sim.neighbors_at_star(wide), wide}, near_surface_, normal_x_, normal_y_);
+  shift_particles(stencil, diffusion, 0.2 * l0, movable_, p, normal_x_, normal_y_);
 }
 
 }  // namespace mps

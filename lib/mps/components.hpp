@@ -132,12 +132,17 @@ class InitialReferenceDensity : public StepComponent {
 // pushed out through it) and not prescribed moves down the concentration gradient (shift_particles).
 class ParticleShifting : public StepComponent {
  public:
-  explicit ParticleShifting(double coefficient) : coefficient_(coefficient) {}
+  // along_surface: particles on or next to a free surface shift too, along the surface only (mps::surface_normals);
+  // otherwise they stay where they are.
+  explicit ParticleShifting(double coefficient, bool along_surface = false)
+      : coefficient_(coefficient), along_surface_(along_surface) {}
   void after_corrector(StepContext& c) override;
 
  private:
   double coefficient_;
-  std::vector<char> movable_;
+  bool along_surface_;
+  std::vector<char> movable_, near_surface_;
+  std::vector<double> normal_x_, normal_y_;
 };
 
 }  // namespace mps

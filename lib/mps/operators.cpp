@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace mps {
 namespace {
@@ -71,7 +73,27 @@ CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient
   return a;
 }
 
+constexpr std::array<std::pair<GradientVariant, std::string_view>, 4> gradient_names{{
+    {GradientVariant::plain, "plain"},
+    {GradientVariant::min_reference, "min-reference"},
+    {GradientVariant::corrected, "corrected"},
+    {GradientVariant::corrected_min_reference, "corrected-min-reference"},
+}};
+
 }  // namespace
+
+std::string_view to_string(GradientVariant variant) {
+  for (const auto& [v, name] : gradient_names)
+    if (v == variant) return name;
+  return "unknown";
+}
+
+GradientVariant gradient_variant_from_name(std::string_view name) {
+  for (const auto& [v, n] : gradient_names)
+    if (n == name) return v;
+  throw std::invalid_argument("unknown pressure gradient '" + std::string(name) +
+                              "': choose plain, min-reference, corrected or corrected-min-reference");
+}
 
 std::vector<double> number_density(const Stencil& s) {
   std::vector<double> out;
@@ -233,13 +255,41 @@ GradientMatrices gradient_matrices(const Stencil& s) {
           pair_matrix(s, true, [scale](double, double dy, double r2, double w) { return scale * dy * w / r2; })};
 }
 
+void surface_normals(const Stencil& s, std::span<const char> want, std::vector<double>& nx, std::vector<double>& ny) {
+  const Index n = count(s);
+  check_size(want.size(), static_cast<std::size_t>(n), "want");
+  nx.assign(static_cast<std::size_t>(n), 0.0);
+  ny.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (!want[i]) continue;
+    double gx = 0.0, gy = 0.0;
+    for_each_pair(s, i, [&](std::size_t, double rx, double ry, double r2, double w) {
+      gx += rx / r2 * w;
+      gy += ry / r2 * w;
+    });
+    // Inside a full kernel the sum is round-off, whose direction means nothing.
+    const double length = std::hypot(gx, gy);
+    if (length > 1e-9 * s.kernel.n0 / s.kernel.re) {
+      nx[i] = -gx / length;
+      ny[i] = -gy / length;
+    }
+  }
+}
+
 double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
-                       Particles& particles) {
+                       Particles& particles, std::span<const double> normal_x, std::span<const double> normal_y) {
   if (&s.particles != &particles) throw std::invalid_argument("shift_particles: the stencil must see the particles moved");
   if (!(diffusion >= 0.0) || !(max_shift >= 0.0)) throw std::invalid_argument("shift_particles: need diffusion, max_shift >= 0");
   const Index n = count(s);
   check_size(movable.size(), static_cast<std::size_t>(n), "movable");
   const auto size = static_cast<std::size_t>(n);
+  const bool along_surface = !normal_x.empty();
+  if (along_surface) {
+    check_size(normal_x.size(), size, "normal_x");
+    check_size(normal_y.size(), size, "normal_y");
+  }
   std::vector<double> dx(size, 0.0), dy(size, 0.0);
   const double scale = diffusion * 2.0 / s.kernel.n0;  // d = 2
 #pragma omp parallel for schedule(static)
@@ -252,6 +302,11 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
       gy += ry / r2 * w;
     });
     double sx = -scale * gx, sy = -scale * gy;
+    if (along_surface) {
+      const double normal_part = sx * normal_x[i] + sy * normal_y[i];
+      sx -= normal_part * normal_x[i];
+      sy -= normal_part * normal_y[i];
+    }
     const double length = std::hypot(sx, sy);
     if (length > max_shift) {
       sx *= max_shift / length;

@@ -3,6 +3,7 @@
 // gives the same numbers. Sums run over every active neighbour (fluid, wall and dummy alike).
 #include <array>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "mps/csr.hpp"
@@ -39,6 +40,10 @@ enum class GradientVariant {
                   // neighbourhood, truncated ones at free surfaces and walls included
   corrected_min_reference,  // the corrective matrix applied to the min_reference sum
 };
+// "plain", "min-reference", "corrected", "corrected-min-reference"; the parser throws std::invalid_argument naming
+// the valid names.
+std::string_view to_string(GradientVariant variant);
+GradientVariant gradient_variant_from_name(std::string_view name);
 // `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
 // the particles that hold a value of phi at all (for pressure: not dry walls, see set_dummy_pressure).
 // `min_tilt` (the min-reference variants): the minimum is taken of phi_j - min_tilt . r_ij, i.e. of phi less a
@@ -74,9 +79,18 @@ GradientMatrices gradient_matrices(const Stencil& s);
 // that the flow has drawn apart or bunched up; its velocity is carried to the new position by the first-order
 // Taylor term, u_i += dr_i . grad u_i (corrected gradient: exact for linear fields), so a smooth flow is not
 // diffused by the move. Every neighbour counts towards the concentration (walls and dummies keep fluid off the
-// wall); only particles with movable[i] != 0 move. Returns the largest shift.
+// wall); only particles with movable[i] != 0 move. Where (normal_x[i], normal_y[i]) is a non-zero unit vector (a free
+// surface's normal at i) the shift keeps only its part along the surface (Lind et al. 2012), so a surface is evened
+// out without being moved off itself. Returns the largest shift.
 double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
-                       Particles& particles);
+                       Particles& particles, std::span<const double> normal_x = {},
+                       std::span<const double> normal_y = {});
+
+// The outward unit normal of a free surface at each particle with want[i] != 0 (for shifting, take a kernel wider than
+// the shift's, or the normal is the shift's own direction): minus the direction of
+// sum_j r_ij/|r_ij|^2 w_ij over all neighbours (walls fill the kernel on their side, so it points away from the
+// liquid and the walls), (0, 0) where that sum is round-off (a full kernel) or want[i] == 0.
+void surface_normals(const Stencil& s, std::span<const char> want, std::vector<double>& nx, std::vector<double>& ny);
 
 // Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
 // than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between

@@ -85,7 +85,7 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
   const double fhy = split && !domain_.periodic_y ? config_.fy : 0.0;
   if (fhx != 0.0 || fhy != 0.0) add<HydrostaticSplit>(fhx, fhy);
   if (config_.initial_reference_density) add<InitialReferenceDensity>(particles_, domain_, grid_, k_density_);
-  if (config_.shifting > 0.0) add<ParticleShifting>(config_.shifting);
+  if (config_.shifting > 0.0) add<ParticleShifting>(config_.shifting, config_.shift_along_free_surface);
 }
 
 void Simulation::run(void (StepComponent::*hook)(StepContext&)) {

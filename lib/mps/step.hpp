@@ -56,6 +56,8 @@ struct SimulationConfig {
   // Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
   // the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
   double shifting = 0;
+  // With shifting: particles on or next to a free surface shift too, along it only (Lind et al. 2012).
+  bool shift_along_free_surface = false;
   bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
   int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0

@@ -498,3 +498,55 @@ TEST(StepComponents, FluidLeavingTheRegionBecomesACountedGhostAndTheRunGoesOn) {
     }
   }
 }
+
+namespace {
+// Counts the wall particles with lo <= y < hi, and those of them flagged free surface (dry), as the PPE sees them.
+class DryWallCounter : public mps::StepComponent {
+ public:
+  DryWallCounter(double lo, double hi, int& walls, int& dry) : lo_(lo), hi_(hi), walls_(walls), dry_(dry) {}
+  void before_assembly(mps::StepContext& c) override {
+    for (std::size_t i = 0; i < c.particles.size(); ++i)
+      if (c.particles.kind[i] == mps::Kind::wall && c.particles.y[i] >= lo_ && c.particles.y[i] < hi_) {
+        ++walls_;
+        dry_ += c.fields.surface[i];
+      }
+  }
+
+ private:
+  double lo_, hi_;
+  int &walls_, &dry_;
+};
+}  // namespace
+
+// Disordered water (the fluid jittered by 15 % of l0) drops some wall particles under it below beta n0, and the
+// density test calls them dry: they would read P = 0 under 0.4 m of water. With WetWalls none below the water's top
+// rows is dry, and every wall above the water stays dry.
+TEST(StepComponents, WallsUnderDisorderedWaterAreWetWithWetWalls) {
+  tank::Params p;
+  mps::Particles start = tank::make_particles(p);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(-1.0, 1.0);
+  for (std::size_t i = 0; i < start.size(); ++i)
+    if (start.kind[i] == mps::Kind::fluid) {
+      start.x[i] += 0.15 * p.l0 * jitter(rng);
+      start.y[i] += 0.15 * p.l0 * jitter(rng);
+    }
+  struct Count {
+    int walls = 0, dry = 0;
+  };
+  auto count = [&](bool wet_walls, double lo, double hi) {
+    mps::Simulation sim(start, tank::make_domain(p), tank::make_config(p));
+    if (wet_walls) sim.add<mps::WetWalls>();
+    Count c;
+    sim.add<DryWallCounter>(lo, hi, c.walls, c.dry);
+    sim.step();
+    return c;
+  };
+  const double water_top = p.water_height;
+  const Count under = count(false, -1.0, water_top - 3 * p.l0), under_wet = count(true, -1.0, water_top - 3 * p.l0);
+  EXPECT_GT(under.dry, 0) << "of " << under.walls << " walls under the water";
+  EXPECT_EQ(under_wet.dry, 0) << "of " << under_wet.walls << " walls under the water";
+  const Count above = count(true, water_top + 3 * p.l0, 1e9);
+  EXPECT_GT(above.walls, 0);
+  EXPECT_EQ(above.dry, above.walls) << "walls above the water";
+}

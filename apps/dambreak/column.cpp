@@ -166,6 +166,7 @@ Scene::Scene(const Params& p)
   const double L = p.tank_length, top = p.tank_height, ceiling = make_domain(p).ymax - 2 * p.l0;
   if (p.collision > 0.0) sim_.add<mps::ParticleCollision>(p.collision, p.restitution);
   if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
+  if (p.wet_walls) sim_.add<mps::WetWalls>();
   // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
   // (a particle inside a wall is counted, not hidden).
   sim_.add<mps::RemoveEscaped>(

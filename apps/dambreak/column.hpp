@@ -31,6 +31,8 @@ struct Params {
   double restitution = 0.2;
   // Free surface also where the neighbours lie one-sided: above this fraction of a flat surface's asymmetry (0: off).
   double asymmetry = 0.9;
+  // Wall particles next to fluid that is not free surface carry pressure even where the density test calls them dry.
+  bool wet_walls = false;
   // Particle shifting coefficient (0: off); particles on or next to the free surface shift along it only.
   double shifting = 0;
   // The pressure gradient of the corrector (mps::GradientVariant).

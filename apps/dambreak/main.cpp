@@ -24,11 +24,12 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
                                    "spray removal"};
   if (p.asymmetry > 0) physics.emplace_back("free surface by neighbour asymmetry");
   if (p.collision > 0) physics.emplace_back("particle collisions");
+  if (p.wet_walls) physics.emplace_back("walls wetted by the liquid's interior");
   if (p.shifting > 0) physics.emplace_back("particle shifting (along the free surface near it)");
   return {{"scene", "dam break"}, {"column", dambreak::to_string(p.column)},
           {"column_width_m", p.width}, {"column_height_m", p.height}, {"tank_length_m", p.tank_length},
           {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma}, {"gradient", mps::to_string(p.gradient)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry}, {"collision_l0", p.collision},
-          {"restitution", p.restitution}, {"shifting", p.shifting}, {"shifting_along_free_surface", true},
+          {"restitution", p.restitution}, {"shifting", p.shifting}, {"wet_walls", p.wet_walls}, {"shifting_along_free_surface", true},
           {"dt_max_s", c.dt_max}, {"end_time_s", p.end_time}, {"g", p.g}, {"rho", c.rho}, {"nu", c.nu},
           {"beta", c.beta}, {"theta", c.theta},
           {"radii_l0", {{"density", c.radius_density}, {"surface", c.radius_surface}, {"gradient", c.radius_gradient},
@@ -74,6 +75,8 @@ int main(int argc, char** argv) {
   app.add_option("--asymmetry", p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
                  "fraction of a flat surface's asymmetry (0: the density test alone)")
       ->capture_default_str()->check(number_in(0.0, 10.0));
+  app.add_flag("--wet-walls", p.wet_walls, "wall particles next to fluid that is not free surface carry pressure even "
+               "where their number density calls them dry (mps::WetWalls)");
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
   add_cold_start_flag(app, p.warm_start);

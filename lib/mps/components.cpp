@@ -86,6 +86,24 @@ void AsymmetrySurface::before_source(StepContext& c) {
     if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
 }
 
+void WetWalls::before_source(StepContext& c) {
+  const Particles& p = c.particles;
+  const NeighborList& near = c.sim.neighbors_at_star(c.sim.surface_kernel());
+  std::vector<char>& surface = c.fields.surface;
+  // Decided from the flags as the density test left them, so a wall made wet wets no other.
+  wet_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] != Kind::wall || !surface[i]) continue;
+    const auto list = near.of(i);
+    wet_[i] = std::any_of(list.begin(), list.end(), [&](int j) {
+      const auto jj = static_cast<std::size_t>(j);
+      return p.kind[jj] == Kind::fluid && !surface[jj];
+    });
+  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (wet_[i]) surface[i] = 0;
+}
+
 void ParticleCollision::after_predictor(StepContext& c) {
   Particles& p = c.particles;
   const StepFields& f = c.fields;

@@ -76,6 +76,18 @@ class AsymmetrySurface : public StepComponent {
   std::vector<double> asymmetry_;
 };
 
+// Walls wetted by the liquid's interior: a wall particle the density test flags as dry (free surface) becomes an
+// unknown of the PPE when a fluid particle within the surface kernel is not itself free surface. In a violent flow the
+// liquid pressed against a wall is disordered, its walls' number density falls below beta n0, and a dry wall reads 0
+// and carries no pressure where the liquid is at several rho g H (docs/dambreak.md).
+class WetWalls : public StepComponent {
+ public:
+  void before_source(StepContext& c) override;
+
+ private:
+  std::vector<char> wet_;
+};
+
 // Collisions of close pairs after the predictor (collision_velocity_changes, pairs nearer than `distance` l0): the pressure
 // then need not stop a pair that nearly touches within one step, which gave single PPE rows spurious pressures and
 // stopped every dam-break run (docs/dambreak.md).

@@ -14,17 +14,17 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-# label -> extra arguments; the first is the app's default.
+# label -> extra arguments (the gradient is min-reference unless said).
 SETTINGS = {
-    "default (min-reference, no shifting)": [],
-    "gradient plain": ["--gradient", "plain"],
-    "gradient corrected": ["--gradient", "corrected"],
-    "gradient corrected-min-reference": ["--gradient", "corrected-min-reference"],
-    "shifting 0.5": ["--shifting", "0.5"],
+    "min-reference, no shifting": ["--shifting", "0"],
+    "gradient plain": ["--gradient", "plain", "--shifting", "0"],
+    "gradient corrected": ["--gradient", "corrected", "--shifting", "0"],
+    "gradient corrected-min-reference": ["--gradient", "corrected-min-reference", "--shifting", "0"],
+    "shifting 0.5 (the default)": ["--shifting", "0.5"],
     "shifting 1": ["--shifting", "1"],
     "shifting 2": ["--shifting", "2"],
     "shifting 5": ["--shifting", "5"],
-    "wet walls": ["--wet-walls"],
+    "wet walls": ["--wet-walls", "--shifting", "0"],
     "wet walls, shifting 1": ["--wet-walls", "--shifting", "1"],
 }
 RUNS = [("classic", "a/20", []), ("classic", "a/40", ["--dx", str(0.146 / 40)]), ("seed", "H/25", []),

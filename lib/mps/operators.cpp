@@ -31,6 +31,16 @@ void for_each_pair(const Stencil& s, std::size_t i, F&& f) {
 
 Index count(const Stencil& s) { return static_cast<Index>(s.particles.size()); }
 
+// sum_j r_ij/|r_ij|^2 w_ij: up the particle concentration's gradient (shifting), into the liquid (surface normals).
+std::array<double, 2> concentration_sum(const Stencil& s, std::size_t i) {
+  double gx = 0.0, gy = 0.0;
+  for_each_pair(s, i, [&](std::size_t, double rx, double ry, double r2, double w) {
+    gx += rx / r2 * w;
+    gy += ry / r2 * w;
+  });
+  return {gx, gy};
+}
+
 // A CSR matrix with one row per particle, built from per-pair coefficients in two passes; `diagonal`
 // asks for an explicit diagonal entry placed in column order.
 template <class Coefficient>
@@ -264,11 +274,7 @@ void surface_normals(const Stencil& s, std::span<const char> want, std::vector<d
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (!want[i]) continue;
-    double gx = 0.0, gy = 0.0;
-    for_each_pair(s, i, [&](std::size_t, double rx, double ry, double r2, double w) {
-      gx += rx / r2 * w;
-      gy += ry / r2 * w;
-    });
+    const auto [gx, gy] = concentration_sum(s, i);
     // Inside a full kernel the sum is round-off, whose direction means nothing.
     const double length = std::hypot(gx, gy);
     if (length > 1e-9 * s.kernel.n0 / s.kernel.re) {
@@ -296,11 +302,7 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (!movable[i]) continue;
-    double gx = 0.0, gy = 0.0;
-    for_each_pair(s, i, [&](std::size_t, double rx, double ry, double r2, double w) {
-      gx += rx / r2 * w;
-      gy += ry / r2 * w;
-    });
+    const auto [gx, gy] = concentration_sum(s, i);
     double sx = -scale * gx, sy = -scale * gy;
     if (along_surface) {
       const double normal_part = sx * normal_x[i] + sy * normal_y[i];

@@ -150,6 +150,41 @@ double asymmetry_of_flat_surface(const Kernel& k, double l0) {
   return std::abs(fy) / k.n0;
 }
 
+namespace {
+// The sums sx = sum (phi_j - ref) w r_ij/|r_ij|^2 (and its y part) scaled to the gradient, multiplied by the inverse of
+// the corrective matrix whose sums are mxx, mxy, myy when `corrected`.
+std::array<double, 2> scaled_gradient(double scale, double sx, double sy, bool corrected, double mxx, double mxy,
+                                      double myy) {
+  sx *= scale;
+  sy *= scale;
+  const double det = scale * scale * (mxx * myy - mxy * mxy);
+  // A neighbourhood too thin to span the plane (det near 0) keeps the uncorrected value.
+  if (corrected && det > 1e-3) return {scale * (myy * sx - mxy * sy) / det, scale * (mxx * sy - mxy * sx) / det};
+  return {sx, sy};
+}
+
+// grad u and grad v at particle i with the corrective matrix, built once for both: the numbers of
+// gradient(..., GradientVariant::corrected) for each.
+std::array<double, 4> corrected_velocity_gradient(const Stencil& s, std::size_t i, std::span<const double> u,
+                                                  std::span<const double> v) {
+  double ux = 0.0, uy = 0.0, vx = 0.0, vy = 0.0, mxx = 0.0, mxy = 0.0, myy = 0.0;
+  for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
+    const double fu = (u[j] - u[i]) * w / r2, fv = (v[j] - v[i]) * w / r2;
+    ux += fu * dx;
+    uy += fu * dy;
+    vx += fv * dx;
+    vy += fv * dy;
+    mxx += w * dx * dx / r2;
+    mxy += w * dx * dy / r2;
+    myy += w * dy * dy / r2;
+  });
+  const double scale = kDim / s.kernel.n0;
+  const auto gu = scaled_gradient(scale, ux, uy, true, mxx, mxy, myy);
+  const auto gv = scaled_gradient(scale, vx, vy, true, mxx, mxy, myy);
+  return {gu[0], gu[1], gv[0], gv[1]};
+}
+}  // namespace
+
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt,
               std::span<const char> own_reference) {
@@ -189,17 +224,9 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
       mxy += w * dx * dy / r2;
       myy += w * dy * dy / r2;
     });
-    sx *= scale;
-    sy *= scale;
-    const double det = scale * scale * (mxx * myy - mxy * mxy);
-    // A neighbourhood too thin to span the plane (det near 0) keeps the uncorrected value.
-    if (corrected && det > 1e-3) {
-      gx[i] = scale * (myy * sx - mxy * sy) / det;
-      gy[i] = scale * (mxx * sy - mxy * sx) / det;
-    } else {
-      gx[i] = sx;
-      gy[i] = sy;
-    }
+    const auto g = scaled_gradient(scale, sx, sy, corrected, mxx, mxy, myy);
+    gx[i] = g[0];
+    gy[i] = g[1];
   }
 }
 
@@ -317,14 +344,19 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
     dx[i] = sx;
     dy[i] = sy;
   }
-  std::vector<double> ux(size), uy(size), vx(size), vy(size);
-  gradient(s, particles.u, ux, uy, GradientVariant::corrected);
-  gradient(s, particles.v, vx, vy, GradientVariant::corrected);
+  // The velocity gradients before any particle moves, only where a particle moves.
+  std::vector<std::array<double, 4>> grad_uv(size);
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (movable[i]) grad_uv[i] = corrected_velocity_gradient(s, i, particles.u, particles.v);
+  }
   double largest = 0.0;
   for (std::size_t i = 0; i < size; ++i) {
     if (!movable[i]) continue;
-    particles.u[i] += dx[i] * ux[i] + dy[i] * uy[i];
-    particles.v[i] += dx[i] * vx[i] + dy[i] * vy[i];
+    const auto& [ux, uy, vx, vy] = grad_uv[i];
+    particles.u[i] += dx[i] * ux + dy[i] * uy;
+    particles.v[i] += dx[i] * vx + dy[i] * vy;
     particles.x[i] += dx[i];
     particles.y[i] += dy[i];
     s.domain.wrap(particles.x[i], particles.y[i]);

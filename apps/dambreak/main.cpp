@@ -28,8 +28,10 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
   if (p.shifting > 0) physics.emplace_back("particle shifting (along the free surface near it)");
   return {{"scene", "dam break"}, {"column", dambreak::to_string(p.column)},
           {"column_width_m", p.width}, {"column_height_m", p.height}, {"tank_length_m", p.tank_length},
-          {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma}, {"gradient", mps::to_string(p.gradient)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry}, {"collision_l0", p.collision},
-          {"restitution", p.restitution}, {"shifting", p.shifting}, {"wet_walls", p.wet_walls}, {"shifting_along_free_surface", true},
+          {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
+          {"gradient", mps::to_string(p.gradient)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry},
+          {"collision_l0", p.collision}, {"restitution", p.restitution}, {"shifting", p.shifting},
+          {"shifting_along_free_surface", true}, {"wet_walls", p.wet_walls},
           {"dt_max_s", c.dt_max}, {"end_time_s", p.end_time}, {"g", p.g}, {"rho", c.rho}, {"nu", c.nu},
           {"beta", c.beta}, {"theta", c.theta},
           {"radii_l0", {{"density", c.radius_density}, {"surface", c.radius_surface}, {"gradient", c.radius_gradient},

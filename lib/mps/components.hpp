@@ -140,8 +140,9 @@ class InitialReferenceDensity : public StepComponent {
   std::vector<double> reference_;  // by particle id
 };
 
-// SimulationConfig::shifting: after the corrector, fluid that is not on or beside a free surface (it would be
-// pushed out through it) and not prescribed moves down the concentration gradient (shift_particles).
+// SimulationConfig::shifting: after the corrector, fluid that is not prescribed moves down the concentration gradient
+// (shift_particles); fluid on or beside a free surface (which it would be pushed out through) stays, or moves along the
+// surface only with SimulationConfig::shift_along_free_surface.
 class ParticleShifting : public StepComponent {
  public:
   // along_surface: particles on or next to a free surface shift too, along the surface only (mps::surface_normals);

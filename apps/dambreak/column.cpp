@@ -174,7 +174,7 @@ Scene::Scene(const Params& p)
   sample();
 }
 
-long Scene::removed() const { return initial_fluid_ - static_cast<long>(sim_.particles().count(mps::Kind::fluid)); }
+long Scene::removed() const { return sim_.find<mps::RemoveEscaped>()->removed(); }
 
 void Scene::step() {
   sim_.step();

@@ -79,7 +79,8 @@ class Scene {
   [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] const std::vector<Sample>& samples() const { return samples_; }  // t = 0 and after every step
-  // Fluid removed as spray over the walls: the initial count less the fluid there is now.
+  // Fluid removed as spray over the walls, as mps::RemoveEscaped counted it (so that fluid plus spray equals the
+  // initial count is a check, not a definition).
   [[nodiscard]] long removed() const;
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
   // Fluid particles inside a wall (below its top and past its first layer's centres, l0/2 beyond the wall line): the

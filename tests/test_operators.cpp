@@ -304,8 +304,8 @@ struct Pair {
   mps::Particles p;
   mps::Domain d{-1, 1, -1, 1};
   std::vector<char> movable;
-  mps::Particles after() {
-    movable.assign(p.size(), 1);
+  mps::Particles after() {  // movable: all, unless set
+    if (movable.empty()) movable.assign(p.size(), 1);
     const auto list = mps::find_neighbors(p, d, 0.5);
     std::vector<double> du, dv;
     mps::collision_velocity_changes(p, d, list, 0.1, 0.2, movable, du, dv);
@@ -327,6 +327,19 @@ TEST(Collisions, ApproachingFluidPairKeepsItsMomentumAndTurnsBackWithTheRestitut
   EXPECT_NEAR(out.u[1], 0.2, 1e-15);
   EXPECT_DOUBLE_EQ(out.u[0] + out.u[1], 0.0);
   EXPECT_DOUBLE_EQ(out.v[0], 0.5);  // the tangential velocity is untouched
+}
+
+// A fluid particle that may not move (an inflow's prescribed particle) is fixed like a wall: the other one takes all of
+// the impulse and turns back with the restitution alone.
+TEST(Collisions, AnUnmovableFluidParticleIsFixedLikeAWall) {
+  Pair s;
+  s.p.add(0.0, 0.0, mps::Kind::fluid, 0, 1.0, 0.5);
+  s.p.add(0.05, 0.0, mps::Kind::fluid, 0, -1.0, 0.5);
+  s.movable = {1, 0};
+  const mps::Particles out = s.after();
+  EXPECT_NEAR(out.u[0], 1.0 - 1.2 * 2.0, 1e-15);  // approach speed 2 -> separation 0.2 * 2 from the fixed one
+  EXPECT_EQ(out.u[1], -1.0);
+  EXPECT_EQ(out.v[0], 0.5);
 }
 
 TEST(Collisions, SeparatingOrDistantPairsAndDummiesAreLeftAlone) {

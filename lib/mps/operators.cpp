@@ -386,7 +386,8 @@ long collision_velocity_changes(const Particles& p, const Domain& domain, const 
       const double nx = d[0] / r, ny = d[1] / r;
       const double approach = (p.u[i] - p.u[j]) * nx + (p.v[i] - p.v[j]) * ny;  // > 0: closing in
       if (approach <= 0.0) continue;
-      const double share = p.kind[j] == Kind::fluid ? 0.5 : 1.0;
+      // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the impulse.
+      const double share = p.kind[j] == Kind::fluid && movable[j] ? 0.5 : 1.0;
       du[i] -= share * (1.0 + restitution) * approach * nx;
       dv[i] -= share * (1.0 + restitution) * approach * ny;
       ++pairs;

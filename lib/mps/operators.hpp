@@ -94,9 +94,9 @@ void surface_normals(const Stencil& s, std::span<const char> want, std::vector<d
 
 // Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
 // than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between
-// two fluid particles the impulse is shared (momentum conserved); a wall or dummy particle is fixed and the fluid
-// particle takes all of it. Writes each particle's velocity change (du, dv) from the velocities as they are, so the
-// result does not depend on the particles' order; the caller applies it. Returns the pairs found.
+// two movable fluid particles the impulse is shared (momentum conserved); a wall, dummy or unmovable fluid particle is
+// fixed and the movable one takes all of it. Writes each particle's velocity change (du, dv) from the velocities as
+// they are, so the result does not depend on the particles' order; the caller applies it. Returns the pairs found.
 long collision_velocity_changes(const Particles& particles, const Domain& domain, const NeighborList& neighbors,
                                 double reach, double restitution, std::span<const char> movable,
                                 std::vector<double>& du, std::vector<double>& dv);

@@ -49,6 +49,19 @@ def smoothed(t, p, width):
     return out
 
 
+def front_error(front, ref, offset=0.0):
+    """Largest |x - x_exp| / x_exp over the experiment's points with 0 < T <= 2.5, the run delayed by `offset` in T."""
+    ref = ref[(ref[:, 0] > 0) & (ref[:, 0] <= 2.5)]
+    x = np.interp(ref[:, 0] - offset, front[:, 0], front[:, 1], left=1.0)
+    return np.max(np.abs(x - ref[:, 1]) / ref[:, 1])
+
+
+def best_time_offset(front, ref):
+    """The delay in T (0 to 0.6, steps of 0.01) that brings the run nearest the experiment, and that error:
+    what a late time origin of the experiment (the gate's release) would explain."""
+    return min(((o, front_error(front, ref, o)) for o in np.arange(0.0, 0.6, 0.01)), key=lambda oe: oe[1])
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
@@ -88,15 +101,31 @@ def main():
             w.writerows(rows)
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    for name, marker, label in (("mm_data_1", "o", "Martin & Moyce, a = 1.125 in"),
-                                ("mm_data_2", "s", "Martin & Moyce, a = 2.25 in"),
-                                ("ko_data", "^", "Koshizuka & Oka")):
-        d = np.loadtxt(DATA / f"{name}.txt")
-        ax.plot(d[:, 0], d[:, 1], marker, mfc="none", color="k", label=label)
+    series = (("mm_data_1", "o", "Martin & Moyce, a = 1.125 in"), ("mm_data_2", "s", "Martin & Moyce, a = 2.25 in"),
+              ("ko_data", "^", "Koshizuka & Oka"))
+    refs = {name: np.loadtxt(DATA / f"{name}.txt") for name, _, _ in series}
+    for name, marker, label in series:
+        ax.plot(refs[name][:, 0], refs[name][:, 1], marker, mfc="none", color="k", label=label)
+    offsets = []
     for (column, dx), out in outs.items():
         if column == "classic":
             f = np.loadtxt(out / "front.csv", delimiter=",", skiprows=1)
             ax.plot(f[:, 0], f[:, 1], label=f"MPS, a/{round(0.146 / dx)}")
+            for name in refs:
+                o, e = best_time_offset(f, refs[name])
+                offsets.append({"spacing": f"a/{round(0.146 / dx)}", "series": name,
+                                "error": round(front_error(f, refs[name]), 4),
+                                "best_offset_T": round(o, 2), "error_at_best_offset": round(e, 4)})
+                print(offsets[-1])
+    if offsets:
+        with open(results / "dambreak_front_offset.csv", "w", newline="") as fo:
+            w = csv.DictWriter(fo, fieldnames=list(offsets[0]))
+            w.writeheader()
+            w.writerows(offsets)
+        finest = max((k for k in outs if k[0] == "classic"), key=lambda k: 1 / k[1])
+        f = np.loadtxt(outs[finest] / "front.csv", delimiter=",", skiprows=1)
+        o = best_time_offset(f, refs["mm_data_2"])[0]
+        ax.plot(f[:, 0] + o, f[:, 1], "k--", lw=0.8, label=f"MPS, a/{round(0.146 / finest[1])}, delayed by T = {o:.2f}")
     ax.set_xlim(0, 3)
     ax.set_ylim(1, 4)
     ax.set_xlabel("T = t sqrt(2g/a)")

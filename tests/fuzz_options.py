@@ -19,6 +19,7 @@ BASE = {
     "rotating": "--scene couette --across 6 --times 0.01 --frames 2",
     "acoustic": "--size 20 --l0 0.5 --end-time 0.01 --maps 0.005 --frames 2",
     "dambreak": "--end-time 0.02 --frames 2",
+    "structure": "--dx 0.004 --end-time 0.01 --frames 2",
 }
 OPTIONS = {
     "poiseuille": ["--re", "--width", "--across", "--length", "--gamma", "--dt-factor", "--nu", "--end-time", "--average",
@@ -33,10 +34,13 @@ OPTIONS = {
     "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames", "--front-tolerance",
                  "--shifting", "--gradient", "--collision", "--restitution",
                  "--solver", "--data"],
+    "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
+                  "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
-          "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed"]
+          "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
+          "csm3", "linear", "0.002"]
 NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
 
 

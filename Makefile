@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -109,6 +109,18 @@ rotating: deps build/release/CMakeCache.txt
 	/usr/bin/python3 apps/rotating/plot_rotating.py channel bench/results/rotating_channel.png \
 	  --reference bench/results/rotating_reference.csv \
 	  runs/rotating/channel/moving runs/rotating/channel/fixed
+
+# Elastic structures (seed 003 §2.2): the plate at H/10 and CSM3 at H/5 with their default outputs (about a minute);
+# bench-structure runs docs/structures.md's study (three spacings each, the hourglass sweep, speed; ~40 min).
+structure: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target structure
+	OMP_NUM_THREADS=1 ./build/release/apps/structure/structure --scene plate --out runs/structure/plate || [ $$? -eq 2 ]
+	OMP_NUM_THREADS=1 ./build/release/apps/structure/structure --scene csm3 --out runs/structure/csm3 || [ $$? -eq 2 ]
+
+bench-structure: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target structure
+	/usr/bin/python3 bench/plate_reference.py
+	/usr/bin/python3 bench/structure_study.py build/release
 
 # Barrel pressure at the corners for gamma in {0, 0.01, 0.05, 0.5, 0.99, 1}, with and without the corrective matrix
 # and particle shifting (24 runs, ~5 min).

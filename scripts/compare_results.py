@@ -37,6 +37,10 @@ CASES = {
     "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
     "dambreak-classic-shifting-plain-gradient": ("dambreak", "--column classic --end-time 0.1 --frames 2 --shifting 1 "
                                                              "--gradient plain"),
+    "structure-plate": ("structure", "--scene plate --dx 0.004 --end-time 0.3 --frames 2"),
+    "structure-plate-linear-no-hourglass": ("structure", "--scene plate --dx 0.004 --model linear --hourglass 0 "
+                                                         "--end-time 0.1 --frames 2"),
+    "structure-csm3": ("structure", "--scene csm3 --end-time 0.3 --frames 2"),
 }
 TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
 

@@ -301,4 +301,28 @@ TEST(Elastic, ClampReactionIsWhatTheBodyFeels) {
   EXPECT_NEAR(momentum, weight * s.time() + impulse, 1e-9 * std::abs(weight * s.time()));
 }
 
+TEST(Elastic, ExternalForceActsLikeTheBodyForceItEqualsAndItsWorkIsCounted) {
+  // A cantilever loaded by m g per particle as an external force against the same plate under gravity: the same
+  // motion to round-off, and total energy - external work kept as gravity's potential keeps the total.
+  const structure::Plate plate;
+  mps::ElasticConfig c;
+  c.material = plate.material(mps::ElasticModel::saint_venant_kirchhoff);
+  mps::ElasticConfig gravity = c;
+  gravity.gravity_y = -9.81;
+  mps::ElasticSolid loaded(structure::plate_body(plate, 0.004, c.radius), c);
+  mps::ElasticSolid falling(structure::plate_body(plate, 0.004, c.radius), gravity);
+  const double m = c.material.density * 0.004 * 0.004;
+  loaded.set_external_force(std::vector<double>(loaded.size(), 0.0), std::vector<double>(loaded.size(), -9.81 * m));
+  double worst = 0.0;
+  for (int k = 0; k < 3000; ++k) {
+    loaded.step();
+    falling.step();
+    worst = std::max(worst, std::abs(loaded.energy().total() - loaded.external_work()));
+  }
+  for (std::size_t i = 0; i < loaded.size(); ++i) ASSERT_NEAR(loaded.y()[i], falling.y()[i], 1e-12) << i;
+  EXPECT_NEAR(loaded.external_work(), -falling.energy().gravity, 1e-9 * loaded.external_work());
+  EXPECT_LT(worst, 1e-4 * (loaded.energy().kinetic + loaded.energy().strain));
+  EXPECT_GT(loaded.external_work(), 0.0);
+}
+
 }  // namespace

@@ -302,7 +302,7 @@ ElasticSolid::ElasticSolid(const ElasticBody& body, const ElasticConfig& config)
   }
   evaluate_forces();
   energy_ = measure_energy();
-  start_energy_ = energy_.total();
+  start_energy_ = energy_.total() - external_work_;
   largest_mechanical_ = energy_.kinetic + energy_.strain + energy_.hourglass;
 }
 
@@ -316,8 +316,22 @@ void ElasticSolid::set_velocity(std::span<const double> u, std::span<const doubl
     v_[i] = v[i];
   }
   energy_ = measure_energy();
-  start_energy_ = energy_.total();
+  start_energy_ = energy_.total() - external_work_;
   largest_mechanical_ = std::max(largest_mechanical_, energy_.kinetic + energy_.strain + energy_.hourglass);
+}
+
+void ElasticSolid::set_external_force(std::span<const double> fx, std::span<const double> fy) {
+  if (fx.size() != size() || fy.size() != size())
+    throw std::invalid_argument("set_external_force: one value per solid particle is needed");
+  for (std::size_t i = 0; i < size(); ++i)
+    if (!std::isfinite(fx[i]) || !std::isfinite(fy[i]))
+      throw std::invalid_argument("set_external_force: particle " + std::to_string(i) + " has a non-finite force");
+  external_x_.assign(fx.begin(), fx.end());
+  external_y_.assign(fy.begin(), fy.end());
+  for (std::size_t i = 0; i < moving_; ++i) {  // the accelerations of the current positions follow at once
+    ax_[i] = (fx_[i] + external_x_[i]) / mass_[i] + config_.gravity_x;
+    ay_[i] = (fy_[i] + external_y_[i]) / mass_[i] + config_.gravity_y;
+  }
 }
 
 void ElasticSolid::set_positions(std::span<const double> x, std::span<const double> y) {
@@ -330,7 +344,7 @@ void ElasticSolid::set_positions(std::span<const double> x, std::span<const doub
   std::copy(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(moving_), y_.begin());
   evaluate_forces();
   energy_ = measure_energy();
-  start_energy_ = energy_.total();
+  start_energy_ = energy_.total() - external_work_;
   largest_mechanical_ = std::max(largest_mechanical_, energy_.kinetic + energy_.strain + energy_.hourglass);
 }
 
@@ -432,8 +446,9 @@ void ElasticSolid::evaluate_forces() {
     const bool moves = rr < moving_;
     fx_[rr] = -sx + inx - (moves ? hg_own_x_[rr] : 0.0);
     fy_[rr] = -sy + iny - (moves ? hg_own_y_[rr] : 0.0);
-    ax_[rr] = moves ? fx_[rr] / mass_[rr] + config_.gravity_x : 0.0;
-    ay_[rr] = moves ? fy_[rr] / mass_[rr] + config_.gravity_y : 0.0;
+    const double ex = external_x_.empty() ? 0.0 : external_x_[rr], ey = external_y_.empty() ? 0.0 : external_y_[rr];
+    ax_[rr] = moves ? (fx_[rr] + ex) / mass_[rr] + config_.gravity_x : 0.0;
+    ay_[rr] = moves ? (fy_[rr] + ey) / mass_[rr] + config_.gravity_y : 0.0;
   }
 }
 
@@ -468,6 +483,10 @@ void ElasticSolid::step() {
     largest_move = std::max(largest_move, u_[i] * u_[i] + v_[i] * v_[i]);
   }
   largest_move = dt_ * std::sqrt(largest_move);
+  double work = 0.0;  // the external force is constant over the step: its work is F . (x^{n+1} - x^n)
+  if (!external_x_.empty())
+    for (std::size_t i = 0; i < moving_; ++i)
+      work += external_x_[i] * (x_[i] - saved_[0][i]) + external_y_[i] * (y_[i] - saved_[1][i]);
   evaluate_forces();
   for (std::size_t i = 0; i < moving_; ++i) {
     u_[i] += h * ax_[i];
@@ -476,7 +495,7 @@ void ElasticSolid::step() {
   const ElasticEnergy e = measure_energy();
   const double mechanical = e.kinetic + e.strain + e.hourglass;
   const double largest = std::max(largest_mechanical_, mechanical);
-  const double drift = std::abs(e.total() - start_energy_);
+  const double drift = std::abs(e.total() - (external_work_ + work) - start_energy_);
   const bool finite = std::isfinite(e.total()) && std::isfinite(largest_move);
   if (!finite || largest_move > 0.5 * spacing_ || drift > config_.guard_energy_fraction * largest) {
     std::ostringstream msg;
@@ -486,7 +505,8 @@ void ElasticSolid::step() {
     else if (largest_move > 0.5 * spacing_)
       msg << "a particle moved " << largest_move / spacing_ << " spacings in one step (the guard allows 0.5)";
     else
-      msg << "the total energy moved from " << start_energy_ << " to " << e.total() << " J/m, more than "
+      msg << "the total energy less the external work moved from " << start_energy_ << " to "
+          << e.total() - external_work_ - work << " J/m, more than "
           << config_.guard_energy_fraction << " of the largest kinetic + strain energy " << largest << " J/m";
     msg << "; dt = " << dt_ << " s at CFL " << config_.cfl << " (p-wave speed " << config_.material.p_wave_speed()
         << " m/s); this body is stable up to CFL ~" << stable_cfl_ << ": lower the CFL";
@@ -502,9 +522,27 @@ void ElasticSolid::step() {
     throw SimulationError(msg.str());
   }
   energy_ = e;
+  external_work_ += work;
   largest_mechanical_ = largest;
   time_ += dt_;
   ++steps_;
+}
+
+int ElasticSolid::advance(double duration) {
+  if (!(duration >= 0.0) || !std::isfinite(duration))
+    throw std::invalid_argument("ElasticSolid::advance: the duration must be finite and not negative");
+  if (duration == 0.0) return 0;
+  const double own = dt_;
+  const int n = static_cast<int>(std::ceil(duration / own - 1e-9));
+  dt_ = duration / n;
+  try {
+    for (int k = 0; k < n; ++k) step();
+  } catch (...) {
+    dt_ = own;
+    throw;
+  }
+  dt_ = own;
+  return n;
 }
 
 std::array<double, 2> ElasticSolid::clamp_reaction() const {

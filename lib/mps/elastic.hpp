@@ -122,10 +122,18 @@ class ElasticSolid {
   // Velocity Verlet. Throws SimulationError (naming the step, the time, the energies and what to change) and keeps
   // the previous state if the guard trips.
   void step();
+  // Advances by `duration` in equal steps no longer than dt() (a host's step split into the solid's own); returns
+  // how many. Throws SimulationError as step() does.
+  int advance(double duration);
   void set_velocity(std::span<const double> u, std::span<const double> v);  // every particle, in this solid's order
   // Moves the moving particles (clamped ones stay), re-evaluates F, P and the forces, and takes the energy there as
   // the guard's new reference.
   void set_positions(std::span<const double> x, std::span<const double> y);
+  // A force on each particle [N per unit depth] from outside the body (a fluid's pressure), held until set again;
+  // clamped particles ignore theirs. Its work is counted in external_work(), and the guard watches
+  // total energy - external work.
+  void set_external_force(std::span<const double> fx, std::span<const double> fy);
+  [[nodiscard]] double external_work() const { return external_work_; }  // [J per unit depth] since the start
 
   [[nodiscard]] double time() const { return time_; }
   [[nodiscard]] int steps() const { return steps_; }
@@ -186,6 +194,8 @@ class ElasticSolid {
   double strain_energy_ = 0;
   ElasticEnergy energy_;
   double start_energy_ = 0, largest_mechanical_ = 0, stable_cfl_ = 0;
+  std::vector<double> external_x_, external_y_;  // empty: no external force
+  double external_work_ = 0;
 };
 
 }  // namespace mps

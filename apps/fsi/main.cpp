@@ -31,6 +31,9 @@ int main(int argc, char** argv) {
   app.add_flag("--rigid", p.rigid, "the plate as fixed wall particles");
   app.add_option("--solid-cfl", p.solid_cfl, "the plate's own time step: CFL of its p-wave speed")
       ->capture_default_str()->check(positive_up_to(2.0));
+  app.add_option("--relaxation", p.relaxation, "fraction of the way the plate's load moves to each new pressure "
+                 "force (1: none; filters MPS's step-to-step wall-pressure noise)")->capture_default_str()
+      ->check(number_in(0.01, 1.0));
   app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(positive_up_to(100));
   app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str();
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
@@ -45,7 +48,7 @@ int main(int argc, char** argv) {
         {"scene", "dam break on a plate"}, {"dx_m", p.l0}, {"column_width_m", scene.column_width()},
         {"plate_height_m", p.plate_height}, {"plate_thickness_m", p.plate_thickness},
         {"plate_upstream_face_x_m", 2 * p.column_width}, {"rigid", p.rigid}, {"youngs_modulus_pa", p.youngs_modulus},
-        {"poisson_ratio", p.poisson_ratio}, {"plate_density", p.plate_density}, {"solid_cfl", p.solid_cfl},
+        {"poisson_ratio", p.poisson_ratio}, {"plate_density", p.plate_density}, {"solid_cfl", p.solid_cfl}, {"load_relaxation", p.relaxation},
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()}, {"hydrostatic_split", false},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"},
         {"version", mps::version}};

@@ -67,7 +67,8 @@ PlateScene::PlateScene(const PlateParams& p) : params_(p) {
     ec.gravity_y = -d.g;
     const double t = p.plate_thickness, h = p.plate_height;
     structure_ = &sim_->add<mps::ElasticStructure>(mps::ElasticSolid(body, ec), 1, first_id,
-                                                   [=](double X, double Y) { return X > x0 && X < x0 + t && Y > 0 && Y < h; });
+                                                   [=](double X, double Y) { return X > x0 && X < x0 + t && Y > 0 && Y < h; },
+                                                   p.relaxation);
   }
   sample();
 }
@@ -84,7 +85,7 @@ void PlateScene::sample() {
                                                         params_.plate_height);
     s.tip_x = d[0];
     s.tip_y = d[1];
-    s.force_x = structure_->force_on_structure()[0];
+    s.force_x = structure_->load()[0];
   }
   samples_.push_back(s);
 }

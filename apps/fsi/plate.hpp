@@ -21,6 +21,7 @@ struct PlateParams {
   double plate_density = 1100.0;
   bool rigid = false;              // the plate as fixed walls
   double solid_cfl = 0.3;
+  double relaxation = 0.2;         // of the plate's load each fluid step (mps::ElasticStructure)
   double end_time = 0.6;           // [s]
   std::string solver = "eigen-cg:precond=jacobi";
 };

@@ -9,9 +9,45 @@
 
 namespace mps {
 
+std::array<double, 2> pressure_force_on(const StepContext& context, std::span<const char> target, std::span<double> fx,
+                                        std::span<double> fy) {
+  const Simulation& sim = context.sim;
+  const StepFields& f = context.fields;
+  const Particles& p = context.particles;
+  if (!f.pressure_offset.empty())
+    throw std::invalid_argument("a structure's pressure force needs the whole pressure: set hydrostatic_split = false "
+                                "(the split leaves the hydrostatic part out of the solved pressure)");
+  const Kernel& k = sim.gradient_kernel();
+  std::vector<double> gx(p.size(), 0.0), gy(p.size(), 0.0);
+  gradient({p, sim.domain(), sim.neighbors_at_star(k), k}, p.p, gx, gy, GradientVariant::corrected, f.carriers);
+  const double volume = sim.config().l0 * sim.config().l0;
+  std::array<double, 2> total{0.0, 0.0};
+  for (std::size_t j = 0; j < p.size(); ++j) {
+    fx[j] = target[j] ? -volume * gx[j] : 0.0;
+    fy[j] = target[j] ? -volume * gy[j] : 0.0;
+    total[0] += fx[j];
+    total[1] += fy[j];
+  }
+  return total;
+}
+
+void WallForce::after_pressure(StepContext& context) {
+  const Particles& p = context.particles;
+  target_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    target_[i] = p.group[i] == group_ && (p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy);
+  fx_.assign(p.size(), 0.0);
+  fy_.assign(p.size(), 0.0);
+  force_ = pressure_force_on(context, target_, fx_, fy_);
+}
+
 ElasticStructure::ElasticStructure(ElasticSolid solid, int group, int first_id,
-                                   std::function<bool(double, double)> inside_reference)
-    : solid_(std::move(solid)), group_(group), first_id_(first_id), inside_reference_(std::move(inside_reference)) {
+                                   std::function<bool(double, double)> inside_reference, double relaxation)
+    : solid_(std::move(solid)), group_(group), first_id_(first_id), inside_reference_(std::move(inside_reference)),
+      relaxation_(relaxation) {
+  if (!(relaxation_ > 0.0 && relaxation_ <= 1.0))
+    throw std::invalid_argument("ElasticStructure: the load relaxation must lie in (0, 1], got " +
+                                std::to_string(relaxation_));
   if (!inside_reference_) throw std::invalid_argument("ElasticStructure: the body's inside test is missing");
   load_x_.assign(solid_.size(), 0.0);
   load_y_.assign(solid_.size(), 0.0);
@@ -52,40 +88,27 @@ void ElasticStructure::after_predictor(StepContext& context) {
 }
 
 void ElasticStructure::after_pressure(StepContext& context) {
-  const Simulation& sim = context.sim;
-  const StepFields& f = context.fields;
-  const Particles& p = context.particles;
-  if (!f.pressure_offset.empty())
-    throw std::invalid_argument("ElasticStructure needs the whole pressure in the corrector: set hydrostatic_split = "
-                                "false (the split's hydrostatic part acts on no pair)");
-  const std::size_t n = p.size();
+  const std::size_t n = context.particles.size();
   target_.assign(n, 0);
-  acting_.assign(n, 0);
   for (std::size_t k = 0; k < solid_.moving(); ++k) target_[static_cast<std::size_t>(fluid_of_solid_[k])] = 1;
-  for (std::size_t i = 0; i < n; ++i) acting_[i] = p.kind[i] == Kind::fluid && (f.prescribed.empty() || !f.prescribed[i]);
   fx_.assign(n, 0.0);
   fy_.assign(n, 0.0);
-  const auto& c = sim.config();
-  const double tilt = c.min_reference_tilt ? c.rho : 0.0;
-  on_fluid_ = pressure_pair_reactions({p, sim.domain(), sim.neighbors_at_star(sim.gradient_kernel()), sim.gradient_kernel()},
-                                      p.p, c.pressure_gradient, f.carriers,
-                                      {tilt * (c.fx - f.balanced_fx), tilt * (c.fy - f.balanced_fy)},
-                                      f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>(),
-                                      acting_, target_, c.l0 * c.l0, fx_, fy_);
-  on_structure_ = {0.0, 0.0};
-  double scale = 0.0;
+  on_structure_ = pressure_force_on(context, target_, fx_, fy_);
   for (std::size_t k = 0; k < solid_.moving(); ++k) {
     const auto i = static_cast<std::size_t>(fluid_of_solid_[k]);
-    load_x_[k] = fx_[i];
-    load_y_[k] = fy_[i];
-    on_structure_[0] += fx_[i];
-    on_structure_[1] += fy_[i];
-    scale += std::abs(fx_[i]) + std::abs(fy_[i]);
+    load_x_[k] += relaxation_ * (fx_[i] - load_x_[k]);
+    load_y_[k] += relaxation_ * (fy_[i] - load_y_[k]);
   }
-  const double imbalance = std::hypot(on_structure_[0] + on_fluid_[0], on_structure_[1] + on_fluid_[1]);
-  if (imbalance > 1e-9 * std::max(scale, 1e-300))
-    throw SimulationError("fluid-structure forces out of balance by " + std::to_string(imbalance) + " N/m");
   solid_.set_external_force(load_x_, load_y_);
+}
+
+std::array<double, 2> ElasticStructure::load() const {
+  std::array<double, 2> total{0.0, 0.0};
+  for (std::size_t k = 0; k < solid_.moving(); ++k) {
+    total[0] += load_x_[k];
+    total[1] += load_y_[k];
+  }
+  return total;
 }
 
 void ElasticStructure::after_corrector(StepContext& context) {

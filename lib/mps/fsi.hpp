@@ -1,14 +1,15 @@
 #pragma once
 // Fluid-structure coupling (seed 003 §2.3-2.4; docs/fsi.md): an elastic body whose moving particles are also wall and
-// dummy particles of the fluid. The fluid sees them as a moving wall at the solid's velocity; the solid feels the
-// fluid through the corrector's own pressure pairs (mps::pressure_pair_reactions), so the force the fluid gets from
-// the body and the force the body gets from the fluid cancel pair by pair, and this component checks that each step.
+// dummy particles of the fluid (the seed's idea: they belong to both media). The fluid sees them as a moving wall at
+// the solid's velocity; the solid feels the pressure the fluid solved for on them, as -V grad P per particle
+// (pressure_force_on).
 //
 // In a fluid step n -> n+1 (staggered, explicit): after the predictor the solid is advanced to t^{n+1} in sub-steps
 // of its own stable step under the fluid force of step n, and its particles are moved there in the fluid; after the
 // pressure solve the new pair forces become the solid's load for the next step.
 #include <array>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -17,12 +18,37 @@
 
 namespace mps {
 
+// The fluid's pressure force on each particle with target[j]: -V_j grad P_j (V_j = l0^2), the gradient taken with
+// the corrective matrix over the pressure carriers (fluid, wet walls and the dummies behind them). Summed over a
+// body this is the volume integral of -grad P over it, i.e. the surface integral of -P n: a block in water at rest
+// gets Archimedes' rho g V. (The corrector's own min-reference pairs are not antisymmetric, so their reactions are
+// not the fluid's force on a body: tried first, they gave a submerged block -13 N/m instead of +98.) Writes (fx, fy)
+// for the targets, 0 elsewhere, and returns their sum. Call at after_pressure.
+std::array<double, 2> pressure_force_on(const StepContext& context, std::span<const char> target, std::span<double> fx,
+                                        std::span<double> fy);
+
+class WallForce : public StepComponent {
+ public:
+  explicit WallForce(int group) : group_(group) {}
+  void after_pressure(StepContext& context) override;
+  [[nodiscard]] std::array<double, 2> force() const { return force_; }  // [N per unit depth]
+
+ private:
+  int group_;
+  std::vector<char> target_;
+  std::vector<double> fx_, fy_;
+  std::array<double, 2> force_{0.0, 0.0};
+};
+
 class ElasticStructure : public StepComponent {
  public:
   // The fluid particles of `group` with id = first_id + k are the body's k-th moving particle (in ElasticBody order,
   // clamped particles skipped, which the fluid does not hold): a scene adds them to the fluid in that order. `inside_reference(X, Y)` says whether a
   // reference point lies in the body, for counting fluid that got in.
-  ElasticStructure(ElasticSolid solid, int group, int first_id, std::function<bool(double, double)> inside_reference);
+  // `relaxation` in (0, 1]: each step the load moves this fraction of the way to the new pressure force (1: all of
+  // it), a low-pass filter with time constant dt / relaxation against MPS's step-to-step wall-pressure noise.
+  ElasticStructure(ElasticSolid solid, int group, int first_id, std::function<bool(double, double)> inside_reference,
+                   double relaxation = 1.0);
 
   void before_predictor(StepContext& context) override;
   void after_predictor(StepContext& context) override;
@@ -30,9 +56,9 @@ class ElasticStructure : public StepComponent {
   void after_corrector(StepContext& context) override;
 
   [[nodiscard]] const ElasticSolid& solid() const { return solid_; }
-  // The last step's pressure force on the structure and on the fluid from it [N per unit depth]: they sum to zero.
+  // The last step's pressure force on the structure [N per unit depth], and the load it applies (relaxed).
   [[nodiscard]] std::array<double, 2> force_on_structure() const { return on_structure_; }
-  [[nodiscard]] std::array<double, 2> force_on_fluid() const { return on_fluid_; }
+  [[nodiscard]] std::array<double, 2> load() const;
   [[nodiscard]] int substeps() const { return substeps_; }  // of the solid in the last fluid step
 
  private:
@@ -42,9 +68,10 @@ class ElasticStructure : public StepComponent {
   int group_ = 0, first_id_ = 0;
   std::function<bool(double, double)> inside_reference_;
   std::vector<int> fluid_of_solid_;  // solid index -> fluid particle index this step (-1: clamped, not in the fluid)
-  std::vector<char> target_, acting_;
+  std::vector<char> target_;
   std::vector<double> fx_, fy_, load_x_, load_y_;
-  std::array<double, 2> on_structure_{0.0, 0.0}, on_fluid_{0.0, 0.0};
+  std::array<double, 2> on_structure_{0.0, 0.0};
+  double relaxation_ = 1.0;
   int substeps_ = 0;
 };
 

@@ -185,23 +185,6 @@ std::array<double, 4> corrected_velocity_gradient(const Stencil& s, std::size_t 
 }
 }  // namespace
 
-namespace {
-// The reference value of the min-reference gradients at i. The tilted minimum removes the known linear part from the
-// classic one, never going below it: where phi is imposed (P = 0 on a free surface) the tilt would otherwise invent
-// a dip.
-template <class Carries>
-double min_reference(const Stencil& s, std::size_t i, std::span<const double> phi, const Carries& carries,
-                     std::array<double, 2> min_tilt) {
-  double classic = phi[i], tilted = phi[i];
-  for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double, double) {
-    if (!carries(j)) return;
-    classic = std::min(classic, phi[j]);
-    tilted = std::min(tilted, phi[j] - min_tilt[0] * dx - min_tilt[1] * dy);
-  });
-  return std::max(classic, tilted);
-}
-}  // namespace
-
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant, std::span<const char> carriers, std::array<double, 2> min_tilt,
               std::span<const char> own_reference) {
@@ -218,9 +201,18 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    const double ref = min_ref && (own_reference.empty() || own_reference[i] == 0)
-                           ? min_reference(s, i, phi, carries, min_tilt)
-                           : phi[i];
+    double ref = phi[i];
+    if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
+      // The tilted minimum removes the known linear part from the classic one, never going below it: where
+      // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
+      double classic = phi[i], tilted = phi[i];
+      for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double, double) {
+        if (!carries(j)) return;
+        classic = std::min(classic, phi[j]);
+        tilted = std::min(tilted, phi[j] - min_tilt[0] * dx - min_tilt[1] * dy);
+      });
+      ref = std::max(classic, tilted);
+    }
     double sx = 0.0, sy = 0.0, mxx = 0.0, mxy = 0.0, myy = 0.0;
     for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
       if (!carries(j)) return;
@@ -236,56 +228,6 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
     gx[i] = g[0];
     gy[i] = g[1];
   }
-}
-
-std::array<double, 2> pressure_pair_reactions(const Stencil& s, std::span<const double> phi, GradientVariant variant,
-                                              std::span<const char> carriers, std::array<double, 2> min_tilt,
-                                              std::span<const char> own_reference, std::span<const char> acting,
-                                              std::span<const char> target, double volume, std::span<double> fx,
-                                              std::span<double> fy) {
-  const std::size_t n = s.particles.size();
-  if (!carriers.empty()) check_size(carriers.size(), n, "carriers");
-  if (!own_reference.empty()) check_size(own_reference.size(), n, "own_reference");
-  check_size(phi.size(), n, "phi");
-  check_size(acting.size(), n, "acting");
-  check_size(target.size(), n, "target");
-  check_size(fx.size(), n, "fx");
-  check_size(fy.size(), n, "fy");
-  const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
-  const double scale = kDim / s.kernel.n0;
-  const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
-  const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
-  std::array<double, 2> on_acting{0.0, 0.0};
-  // One particle after another (not in parallel): the sums into fx, fy come out the same on any thread count.
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!acting[i]) continue;
-    bool touches = false;
-    for (int j : s.neighbors.of(i)) touches = touches || target[static_cast<std::size_t>(j)] != 0;
-    if (!touches) continue;
-    const double ref = min_ref && (own_reference.empty() || own_reference[i] == 0)
-                           ? min_reference(s, i, phi, carries, min_tilt)
-                           : phi[i];
-    double mxx = 0.0, mxy = 0.0, myy = 0.0;
-    if (corrected)
-      for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
-        if (!carries(j)) return;
-        mxx += w * dx * dx / r2;
-        mxy += w * dx * dy / r2;
-        myy += w * dy * dy / r2;
-      });
-    // gradient() at i is linear in the pairs' terms, the corrective matrix included: each pair's share is its own
-    // term put through the same scaling.
-    for_each_pair(s, i, [&](std::size_t j, double dx, double dy, double r2, double w) {
-      if (!carries(j) || !target[j]) return;
-      const double f = (phi[j] - ref) * w / r2;
-      const auto g = scaled_gradient(scale, f * dx, f * dy, corrected, mxx, mxy, myy);
-      fx[j] += volume * g[0];
-      fy[j] += volume * g[1];
-      on_acting[0] -= volume * g[0];
-      on_acting[1] -= volume * g[1];
-    });
-  }
-  return on_acting;
 }
 
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out) {

@@ -56,18 +56,6 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
               std::array<double, 2> min_tilt = {0.0, 0.0}, std::span<const char> own_reference = {});
 
-// What the pressure gradient's pairs between two sets of particles exert (the coupling of a fluid to a structure):
-// gradient() at i is a sum of one term per neighbour j, and the corrector pushes the fluid at i by -V t_ij for each
-// (V = m_i / rho, the particle's volume). For every pair with acting[i] (the corrected fluid) and target[j] (the
-// structure) this adds the reaction +V t_ij to (fx[j], fy[j]) and returns the sum of -V t_ij, what the fluid received:
-// action equals reaction pair by pair. Same arguments as gradient(), which must be given the same particles,
-// neighbours, pressure and options as the corrector.
-std::array<double, 2> pressure_pair_reactions(const Stencil& s, std::span<const double> phi, GradientVariant variant,
-                                              std::span<const char> carriers, std::array<double, 2> min_tilt,
-                                              std::span<const char> own_reference, std::span<const char> acting,
-                                              std::span<const char> target, double volume, std::span<double> fx,
-                                              std::span<double> fy);
-
 // (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);
 

@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -121,6 +121,18 @@ bench-structure: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target structure
 	/usr/bin/python3 bench/plate_reference.py
 	/usr/bin/python3 bench/structure_study.py build/release
+
+# Fluid-structure interaction (seed 003 §2.3-2.4): the dam break on the elastic plate and the rubber gate at their
+# coarse defaults (a few minutes); bench-fsi runs docs/fsi.md's study and stability map (~40 min on 2 cores).
+fsi: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target fsi
+	OMP_NUM_THREADS=1 ./build/release/apps/fsi/fsi --scene plate --out runs/fsi/plate
+	OMP_NUM_THREADS=1 ./build/release/apps/fsi/fsi --scene gate --out runs/fsi/gate
+
+bench-fsi: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target fsi
+	/usr/bin/python3 bench/fsi_stability.py build/release
+	/usr/bin/python3 bench/fsi_study.py build/release
 
 # Barrel pressure at the corners for gamma in {0, 0.01, 0.05, 0.5, 0.99, 1}, with and without the corrective matrix
 # and particle shifting (24 runs, ~5 min).

@@ -20,6 +20,7 @@ BASE = {
     "acoustic": "--size 20 --l0 0.5 --end-time 0.01 --maps 0.005 --frames 2",
     "dambreak": "--end-time 0.02 --frames 2",
     "structure": "--dx 0.004 --end-time 0.01 --frames 2",
+    "fsi": "--end-time 0.01 --frames 2",
 }
 OPTIONS = {
     "poiseuille": ["--re", "--width", "--across", "--length", "--gamma", "--dt-factor", "--nu", "--end-time", "--average",
@@ -36,11 +37,13 @@ OPTIONS = {
                  "--solver", "--data"],
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
+    "fsi": ["--scene", "--dx", "--modulus", "--poisson", "--density", "--cfl", "--relaxation", "--solid-cfl",
+            "--end-time", "--frames", "--solver"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
           "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
-          "csm3", "linear", "0.002"]
+          "csm3", "linear", "0.002", "gate"]
 NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
 
 

@@ -1,6 +1,7 @@
 #include "mps/fsi.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -72,11 +73,23 @@ void ElasticStructure::map_particles(const Particles& p) {
                                 std::to_string(group_) + ", the body moves " + std::to_string(solid_.moving()));
 }
 
-void ElasticStructure::before_predictor(StepContext& context) { map_particles(context.particles); }
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+}  // namespace
+
+void ElasticStructure::before_predictor(StepContext& context) {
+  const auto start = std::chrono::steady_clock::now();
+  map_particles(context.particles);
+  coupling_seconds_ += seconds_since(start);
+}
 
 void ElasticStructure::after_predictor(StepContext& context) {
   const double duration = context.fields.time - solid_.time();
+  const auto start = std::chrono::steady_clock::now();
   substeps_ = solid_.advance(duration);
+  solid_seconds_ += seconds_since(start);
   Particles& p = context.particles;
   for (std::size_t k = 0; k < solid_.moving(); ++k) {
     const auto i = static_cast<std::size_t>(fluid_of_solid_[k]);
@@ -88,6 +101,7 @@ void ElasticStructure::after_predictor(StepContext& context) {
 }
 
 void ElasticStructure::after_pressure(StepContext& context) {
+  const auto start = std::chrono::steady_clock::now();
   const std::size_t n = context.particles.size();
   target_.assign(n, 0);
   for (std::size_t k = 0; k < solid_.moving(); ++k) target_[static_cast<std::size_t>(fluid_of_solid_[k])] = 1;
@@ -100,6 +114,7 @@ void ElasticStructure::after_pressure(StepContext& context) {
     load_y_[k] += relaxation_ * (fy_[i] - load_y_[k]);
   }
   solid_.set_external_force(load_x_, load_y_);
+  coupling_seconds_ += seconds_since(start);
 }
 
 std::array<double, 2> ElasticStructure::load() const {
@@ -114,6 +129,7 @@ std::array<double, 2> ElasticStructure::load() const {
 void ElasticStructure::after_corrector(StepContext& context) {
   // Fluid inside the body: map each fluid particle near the body back to the reference configuration through the
   // nearest structure particle's F, and ask the body's shape.
+  const auto start = std::chrono::steady_clock::now();
   const Particles& p = context.particles;
   const auto& F = solid_.deformation_gradient();
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
@@ -149,6 +165,7 @@ void ElasticStructure::after_corrector(StepContext& context) {
       throw SimulationError(msg.str());
     }
   }
+  coupling_seconds_ += seconds_since(start);
 }
 
 }  // namespace mps

@@ -60,6 +60,9 @@ class ElasticStructure : public StepComponent {
   [[nodiscard]] std::array<double, 2> force_on_structure() const { return on_structure_; }
   [[nodiscard]] std::array<double, 2> load() const;
   [[nodiscard]] int substeps() const { return substeps_; }  // of the solid in the last fluid step
+  // Wall-clock seconds spent so far advancing the solid, and in the coupling itself (mapping, load, fluid-inside test).
+  [[nodiscard]] double solid_seconds() const { return solid_seconds_; }
+  [[nodiscard]] double coupling_seconds() const { return coupling_seconds_; }
 
  private:
   void map_particles(const Particles& particles);
@@ -73,6 +76,7 @@ class ElasticStructure : public StepComponent {
   std::array<double, 2> on_structure_{0.0, 0.0};
   double relaxation_ = 1.0;
   int substeps_ = 0;
+  double solid_seconds_ = 0, coupling_seconds_ = 0;
 };
 
 }  // namespace mps

@@ -41,6 +41,8 @@ CASES = {
     "structure-plate-linear-no-hourglass": ("structure", "--scene plate --dx 0.004 --model linear --hourglass 0 "
                                                          "--end-time 0.1 --frames 2"),
     "structure-csm3": ("structure", "--scene csm3 --end-time 0.3 --frames 2"),
+    "fsi-plate": ("fsi", "--end-time 0.16 --frames 2"),
+    "fsi-gate": ("fsi", "--scene gate --end-time 0.01 --frames 2"),
 }
 TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
 

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Where the partitioned coupling fails: the dam break on the plate (apps/fsi, l0 = 0.004, E = 6e6, to t = 0.3 s) over
 the plate's density (solid/fluid ratio 0.5-10) x the fluid's CFL, with the load taken whole each step (relaxation 1)
-and relaxed (0.1, the default).
+and relaxed (0.1, the default), with the body's walls wet (mps::WetWalls, the default) and without.
 
   bench/fsi_stability.py BUILD_DIR [--results bench/results] [--runs runs/fsi-stability] [--jobs 2] [--plot-only]
 
@@ -23,15 +23,17 @@ import matplotlib.pyplot as plt
 RATIOS = [0.5, 1.1, 2.0, 5.0, 10.0]
 CFLS = [0.1, 0.2, 0.4]
 RELAXATIONS = [1.0, 0.1]
+WET_WALLS = ["false", "true"]
 
 
-def run(build, out, ratio, cfl, relaxation):
+def run(build, out, wet, ratio, cfl, relaxation):
     exe = Path(build) / "apps" / "fsi" / "fsi"
     cmd = [str(exe), "--density", repr(1000.0 * ratio), "--cfl", repr(cfl), "--relaxation", repr(relaxation),
-           "--end-time", "0.3", "--frames", "0", "--out", str(out)]
+           "--wet-walls", wet, "--end-time", "0.3", "--frames", "0", "--out", str(out)]
     subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS="1"), capture_output=True, text=True)
     s = json.loads((out / "summary.json").read_text())
-    return {"ratio": ratio, "cfl": cfl, "relaxation": relaxation, "status": s["status"], "time_s": s["time_s"],
+    return {"wet_walls": wet, "ratio": ratio, "cfl": cfl, "relaxation": relaxation, "status": s["status"],
+            "time_s": s["time_s"],
             "largest_tip_mm": 1e3 * s.get("checks", {}).get("largest_probe_ux_m", float("nan")),
             "error": s.get("error", "")}
 
@@ -43,25 +45,34 @@ def main():
     ap.add_argument("--runs", default="runs/fsi-stability")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--plot-only", action="store_true")
+    ap.add_argument("--wet-walls", choices=["both", "true", "false"], default="both",
+                    help="run only one setting, keeping the other's rows of an existing CSV")
     a = ap.parse_args()
     results, runs = Path(a.results), Path(a.runs)
     results.mkdir(parents=True, exist_ok=True)
-    if a.plot_only:
+    old = []
+    if (results / "fsi_stability.csv").exists():
         with open(results / "fsi_stability.csv") as f:
-            rows = [dict(r, ratio=float(r["ratio"]), cfl=float(r["cfl"]), relaxation=float(r["relaxation"]),
-                         time_s=float(r["time_s"]), largest_tip_mm=float(r["largest_tip_mm"])) for r in csv.DictReader(f)]
+            old = [dict(r, wet_walls=r.get("wet_walls") or "false", ratio=float(r["ratio"]), cfl=float(r["cfl"]),
+                        relaxation=float(r["relaxation"]), time_s=float(r["time_s"]),
+                        largest_tip_mm=float(r["largest_tip_mm"])) for r in csv.DictReader(f)]
+    if a.plot_only:
+        rows = old
     else:
-        cases = [(r, c, x) for x in RELAXATIONS for r in RATIOS for c in CFLS]
+        wets = WET_WALLS if a.wet_walls == "both" else [a.wet_walls]
+        cases = [(w, r, c, x) for w in wets for x in RELAXATIONS for r in RATIOS for c in CFLS]
         with ThreadPoolExecutor(max_workers=a.jobs) as pool:
-            rows = list(pool.map(lambda k: run(a.build, runs / f"rho{k[0]}-cfl{k[1]}-relax{k[2]}", *k), cases))
+            rows = list(pool.map(lambda k: run(a.build, runs / f"wet{k[0]}-rho{k[1]}-cfl{k[2]}-relax{k[3]}", *k), cases))
+        rows = [r for r in old if r["wet_walls"] not in wets] + rows
         with open(results / "fsi_stability.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
-    fig, axes = plt.subplots(1, len(RELAXATIONS), figsize=(11, 4), sharey=True)
-    for ax, relaxation in zip(axes, RELAXATIONS):
+    panels = [(w, x) for w in WET_WALLS for x in RELAXATIONS if any(r["wet_walls"] == w for r in rows)]
+    fig, axes = plt.subplots(len(panels) // 2, 2, figsize=(11, 4 * (len(panels) // 2)), sharey=True, squeeze=False)
+    for ax, (wet, relaxation) in zip(axes.flat, panels):
         for r in rows:
-            if r["relaxation"] != relaxation:
+            if r["relaxation"] != relaxation or r["wet_walls"] != wet:
                 continue
             x, y = RATIOS.index(r["ratio"]), CFLS.index(r["cfl"])
             ok = r["status"] != "failed"
@@ -73,8 +84,9 @@ def main():
         ax.set_xticks(range(len(RATIOS)), [str(v) for v in RATIOS])
         ax.set_yticks(range(len(CFLS)), [str(v) for v in CFLS])
         ax.set_xlabel("plate density / water density")
-        ax.set_title(f"load relaxation {relaxation:g}" + (" (taken whole)" if relaxation == 1 else ""))
-    axes[0].set_ylabel("fluid CFL")
+        ax.set_title(f"load relaxation {relaxation:g}" + (" (taken whole)" if relaxation == 1 else "") +
+                     (", wet walls" if wet == "true" else ", walls dry by the density test"), fontsize=9)
+        ax.set_ylabel("fluid CFL")
     fig.suptitle("Dam break on an elastic plate (E = 6e6 Pa, l0 = 0.004 m, to 0.3 s): green ran (largest tip "
                  "displacement), red stopped", fontsize=9)
     fig.tight_layout()

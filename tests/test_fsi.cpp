@@ -48,8 +48,8 @@ TEST(Fsi, DamBreakBendsThePlateAndThePressureWorkIsThePlatesEnergy) {
     // The pressure's work on the plate is the plate's kinetic + elastic + gravity energy (it started at rest).
     EXPECT_NEAR(r.energy, r.work, 0.03 * r.work);
   }
-  // A stiffer plate bends less: measured 20.2 mm (E = 6e6) against 7.15 mm (2.38e7) by t = 0.2 s, with the load
-  // relaxed by 0.1 a step; energy against work 1.00043 / 1.00045 and 0.167222 / 0.167225 J/m.
+  // A stiffer plate bends less: measured 18.1 mm (E = 6e6) against 6.09 mm (2.38e7) by t = 0.2 s, with the load
+  // relaxed by 0.1 a step and wet walls; energy against work 0.76609 / 0.766095 and 0.207171 / 0.207173 J/m.
   EXPECT_GT(soft.largest_tip, 2.0 * stiff.largest_tip);
 }
 
@@ -62,7 +62,7 @@ TEST(Fsi, UnrelaxedCouplingBlowsUpAndTheGuardSaysSo) {
   } catch (const mps::SimulationError& e) {
     what = e.what();
   }
-  EXPECT_NE(what.find("blow-up"), std::string::npos) << what;
+  EXPECT_TRUE(what.find("blow-up") != std::string::npos || what.find("unstable") != std::string::npos) << what;
 }
 
 TEST(Fsi, GateOpensWithoutWaterGettingInside) {
@@ -73,7 +73,7 @@ TEST(Fsi, GateOpensWithoutWaterGettingInside) {
   fsi::Scene scene(p);
   while (!scene.done()) scene.step();
   const auto& last = scene.samples().back();
-  EXPECT_GT(last.tip_x, 0.005);  // measured 9.27 mm out and 0.61 mm up; energy and work 0.0523141 J/m
+  EXPECT_GT(last.tip_x, 0.005);  // measured 9.27 mm out and 0.61 mm up; energy and work 0.0521665 J/m
   EXPECT_GT(last.tip_y, 0.0);
   const auto& solid = scene.structure()->solid();
   const auto& e = solid.energy();

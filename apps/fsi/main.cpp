@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
   app.add_option("--relaxation", p.relaxation, "fraction of the way the plate's load moves to each new pressure "
                  "force (1: none; filters MPS's step-to-step wall-pressure noise)")->capture_default_str()
       ->check(number_in(0.01, 1.0));
+  app.add_option("--wet-walls", p.wet_walls, "walls next to the liquid's interior carry pressure even where the "
+                 "density test calls them dry (mps::WetWalls): true | false")->capture_default_str();
   app.add_option("--end-time", end_time, "simulated time [s] (default: plate 0.3, gate 0.4)")
       ->check(positive_up_to(100));
   app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str();
@@ -65,7 +67,7 @@ int main(int argc, char** argv) {
         {"scene", scene_name}, {"dx_m", p.l0}, {"water_width_m", scene.water_width},
         {"water_height_m", scene.water_height}, {"body_x_m", scene.body_x}, {"body_width_m", scene.body_width},
         {"body_height_m", scene.body_height}, {"rigid", p.rigid}, {"youngs_modulus_pa", p.youngs_modulus},
-        {"poisson_ratio", p.poisson_ratio}, {"body_density", p.density}, {"solid_cfl", p.solid_cfl}, {"load_relaxation", p.relaxation}, {"cfl", p.cfl},
+        {"poisson_ratio", p.poisson_ratio}, {"body_density", p.density}, {"solid_cfl", p.solid_cfl}, {"load_relaxation", p.relaxation}, {"wet_walls", p.wet_walls}, {"cfl", p.cfl},
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()}, {"hydrostatic_split", false},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"},
         {"version", mps::version}};

@@ -123,6 +123,7 @@ Scene::Scene(const Params& p) : params_(p) {
   sim_ = std::make_unique<mps::Simulation>(std::move(l.particles), domain, c);
   sim_->add<mps::ParticleCollision>(d.collision, d.restitution);
   sim_->add<mps::AsymmetrySurface>(d.asymmetry);
+  if (p.wet_walls) sim_->add<mps::WetWalls>();
   const double L = d.tank_length, top = d.tank_height, ceiling = domain.ymax - 2 * p.l0;
   sim_->add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
   if (p.rigid) {

@@ -368,31 +368,21 @@ void ElasticSolid::evaluate_forces() {
     // second derivatives of u (xx, xy, yy) come in the same pass, for the hourglass term.
     std::array<double, 4> f{1.0, 0.0, 0.0, 1.0};
     double hx[3] = {0, 0, 0}, hy[3] = {0, 0, 0};
-    if (with_hourglass) {
-      for (std::size_t k = b; k < e; ++k) {
-        const auto j = static_cast<std::size_t>(gx.col[k]);
-        const double ux = disp_x_[j], uy = disp_y_[j];
-        f[0] += gx.val[k] * ux;
-        f[1] += gy.val[k] * ux;
-        f[2] += gx.val[k] * uy;
-        f[3] += gy.val[k] * uy;
-        const double cxx = fit_.hxx.val[k], cxy = fit_.hxy.val[k], cyy = fit_.hyy.val[k];
-        hx[0] += cxx * ux;
-        hx[1] += cxy * ux;
-        hx[2] += cyy * ux;
-        hy[0] += cxx * uy;
-        hy[1] += cxy * uy;
-        hy[2] += cyy * uy;
-      }
-    } else {
-      for (std::size_t k = b; k < e; ++k) {
-        const auto j = static_cast<std::size_t>(gx.col[k]);
-        const double ux = disp_x_[j], uy = disp_y_[j];
-        f[0] += gx.val[k] * ux;
-        f[1] += gy.val[k] * ux;
-        f[2] += gx.val[k] * uy;
-        f[3] += gy.val[k] * uy;
-      }
+    for (std::size_t k = b; k < e; ++k) {
+      const auto j = static_cast<std::size_t>(gx.col[k]);
+      const double ux = disp_x_[j], uy = disp_y_[j];
+      f[0] += gx.val[k] * ux;
+      f[1] += gy.val[k] * ux;
+      f[2] += gx.val[k] * uy;
+      f[3] += gy.val[k] * uy;
+      if (!with_hourglass) continue;
+      const double cxx = fit_.hxx.val[k], cxy = fit_.hxy.val[k], cyy = fit_.hyy.val[k];
+      hx[0] += cxx * ux;
+      hx[1] += cxy * ux;
+      hx[2] += cyy * ux;
+      hy[0] += cxx * uy;
+      hy[1] += cxy * uy;
+      hy[2] += cyy * uy;
     }
     const StressResult s = first_piola_stress(f, lambda, mu, config_.material.model);
     double own_x = 0.0, own_y = 0.0;

@@ -73,18 +73,20 @@ def main():
         w.writerows(rows)
 
     fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for name, _ in PLATE:
+    for name, _ in reversed(PLATE):  # the rigid plate's raw load first, beneath the relaxed ones
         f = runs / f"plate-{name}" / "tip.csv"
         if not f.exists():
             continue
         d = np.genfromtxt(f, delimiter=",", names=True)
         if name != "rigid":
             ax.plot(d["t"], 1e3 * d["ux"], lw=1, label=f"E = {name[1:]} Pa")
-        bx.plot(d["t"], d["force_x"], lw=0.7, label=name if name == "rigid" else f"E = {name[1:]} Pa")
+        bx.plot(d["t"], d["force_x"], lw=0.5 if name == "rigid" else 0.9, alpha=0.5 if name == "rigid" else 1.0,
+                color="grey" if name == "rigid" else None,
+                label="rigid (raw)" if name == "rigid" else f"E = {name[1:]} Pa (relaxed 0.1)")
     ax.set_ylabel("plate top u_x [mm]")
     ax.set_title("Dam break on an elastic plate (l0 = 0.002 m, the seed's spacing)")
     ax.legend(fontsize=8)
-    bx.set_ylabel("load on the plate [N/m]")
+    bx.set_ylabel("pressure load on the plate [N/m]")
     bx.set_xlabel("t [s]")
     bx.legend(fontsize=8)
     fig.tight_layout()

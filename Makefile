@@ -111,7 +111,7 @@ rotating: deps build/release/CMakeCache.txt
 	  runs/rotating/channel/moving runs/rotating/channel/fixed
 
 # Elastic structures (seed 003 §2.2): the plate at H/10 and CSM3 at H/5 with their default outputs (about a minute);
-# bench-structure runs docs/structures.md's study (three spacings each, the hourglass sweep, speed; ~40 min).
+# bench-structure runs docs/structures.md's study (three spacings each, the hourglass sweep, speed; ~25 min).
 structure: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target structure
 	OMP_NUM_THREADS=1 ./build/release/apps/structure/structure --scene plate --out runs/structure/plate || [ $$? -eq 2 ]
@@ -123,7 +123,7 @@ bench-structure: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/structure_study.py build/release
 
 # Fluid-structure interaction (seed 003 §2.3-2.4): the dam break on the elastic plate and the rubber gate at their
-# coarse defaults (a few minutes); bench-fsi runs docs/fsi.md's study and stability map (~40 min on 2 cores).
+# coarse defaults (a few minutes); bench-fsi runs docs/fsi.md's study and stability map (about an hour on 2 cores).
 fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi
 	OMP_NUM_THREADS=1 ./build/release/apps/fsi/fsi --scene plate --out runs/fsi/plate

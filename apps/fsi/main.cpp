@@ -94,7 +94,14 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
-      return report_guard_stop(dir, e, params, sim);
+      // The guard's own advice names the fluid's step; in a coupled run the coupling is the likelier cause.
+      const mps::SimulationError coupled(std::string(e.what()) +
+                                         (p.rigid ? std::string()
+                                                  : "; with an elastic body, a blow-up at the impact is usually the "
+                                                    "partitioned coupling: lower --relaxation (now " +
+                                                        short_number(p.relaxation) + ") and keep --wet-walls true "
+                                                        "(docs/fsi.md)"));
+      return report_guard_stop(dir, coupled, params, sim);
     }
     std::vector<double> t, ux, uy, fx, level;
     double most = 0, at = 0;

@@ -27,8 +27,7 @@ struct Params {
   bool rigid = false;
   double relaxation = 0.1;       // of the body's load each fluid step (mps::ElasticStructure)
   // mps::WetWalls: walls next to the liquid's interior carry pressure even when the density test calls them dry. On a
-  // moving body the test flickers from step to step; with it on, the plate's result moved 5 % between load
-  // relaxations 0.05 and 0.3, against 40 % between 0.05 and 0.2 without (docs/fsi.md).
+  // moving body that test flickers from step to step, and the result then depends on the load relaxation (docs/fsi.md).
   bool wet_walls = true;
   double cfl = 0.2;              // the fluid's: dt <= cfl l0 / |u|max
   double solid_cfl = 0.3;

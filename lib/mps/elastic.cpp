@@ -461,8 +461,6 @@ void ElasticSolid::step() {
   saved_[3].assign(v_.begin(), v_.end());
   saved_[4].assign(ax_.begin(), ax_.end());
   saved_[5].assign(ay_.begin(), ay_.end());
-  const double strain_old = strain_energy_;
-  const ElasticEnergy energy_old = energy_;
   const double h = 0.5 * dt_;
   double largest_move = 0.0;
   for (std::size_t i = 0; i < moving_; ++i) {
@@ -506,9 +504,7 @@ void ElasticSolid::step() {
     v_.swap(saved_[3]);
     ax_.swap(saved_[4]);
     ay_.swap(saved_[5]);
-    evaluate_forces();  // F, P and the reaction of the restored state
-    strain_energy_ = strain_old;
-    energy_ = energy_old;
+    evaluate_forces();  // F, P, strain energy and the reaction of the restored state (energy_ is not yet updated)
     throw SimulationError(msg.str());
   }
   energy_ = e;

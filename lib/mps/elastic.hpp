@@ -5,8 +5,7 @@
 // constant sparse operator applied to the current displacement u = x - X,
 //   F_i = I + (Gx u_x, Gy u_x ; Gx u_y, Gy u_y)_i,
 // G the gradient of a weighted least-squares quadratic fit over the reference neighbours (exact for quadratic fields,
-// so bending is exact up to the free surfaces). The
-// stress divergence is the same operator transposed: with the strain energy E = sum_i V_i psi(F_i) over the moving
+// so bending is exact up to the free surfaces). The stress divergence is the same operator transposed: with the strain energy E = sum_i V_i psi(F_i) over the moving
 // particles, the force f = -dE/dx = -(Gx^T (V P_.x) + Gy^T (V P_.y)), P the first Piola-Kirchhoff stress. Momentum
 // is conserved pair by pair and velocity Verlet conserves energy to O(dt^2) (no artificial stress: the reference
 // kernel never changes, so there is no tensile instability to cure).
@@ -163,9 +162,6 @@ class ElasticSolid {
   // The displacement at a reference point, by a kernel-weighted linear least-squares fit over the reference
   // neighbours within the kernel radius (exact for a linear displacement field).
   [[nodiscard]] std::array<double, 2> displacement_at(double px, double py) const;
-  // Products with an N-row gradient matrix per step: Gx and Gy times x and y for F, their transposes times V P for
-  // the forces (done as two fused passes over the shared pattern).
-  static constexpr int spmv_per_step = 8;
 
  private:
   void evaluate_forces();  // F, P, strain energy and acceleration at the current positions

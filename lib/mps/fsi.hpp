@@ -19,11 +19,9 @@
 namespace mps {
 
 // The fluid's pressure force on each particle with target[j]: -V_j grad P_j (V_j = l0^2), the gradient taken with
-// the corrective matrix over the pressure carriers (fluid, wet walls and the dummies behind them). Summed over a
-// body this is the volume integral of -grad P over it, i.e. the surface integral of -P n: a block in water at rest
-// gets Archimedes' rho g V. (The corrector's own min-reference pairs are not antisymmetric, so their reactions are
-// not the fluid's force on a body: tried first, they gave a submerged block -13 N/m instead of +98.) Writes (fx, fy)
-// for the targets, 0 elsewhere, and returns their sum. Call at after_pressure.
+// the corrective matrix over the pressure carriers. Summed over a body it is the surface integral of -P n (Archimedes
+// for a body in water at rest); the corrector's min-reference pairs are not antisymmetric, so their reactions would
+// not be (docs/fsi.md). Writes (fx, fy) for the targets, 0 elsewhere, and returns their sum. Call at after_pressure.
 std::array<double, 2> pressure_force_on(const StepContext& context, std::span<const char> target, std::span<double> fx,
                                         std::span<double> fy);
 

@@ -83,11 +83,12 @@ CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient
   return a;
 }
 
-constexpr std::array<std::pair<GradientVariant, std::string_view>, 4> gradient_names{{
+constexpr std::array<std::pair<GradientVariant, std::string_view>, 5> gradient_names{{
     {GradientVariant::plain, "plain"},
     {GradientVariant::min_reference, "min-reference"},
     {GradientVariant::corrected, "corrected"},
     {GradientVariant::corrected_min_reference, "corrected-min-reference"},
+    {GradientVariant::conservative, "conservative"},
 }};
 
 }  // namespace
@@ -102,7 +103,7 @@ GradientVariant gradient_variant_from_name(std::string_view name) {
   for (const auto& [v, n] : gradient_names)
     if (n == name) return v;
   throw std::invalid_argument("unknown pressure gradient '" + std::string(name) +
-                              "': choose plain, min-reference, corrected or corrected-min-reference");
+                              "': choose plain, min-reference, corrected, corrected-min-reference or conservative");
 }
 
 std::vector<double> number_density(const Stencil& s) {
@@ -201,7 +202,7 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
 #pragma omp parallel for schedule(static)
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    double ref = phi[i];
+    double ref = variant == GradientVariant::conservative ? -phi[i] : phi[i];
     if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
       // The tilted minimum removes the known linear part from the classic one, never going below it: where
       // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
@@ -227,6 +228,34 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
     const auto g = scaled_gradient(scale, sx, sy, corrected, mxx, mxy, myy);
     gx[i] = g[0];
     gy[i] = g[1];
+  }
+}
+
+void conservative_gradient_terms(const Stencil& s, std::span<const double> phi, std::span<const char> sources,
+                                 std::span<const char> targets, std::span<const char> carriers, std::span<double> ox,
+                                 std::span<double> oy) {
+  const std::size_t n = s.particles.size();
+  check_size(phi.size(), n, "phi");
+  check_size(sources.size(), n, "sources");
+  check_size(targets.size(), n, "targets");
+  if (!carriers.empty()) check_size(carriers.size(), n, "carriers");
+  check_size(ox.size(), n, "ox");
+  check_size(oy.size(), n, "oy");
+  const double scale = kDim / s.kernel.n0;
+#pragma omp parallel for schedule(static)
+  for (Index jj = 0; jj < count(s); ++jj) {
+    const auto j = static_cast<std::size_t>(jj);
+    double sx = 0.0, sy = 0.0;
+    if (targets[j] && (carriers.empty() || carriers[j]))
+      // (dx, dy) = r_i - r_j here, the negative of r_ij in i's gradient
+      for_each_pair(s, j, [&](std::size_t i, double dx, double dy, double r2, double w) {
+        if (!sources[i]) return;
+        const double f = (phi[i] + phi[j]) * w / r2;
+        sx -= f * dx;
+        sy -= f * dy;
+      });
+    ox[j] = scale * sx;
+    oy[j] = scale * sy;
   }
 }
 

@@ -39,9 +39,12 @@ enum class GradientVariant {
                   // (Randles & Libersky 1996; Khayyer & Gotoh 2011): exact for linear fields with any
                   // neighbourhood, truncated ones at free surfaces and walls included
   corrected_min_reference,  // the corrective matrix applied to the min_reference sum
+  conservative,   // (d/n0) sum (phi_i + phi_j) r_ij/|r_ij|^2 w_ij: each pair's term is antisymmetric, so the momentum
+                  // two particles exchange sums to zero (a structure feels the exact reaction of the fluid's push);
+                  // exact for linear fields on a full lattice only, the price of that symmetry
 };
-// "plain", "min-reference", "corrected", "corrected-min-reference"; the parser throws std::invalid_argument naming
-// the valid names.
+// "plain", "min-reference", "corrected", "corrected-min-reference", "conservative"; the parser throws
+// std::invalid_argument naming the valid names.
 std::string_view to_string(GradientVariant variant);
 GradientVariant gradient_variant_from_name(std::string_view name);
 // `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
@@ -55,6 +58,13 @@ GradientVariant gradient_variant_from_name(std::string_view name);
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
               std::array<double, 2> min_tilt = {0.0, 0.0}, std::span<const char> own_reference = {});
+
+// What the particles j with targets[j] give the conservative gradient of their neighbours i with sources[i], pair by
+// pair: out_j = sum_i (d/n0) (phi_i + phi_j) r_ij/|r_ij|^2 w_ij with r_ij = r_j - r_i, the very terms of i's gradient
+// (j counted only if carriers[j], as there). A force -V grad phi on the sources is so met by +V out on the targets.
+void conservative_gradient_terms(const Stencil& s, std::span<const double> phi, std::span<const char> sources,
+                                 std::span<const char> targets, std::span<const char> carriers, std::span<double> ox,
+                                 std::span<double> oy);
 
 // (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);

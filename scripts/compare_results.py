@@ -42,6 +42,7 @@ CASES = {
                                                          "--end-time 0.1 --frames 2"),
     "structure-csm3": ("structure", "--scene csm3 --end-time 0.3 --frames 2"),
     "fsi-plate": ("fsi", "--end-time 0.16 --frames 2"),
+    "fsi-plate-min-reference": ("fsi", "--end-time 0.16 --frames 2 --pressure-gradient min-reference --relaxation 0.1"),
     "fsi-gate": ("fsi", "--scene gate --end-time 0.01 --frames 2"),
 }
 TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}

@@ -38,12 +38,12 @@ OPTIONS = {
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
     "fsi": ["--scene", "--dx", "--modulus", "--poisson", "--density", "--cfl", "--relaxation", "--solid-cfl",
-            "--end-time", "--frames", "--solver"],
+            "--end-time", "--frames", "--solver", "--pressure-gradient", "--wet-walls"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
           "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
-          "csm3", "linear", "0.002", "gate"]
+          "csm3", "linear", "0.002", "gate", "conservative", "true", "false"]
 NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
 
 

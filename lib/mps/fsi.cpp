@@ -32,6 +32,40 @@ std::array<double, 2> pressure_force_on(const StepContext& context, std::span<co
   return total;
 }
 
+std::array<double, 2> pressure_reaction_on(const StepContext& context, std::span<const char> target,
+                                           std::span<double> fx, std::span<double> fy) {
+  const Simulation& sim = context.sim;
+  const StepFields& f = context.fields;
+  const Particles& p = context.particles;
+  if (sim.config().pressure_gradient != GradientVariant::conservative)
+    throw std::invalid_argument("a structure's pressure force is the reaction of the fluid's pressure pairs, which "
+                                "only the conservative gradient makes equal and opposite: set pressure_gradient = "
+                                "conservative (now " + std::string(to_string(sim.config().pressure_gradient)) + ")");
+  if (!f.pressure_offset.empty())
+    throw std::invalid_argument("a structure's pressure force needs the whole pressure: set hydrostatic_split = false "
+                                "(the split leaves the hydrostatic part out of the solved pressure)");
+  std::vector<char> moved(p.size(), 0);  // the fluid the corrector moves
+  for (std::size_t i = 0; i < p.size(); ++i) moved[i] = p.kind[i] == Kind::fluid && !f.prescribed[i];
+  const Kernel& k = sim.gradient_kernel();
+  conservative_gradient_terms({p, sim.domain(), sim.neighbors_at_star(k), k}, p.p, moved, target, f.carriers, fx, fy);
+  const double volume = sim.config().l0 * sim.config().l0;
+  std::array<double, 2> total{0.0, 0.0};
+  for (std::size_t j = 0; j < p.size(); ++j) {
+    fx[j] *= volume;
+    fy[j] *= volume;
+    total[0] += fx[j];
+    total[1] += fy[j];
+  }
+  return total;
+}
+
+std::array<double, 2> structure_load(const StepContext& context, std::span<const char> target, std::span<double> fx,
+                                     std::span<double> fy) {
+  return context.sim.config().pressure_gradient == GradientVariant::conservative
+             ? pressure_reaction_on(context, target, fx, fy)
+             : pressure_force_on(context, target, fx, fy);
+}
+
 void WallForce::after_pressure(StepContext& context) {
   const Particles& p = context.particles;
   target_.assign(p.size(), 0);
@@ -39,7 +73,7 @@ void WallForce::after_pressure(StepContext& context) {
     target_[i] = p.group[i] == group_ && (p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy);
   fx_.assign(p.size(), 0.0);
   fy_.assign(p.size(), 0.0);
-  force_ = pressure_force_on(context, target_, fx_, fy_);
+  force_ = structure_load(context, target_, fx_, fy_);
 }
 
 ElasticStructure::ElasticStructure(ElasticSolid solid, int group, int first_id,
@@ -107,7 +141,7 @@ void ElasticStructure::after_pressure(StepContext& context) {
   for (std::size_t k = 0; k < solid_.moving(); ++k) target_[static_cast<std::size_t>(fluid_of_solid_[k])] = 1;
   fx_.assign(n, 0.0);
   fy_.assign(n, 0.0);
-  on_structure_ = pressure_force_on(context, target_, fx_, fy_);
+  on_structure_ = structure_load(context, target_, fx_, fy_);
   for (std::size_t k = 0; k < solid_.moving(); ++k) {
     const auto i = static_cast<std::size_t>(fluid_of_solid_[k]);
     load_x_[k] += relaxation_ * (fx_[i] - load_x_[k]);

@@ -1,8 +1,7 @@
 #pragma once
 // Fluid-structure coupling (seed 003 §2.3-2.4; docs/fsi.md): an elastic body whose moving particles are also wall and
 // dummy particles of the fluid (the seed's idea: they belong to both media). The fluid sees them as a moving wall at
-// the solid's velocity; the solid feels the pressure the fluid solved for on them, as -V grad P per particle
-// (pressure_force_on).
+// the solid's velocity; the solid feels the pressure the fluid solved for on them (structure_load).
 //
 // In a fluid step n -> n+1 (staggered, explicit): after the predictor the solid is advanced to t^{n+1} in sub-steps
 // of its own stable step under the fluid force of step n, and its particles are moved there in the fluid; after the
@@ -18,12 +17,22 @@
 
 namespace mps {
 
-// The fluid's pressure force on each particle with target[j]: -V_j grad P_j (V_j = l0^2), the gradient taken with
-// the corrective matrix over the pressure carriers. Summed over a body it is the surface integral of -P n (Archimedes
-// for a body in water at rest); the corrector's min-reference pairs are not antisymmetric, so their reactions would
-// not be (docs/fsi.md). Writes (fx, fy) for the targets, 0 elsewhere, and returns their sum. Call at after_pressure.
+// The fluid's pressure force on each particle with target[j], written to (fx, fy) (0 elsewhere) with its sum returned;
+// call at after_pressure. Which one depends on the fluid's pressure gradient:
+// - pressure_force_on, for min-reference and the other difference forms: -V_j grad P_j (V_j = l0^2), the gradient
+//   corrected over the pressure carriers. Summed over a body it is the surface integral of -P n (Archimedes for a
+//   body in still water). The fluid's min-reference pairs are not antisymmetric, so no pair-by-pair reaction exists:
+//   the fluid does not get back exactly this force.
+// - pressure_reaction_on, for the conservative gradient: minus the terms the targets give the moving fluid's pressure
+//   force, pair by pair, so the body gets exactly what the fluid gives (action = reaction to round-off).
+// Both need the whole pressure (hydrostatic_split = false) and throw std::invalid_argument otherwise.
 std::array<double, 2> pressure_force_on(const StepContext& context, std::span<const char> target, std::span<double> fx,
                                         std::span<double> fy);
+std::array<double, 2> pressure_reaction_on(const StepContext& context, std::span<const char> target,
+                                           std::span<double> fx, std::span<double> fy);
+// The one of the two that fits the fluid's pressure gradient.
+std::array<double, 2> structure_load(const StepContext& context, std::span<const char> target, std::span<double> fx,
+                                     std::span<double> fy);
 
 class WallForce : public StepComponent {
  public:

@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """Where the partitioned coupling fails: the dam break on the plate (apps/fsi, l0 = 0.004, E = 6e6, to t = 0.3 s) over
 the plate's density (solid/fluid ratio 0.5-10) x the fluid's CFL, with the load taken whole each step (relaxation 1)
-and relaxed (0.1, the default), with the body's walls wet (mps::WetWalls, the default) and without.
+and relaxed (0.1, the default), with the body's walls wet (mps::WetWalls, the default) and without, and with the
+fluid's pressure gradient min-reference (the default) or conservative (exact action = reaction, wet walls only).
 
   bench/fsi_stability.py BUILD_DIR [--results bench/results] [--runs runs/fsi-stability] [--jobs 2] [--plot-only]
+                         [--gradient min-reference|conservative|all] [--wet-walls both|true|false]
 
 Writes fsi_stability.csv and fsi_stability.png (green: ran to the end, the label the largest tip displacement in mm;
 red: stopped by a guard, the label the time). One OpenMP thread per run.
@@ -24,15 +26,18 @@ RATIOS = [0.5, 1.1, 2.0, 5.0, 10.0]
 CFLS = [0.1, 0.2, 0.4]
 RELAXATIONS = [1.0, 0.1]
 WET_WALLS = ["false", "true"]
+# (pressure gradient, wet walls) of each row of panels
+SETTINGS = [("min-reference", "false"), ("min-reference", "true"), ("conservative", "true")]
 
 
-def run(build, out, wet, ratio, cfl, relaxation):
+def run(build, out, gradient, wet, ratio, cfl, relaxation):
     exe = Path(build) / "apps" / "fsi" / "fsi"
     cmd = [str(exe), "--density", repr(1000.0 * ratio), "--cfl", repr(cfl), "--relaxation", repr(relaxation),
-           "--wet-walls", wet, "--end-time", "0.3", "--frames", "0", "--out", str(out)]
+           "--wet-walls", wet, "--pressure-gradient", gradient, "--end-time", "0.3", "--frames", "0",
+           "--out", str(out)]
     subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS="1"), capture_output=True, text=True)
     s = json.loads((out / "summary.json").read_text())
-    return {"wet_walls": wet, "ratio": ratio, "cfl": cfl, "relaxation": relaxation, "status": s["status"],
+    return {"gradient": gradient, "wet_walls": wet, "ratio": ratio, "cfl": cfl, "relaxation": relaxation, "status": s["status"],
             "time_s": s["time_s"],
             "largest_tip_mm": 1e3 * s.get("checks", {}).get("largest_probe_ux_m", float("nan")),
             "error": s.get("error", "")}
@@ -47,32 +52,36 @@ def main():
     ap.add_argument("--plot-only", action="store_true")
     ap.add_argument("--wet-walls", choices=["both", "true", "false"], default="both",
                     help="run only one setting, keeping the other's rows of an existing CSV")
+    ap.add_argument("--gradient", choices=["all", "min-reference", "conservative"], default="all",
+                    help="run only one pressure gradient, keeping the other's rows of an existing CSV")
     a = ap.parse_args()
     results, runs = Path(a.results), Path(a.runs)
     results.mkdir(parents=True, exist_ok=True)
     old = []
     if (results / "fsi_stability.csv").exists():
         with open(results / "fsi_stability.csv") as f:
-            old = [dict(r, wet_walls=r.get("wet_walls") or "false", ratio=float(r["ratio"]), cfl=float(r["cfl"]),
+            old = [dict(r, gradient=r.get("gradient") or "min-reference", wet_walls=r.get("wet_walls") or "false", ratio=float(r["ratio"]), cfl=float(r["cfl"]),
                         relaxation=float(r["relaxation"]), time_s=float(r["time_s"]),
                         largest_tip_mm=float(r["largest_tip_mm"])) for r in csv.DictReader(f)]
     if a.plot_only:
         rows = old
     else:
-        wets = WET_WALLS if a.wet_walls == "both" else [a.wet_walls]
-        cases = [(w, r, c, x) for w in wets for x in RELAXATIONS for r in RATIOS for c in CFLS]
+        chosen = [(g, w) for g, w in SETTINGS if a.gradient in ("all", g) and a.wet_walls in ("both", w)]
+        cases = [(g, w, r, c, x) for g, w in chosen for x in RELAXATIONS for r in RATIOS for c in CFLS]
         with ThreadPoolExecutor(max_workers=a.jobs) as pool:
-            rows = list(pool.map(lambda k: run(a.build, runs / f"wet{k[0]}-rho{k[1]}-cfl{k[2]}-relax{k[3]}", *k), cases))
-        rows = [r for r in old if r["wet_walls"] not in wets] + rows
+            rows = list(pool.map(lambda k: run(a.build, runs / f"{k[0]}-wet{k[1]}-rho{k[2]}-cfl{k[3]}-relax{k[4]}",
+                                               *k), cases))
+        rows = [r for r in old if (r["gradient"], r["wet_walls"]) not in chosen] + rows
         with open(results / "fsi_stability.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
-    panels = [(w, x) for w in WET_WALLS for x in RELAXATIONS if any(r["wet_walls"] == w for r in rows)]
-    fig, axes = plt.subplots(len(panels) // 2, 2, figsize=(11, 4 * (len(panels) // 2)), sharey=True, squeeze=False)
-    for ax, (wet, relaxation) in zip(axes.flat, panels):
+    panels = [(g, w, x) for g, w in SETTINGS for x in RELAXATIONS
+              if any((r["gradient"], r["wet_walls"]) == (g, w) for r in rows)]
+    fig, axes = plt.subplots(len(panels) // 2, 2, figsize=(11, 3.6 * (len(panels) // 2)), sharey=True, squeeze=False)
+    for ax, (gradient, wet, relaxation) in zip(axes.flat, panels):
         for r in rows:
-            if r["relaxation"] != relaxation or r["wet_walls"] != wet:
+            if r["relaxation"] != relaxation or r["wet_walls"] != wet or r["gradient"] != gradient:
                 continue
             x, y = RATIOS.index(r["ratio"]), CFLS.index(r["cfl"])
             ok = r["status"] != "failed"
@@ -84,7 +93,7 @@ def main():
         ax.set_xticks(range(len(RATIOS)), [str(v) for v in RATIOS])
         ax.set_yticks(range(len(CFLS)), [str(v) for v in CFLS])
         ax.set_xlabel("plate density / water density")
-        ax.set_title(f"load relaxation {relaxation:g}" + (" (taken whole)" if relaxation == 1 else "") +
+        ax.set_title(f"{gradient}, load relaxation {relaxation:g}" + (" (taken whole)" if relaxation == 1 else "") +
                      (", wet walls" if wet == "true" else ", walls dry by the density test"), fontsize=9)
         ax.set_ylabel("fluid CFL")
     fig.suptitle("Dam break on an elastic plate (E = 6e6 Pa, l0 = 0.004 m, to 0.3 s): green ran (largest tip "

@@ -461,6 +461,38 @@ TEST(SolverReuse, TheHierarchyIsRebuiltAfterReuseSolvesAndWhenTheCountChanges) {
   EXPECT_EQ(reused, (std::vector<bool>{false, true, true, false, false, true}));
 }
 
+TEST(SolverAuto, JacobiWhileTheUnknownsChangeThenReusedAmgOnceTheyStayAndJacobiWasSlow) {
+  const mps::PpeSystem& t = tank().ppe;
+  const mps::PpeSystem& c = box().ppe;
+  auto solver = mps::make_solver("auto:switch_iterations=20,tol=1e-12");
+  std::vector<std::string> used;
+  std::vector<bool> reused;
+  auto step = [&](const mps::PpeSystem& ppe, int k) {
+    const mps::CsrMatrix a = perturbed(ppe.matrix, k, 0.01);
+    std::vector<double> x(ppe.size(), 0.0);
+    const mps::SolveReport r = solver->solve(a, ppe.rhs, x);
+    used.push_back(r.backend);
+    reused.push_back(r.setup_reused);
+    // Whichever backend it took, the answer is the system's to its tolerance.
+    EXPECT_LT(r.relative_residual, solver->spec().find("tol=1e-12") != std::string::npos ? 1e-12 : 1e-8);
+    EXPECT_LT(relative_difference(x, solve_with("cholmod", a, ppe.rhs)), 1e-6) << "solve " << used.size();
+  };
+  step(t, 0);  // a first system: Jacobi-CG (it needs more than 20 iterations here)
+  step(c, 0);  // the unknowns changed: Jacobi again
+  step(c, 1);  // the same unknowns twice: still Jacobi (steady_solves = 3)
+  step(c, 2);  // three times, and Jacobi was slow: AMG-PCG, set up
+  step(c, 3);  // and its hierarchy reused
+  step(t, 1);  // the unknowns changed: back to Jacobi
+  EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "eigen-cg", "eigen-cg", "hypre-pcg", "hypre-pcg", "eigen-cg"}));
+  EXPECT_EQ(reused[3], false);
+  EXPECT_EQ(reused[4], true);
+  // With a high switch the same sequence stays on Jacobi-CG.
+  solver = mps::make_solver("auto:switch_iterations=100000");
+  used.clear();
+  for (int k = 0; k < 4; ++k) step(c, k);
+  EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "eigen-cg", "eigen-cg", "eigen-cg"}));
+}
+
 TEST(SolverReuse, CholmodReusesItsSymbolicAnalysisWhileThePatternHolds) {
   const mps::PpeSystem& t = tank().ppe;
   auto solver = mps::make_solver("cholmod");

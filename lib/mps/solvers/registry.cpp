@@ -7,8 +7,8 @@ namespace mps {
 namespace {
 
 const std::vector<SolverEntry>& registry() {
-  static const std::vector<SolverEntry> entries = {eigen_cg_entry(), eigen_bicgstab_entry(), cholmod_entry(),
-                                                   hypre_amg_entry(), hypre_pcg_entry()};
+  static const std::vector<SolverEntry> entries = {auto_entry(),      eigen_cg_entry(),  eigen_bicgstab_entry(),
+                                                   cholmod_entry(),   hypre_amg_entry(), hypre_pcg_entry()};
   return entries;
 }
 

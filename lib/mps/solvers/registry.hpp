@@ -49,5 +49,6 @@ SolverEntry eigen_bicgstab_entry();  // eigen.cpp
 SolverEntry cholmod_entry();         // cholmod.cpp
 SolverEntry hypre_amg_entry();       // hypre.cpp
 SolverEntry hypre_pcg_entry();       // hypre.cpp
+SolverEntry auto_entry();            // auto.cpp
 
 }  // namespace mps

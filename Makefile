@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -58,7 +58,7 @@ bench: deps build/release/CMakeCache.txt
 
 # Every benchmark at full size, into bench/results/ (the charts in docs/): core phases and solvers to 1e6, the
 # per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
-bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability
+bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability bench-default-solver
 
 # One thread, like the per-step sweep: with two and a job on the other core, the lists took 1.6-6.5x longer than on one.
 bench-core: deps build/release/CMakeCache.txt
@@ -128,6 +128,11 @@ fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi
 	OMP_NUM_THREADS=1 ./build/release/apps/fsi/fsi --scene plate --out runs/fsi/plate
 	OMP_NUM_THREADS=1 ./build/release/apps/fsi/fsi --scene gate --out runs/fsi/gate
+
+# the default solver (auto) against the classic IC-CG path on every scene, alternating, one run at a time (~4 min)
+bench-default-solver: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS)
+	/usr/bin/python3 bench/default_solver.py build/release
 
 bench-fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi

@@ -40,7 +40,7 @@ struct Params {
   mps::GradientVariant gradient = mps::GradientVariant::min_reference;
   double end_time = 0.3;       // [s]
   double g = 9.81;
-  std::string solver = "eigen-cg";
+  std::string solver = "auto";
   bool warm_start = true;  // each pressure solve from the previous pressure (false: from zeros, the classic baseline)
   // Level probes, as distances from the downstream wall in H; pressure probes, as heights on it in H.
   std::vector<double> level_probes;

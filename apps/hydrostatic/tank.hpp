@@ -17,7 +17,7 @@ struct Params {
   double end_time = 1.0;       // [s]: the 1 s
   double window = 0.1;        // pressures averaged over the last `window` seconds
   double band = 4.0;          // height of the averaging bands, in l0
-  std::string solver = "eigen-cg";
+  std::string solver = "auto";
   double g = 9.81;
 };
 

@@ -42,7 +42,7 @@ struct Params {
   double compression = 1e-4;
   double shifting = 0;  // particle shifting coefficient (SimulationConfig::shifting; 0: off)
   [[nodiscard]] double sound_speed() const;
-  std::string solver = "eigen-cg";
+  std::string solver = "auto";
   bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)
 
   [[nodiscard]] double l0() const { return D / across; }

@@ -47,7 +47,7 @@ struct Params {
   bool mirror = true;      // mirror velocities on the circular walls
   mps::GradientVariant gradient = mps::GradientVariant::corrected_min_reference;
   bool initial_reference = true;  // the density source against the packing at t = 0, not the lattice n0
-  std::string solver = "eigen-cg";
+  std::string solver = "auto";
   bool warm_start = true;  // pressure solve from the previous step's pressure (false: from zeros)
   // Particle shifting coefficient (SimulationConfig::shifting; 0: off). The corner flow tears the layout open at
   // the upstream corner and packs it at the downstream one; with little density control left (gamma above) the

@@ -63,7 +63,9 @@ struct SimulationConfig {
   double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
   std::string dt_option;  // the host program's option for the time step, named in the guard's advice (e.g. --dt-factor)
-  std::string solver = "eigen-cg";
+  // The pressure solver's spec. "auto" picks Jacobi-CG or reused AMG-PCG per solve by a fixed rule (docs/solvers.md);
+  // "eigen-cg" (incomplete-Cholesky CG) is the classic MPS baseline.
+  std::string solver = "auto";
   // Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
   bool warm_start = true;
 

@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -133,6 +133,11 @@ fsi: deps build/release/CMakeCache.txt
 bench-default-solver: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS)
 	/usr/bin/python3 bench/default_solver.py build/release
+
+# cost per particle of each phase against N, one and two threads, peak RSS (~4 min; needs an idle machine)
+bench-phase-cost: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_scaling
+	/usr/bin/python3 bench/phase_cost.py build/release
 
 bench-fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi

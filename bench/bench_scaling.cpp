@@ -6,6 +6,7 @@
 //
 //   bench_scaling --sizes 1e4,1e5,1e6 --solvers "eigen-cg;hypre-pcg:reuse=10" --out bench/results/scaling.csv
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <CLI/CLI.hpp>
 #include <cmath>
@@ -27,7 +28,14 @@ struct Row {
   mps::PhaseTimes per_step;
   bool warm_start = true;
   double iterations = 0, l2_error = 0;
+  double peak_rss_mb = 0;  // of the whole process so far: with sizes ascending, this run's
 };
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;  // kB on Linux
+}
 
 mps::PhaseTimes per_step(const mps::PhaseTimes& end, const mps::PhaseTimes& start, int steps) {
   const double k = 1.0 / steps;
@@ -60,6 +68,7 @@ Row run(long size, const std::string& spec, bool warm_start, int warmup, int ste
   r.warm_start = warm_start;
   r.iterations = iterations / steps;
   r.l2_error = poiseuille::measure_profile(p, sim).l2_error;
+  r.peak_rss_mb = peak_rss_mb();
   return r;
 }
 
@@ -73,7 +82,7 @@ int main(int argc, char** argv) {
   int warmup = 3, steps = 5;
   double cholmod_limit = 3e5;
   app.add_option("--sizes", sizes, "comma-separated particle counts (fluid, about)")->delimiter(',')->capture_default_str();
-  app.add_option("--solvers", solvers, "semicolon-separated solver specs, each run warm-started")
+  app.add_option("--solvers", solvers, "semicolon-separated solver specs, each run warm-started ('' for none)")
       ->delimiter(';')
       ->capture_default_str();
   app.add_option("--cold", cold, "semicolon-separated solver specs also run from a zero initial guess each step ('' for none)")
@@ -87,7 +96,8 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::pair<std::string, bool>> runs;
-  for (const std::string& s : solvers) runs.emplace_back(s, true);
+  for (const std::string& s : solvers)
+    if (!s.empty()) runs.emplace_back(s, true);
   for (const std::string& s : cold)
     if (!s.empty()) runs.emplace_back(s, false);
   std::ofstream csv(out);
@@ -96,7 +106,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   csv << "particles,fluid,unknowns,solver,warm_start,steps,neighbors_s,predict_s,assemble_s,setup_s,solve_s,"
-         "correct_s,total_s,iterations,particle_steps_per_s,l2_error,threads,solver_spec\n";
+         "correct_s,total_s,iterations,particle_steps_per_s,l2_error,threads,peak_rss_mb,solver_spec\n";
   std::cout << "body-force channel, " << omp_get_max_threads() << " OpenMP threads, " << steps << " timed steps after "
             << warmup << " (seconds per step)\n";
   try {
@@ -109,7 +119,8 @@ int main(int argc, char** argv) {
         csv << r.particles << ',' << r.fluid << ',' << r.unknowns << ",\"" << r.solver << "\"," << r.warm_start << ','
             << r.steps << std::setprecision(6) << ',' << t.neighbors << ',' << t.predict << ',' << t.assemble << ','
             << t.solver_setup << ',' << t.solve << ',' << t.correct << ',' << t.total() << ',' << r.iterations << ','
-            << static_cast<double>(r.fluid) / t.total() << ',' << r.l2_error << ',' << omp_get_max_threads() << ",\"" << r.solver_spec << "\"\n";
+            << static_cast<double>(r.fluid) / t.total() << ',' << r.l2_error << ',' << omp_get_max_threads() << ','
+            << r.peak_rss_mb << ",\"" << r.solver_spec << "\"\n";
         csv.flush();
         std::cout << std::setw(9) << r.fluid << "  " << std::left << std::setw(40)
                   << (r.solver + (r.warm_start ? "" : " (cold)")).substr(0, 40) << std::right << std::fixed

@@ -1,0 +1,102 @@
+#!/usr/bin/python3
+"""What each phase of a time step costs per particle, against N, with one and two OpenMP threads: the body-force
+channel of bench_scaling with the default solver (auto) and the classic path (IC-CG from a zero guess), one process
+per size and thread count so that each peak RSS is that run's own. Run it on an idle machine: OpenMP threads spin
+at barriers, and a second job on the other core makes two threads many times slower than one.
+
+  bench/phase_cost.py BUILD_DIR [--results bench/results] [--sizes 1e4,1e5,1e6] [--classic-up-to 1e5] [--plot-only]
+
+Writes phase_cost.csv (bench_scaling's columns plus ns per particle per phase) and phase_cost.png.
+"""
+import argparse
+import csv
+import os
+import subprocess
+import tempfile
+from pathlib import Path
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+PHASES = ["neighbors_s", "predict_s", "assemble_s", "setup_s", "solve_s", "correct_s"]
+
+
+def run(build, size, threads, solver, cold):
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "scaling.csv"
+        cmd = [str(Path(build) / "bench" / "bench_scaling"), "--sizes", size, "--solvers", "" if cold else solver,
+               "--cold", solver if cold else "", "--warmup", "3", "--steps", "5", "--out", str(out)]
+        subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS=str(threads)), check=True, capture_output=True)
+        with open(out) as f:
+            rows = list(csv.DictReader(f))
+    for r in rows:
+        r["path"] = "classic (IC-CG, zero guess)" if cold else "default (auto)"
+        for ph in PHASES:
+            r[ph.replace("_s", "_ns_per_particle")] = 1e9 * float(r[ph]) / float(r["fluid"])
+        r["bytes_per_particle"] = 1048576 * float(r["peak_rss_mb"]) / float(r["particles"])
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--results", default="bench/results")
+    ap.add_argument("--sizes", default="1e4,1e5,1e6")
+    ap.add_argument("--classic-up-to", type=float, default=1e5)
+    ap.add_argument("--plot-only", action="store_true")
+    a = ap.parse_args()
+    results = Path(a.results)
+    results.mkdir(parents=True, exist_ok=True)
+    if a.plot_only:
+        with open(results / "phase_cost.csv") as f:
+            rows = list(csv.DictReader(f))
+    else:
+        rows = []
+        for size in a.sizes.split(","):
+            for threads in (1, 2):
+                rows += run(a.build, size, threads, "auto", False)
+                if float(size) <= a.classic_up_to:
+                    rows += run(a.build, size, threads, "eigen-cg", True)
+                print(rows[-1], flush=True)
+        with open(results / "phase_cost.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.3))
+    default = [r for r in rows if r["path"] == "default (auto)"]
+    for ax, threads in zip(axes[:2], ("1", "2")):
+        sel = sorted((r for r in default if r["threads"] == threads), key=lambda r: float(r["fluid"]))
+        n = [float(r["fluid"]) for r in sel]
+        for ph in PHASES:
+            ax.plot(n, [float(r[ph.replace("_s", "_ns_per_particle")]) for r in sel], "o-", label=ph[:-2])
+        ax.plot(n, [1e9 * float(r["total_s"]) / float(r["fluid"]) for r in sel], "k^-", label="whole step")
+        ax.axhline(300, color="grey", ls=":", lw=1)
+        ax.text(n[0], 300, " 300 ns: the goal for the non-solver phases", fontsize=7, va="bottom")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("fluid particles")
+        ax.set_ylabel("ns per particle per step")
+        ax.set_title(f"default solver (auto), {threads} OpenMP thread{'s' if threads == '2' else ''}", fontsize=9)
+        ax.legend(fontsize=7)
+    for path, style in (("default (auto)", "o-"), ("classic (IC-CG, zero guess)", "s--")):
+        for threads in ("1", "2"):
+            sel = sorted((r for r in rows if r["path"] == path and r["threads"] == threads),
+                         key=lambda r: float(r["fluid"]))
+            if sel:
+                axes[2].plot([float(r["fluid"]) for r in sel], [float(r["particle_steps_per_s"]) for r in sel],
+                             style, label=f"{path}, {threads} thread{'s' if threads == '2' else ''}")
+    axes[2].axhline(1e6, color="grey", ls=":", lw=1)
+    axes[2].set_xscale("log")
+    axes[2].set_yscale("log")
+    axes[2].set_xlabel("fluid particles")
+    axes[2].set_ylabel("particle-steps per second")
+    axes[2].legend(fontsize=7)
+    fig.suptitle("Body-force channel (bench_scaling, 5 steps after 3): cost per phase and throughput", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(results / "phase_cost.png", dpi=120)
+
+
+if __name__ == "__main__":
+    main()

@@ -9,27 +9,37 @@
 #include "mps/operators.hpp"
 
 namespace mps {
+namespace {
+void require_whole_pressure(const StepFields& f) {
+  if (!f.pressure_offset.empty())
+    throw std::invalid_argument("a structure's pressure force needs the whole pressure: set hydrostatic_split = false "
+                                "(the split leaves the hydrostatic part out of the solved pressure)");
+}
+
+// Multiplies the per-particle values by `scale` and returns the sum of the forces.
+std::array<double, 2> scaled_total(double scale, std::span<double> fx, std::span<double> fy) {
+  std::array<double, 2> total{0.0, 0.0};
+  for (std::size_t j = 0; j < fx.size(); ++j) {
+    fx[j] *= scale;
+    fy[j] *= scale;
+    total[0] += fx[j];
+    total[1] += fy[j];
+  }
+  return total;
+}
+}  // namespace
 
 std::array<double, 2> pressure_force_on(const StepContext& context, std::span<const char> target, std::span<double> fx,
                                         std::span<double> fy) {
   const Simulation& sim = context.sim;
   const StepFields& f = context.fields;
   const Particles& p = context.particles;
-  if (!f.pressure_offset.empty())
-    throw std::invalid_argument("a structure's pressure force needs the whole pressure: set hydrostatic_split = false "
-                                "(the split leaves the hydrostatic part out of the solved pressure)");
+  require_whole_pressure(f);
   const Kernel& k = sim.gradient_kernel();
-  std::vector<double> gx(p.size(), 0.0), gy(p.size(), 0.0);
-  gradient({p, sim.domain(), sim.neighbors_at_star(k), k}, p.p, gx, gy, GradientVariant::corrected, f.carriers);
-  const double volume = sim.config().l0 * sim.config().l0;
-  std::array<double, 2> total{0.0, 0.0};
-  for (std::size_t j = 0; j < p.size(); ++j) {
-    fx[j] = target[j] ? -volume * gx[j] : 0.0;
-    fy[j] = target[j] ? -volume * gy[j] : 0.0;
-    total[0] += fx[j];
-    total[1] += fy[j];
-  }
-  return total;
+  gradient({p, sim.domain(), sim.neighbors_at_star(k), k}, p.p, fx, fy, GradientVariant::corrected, f.carriers);
+  for (std::size_t j = 0; j < p.size(); ++j)
+    if (!target[j]) fx[j] = fy[j] = 0.0;
+  return scaled_total(-sim.config().l0 * sim.config().l0, fx, fy);
 }
 
 std::array<double, 2> pressure_reaction_on(const StepContext& context, std::span<const char> target,
@@ -41,22 +51,12 @@ std::array<double, 2> pressure_reaction_on(const StepContext& context, std::span
     throw std::invalid_argument("a structure's pressure force is the reaction of the fluid's pressure pairs, which "
                                 "only the conservative gradient makes equal and opposite: set pressure_gradient = "
                                 "conservative (now " + std::string(to_string(sim.config().pressure_gradient)) + ")");
-  if (!f.pressure_offset.empty())
-    throw std::invalid_argument("a structure's pressure force needs the whole pressure: set hydrostatic_split = false "
-                                "(the split leaves the hydrostatic part out of the solved pressure)");
+  require_whole_pressure(f);
   std::vector<char> moved(p.size(), 0);  // the fluid the corrector moves
   for (std::size_t i = 0; i < p.size(); ++i) moved[i] = p.kind[i] == Kind::fluid && !f.prescribed[i];
   const Kernel& k = sim.gradient_kernel();
   conservative_gradient_terms({p, sim.domain(), sim.neighbors_at_star(k), k}, p.p, moved, target, f.carriers, fx, fy);
-  const double volume = sim.config().l0 * sim.config().l0;
-  std::array<double, 2> total{0.0, 0.0};
-  for (std::size_t j = 0; j < p.size(); ++j) {
-    fx[j] *= volume;
-    fy[j] *= volume;
-    total[0] += fx[j];
-    total[1] += fy[j];
-  }
-  return total;
+  return scaled_total(sim.config().l0 * sim.config().l0, fx, fy);
 }
 
 std::array<double, 2> structure_load(const StepContext& context, std::span<const char> target, std::span<double> fx,

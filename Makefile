@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -58,7 +58,7 @@ bench: deps build/release/CMakeCache.txt
 
 # Every benchmark at full size, into bench/results/ (the charts in docs/): core phases and solvers to 1e6, the
 # per-step cost to 1e6 particles, error against wall time with the app defaults, the stability maps.
-bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability bench-default-solver
+bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability bench-default-solver bench-solver-filter
 
 # One thread, like the per-step sweep: with two and a job on the other core, the lists took 1.6-6.5x longer than on one.
 bench-core: deps build/release/CMakeCache.txt
@@ -138,6 +138,11 @@ bench-default-solver: deps build/release/CMakeCache.txt
 bench-phase-cost: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling
 	/usr/bin/python3 bench/phase_cost.py build/release
+
+# hypre-pcg's AMG built on the filtered PPE against the unfiltered one, tank PPEs at 4.1 and 3.1 l0 (~3 min)
+bench-solver-filter: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_solvers
+	/usr/bin/python3 bench/solver_filter.py build/release
 
 bench-fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi

@@ -93,6 +93,7 @@ const std::vector<std::string>& all_backends() {
       "eigen-bicgstab:precond=jacobi,tol=1e-13",
       "hypre-amg:tol=1e-13",
       "hypre-pcg:tol=1e-13",
+      "hypre-pcg:filter=0.2,tol=1e-13",
   };
   return specs;
 }
@@ -424,9 +425,9 @@ TEST(SolverFailure, EveryBackendRefusesMalformedMatricesWithAMessageNamingTheDef
 
 TEST(SolverReuse, AKeptAmgHierarchySolvesPerturbedSystemsLikeAFreshSetup) {
   const mps::PpeSystem& ppe = tank().ppe;
-  for (const char* method : {"hypre-pcg", "hypre-amg"}) {
-    auto kept = mps::make_solver(std::string(method) + ":tol=1e-13,reuse=10");
-    auto fresh = mps::make_solver(std::string(method) + ":tol=1e-13");
+  for (const char* method : {"hypre-pcg:", "hypre-amg:", "hypre-pcg:filter=0.2,"}) {
+    auto kept = mps::make_solver(std::string(method) + "tol=1e-13,reuse=10");
+    auto fresh = mps::make_solver(std::string(method) + "tol=1e-13");
     std::vector<double> x_kept(ppe.size(), 0.0);
     for (int step = 0; step < 4; ++step) {
       const mps::CsrMatrix a = perturbed(ppe.matrix, step, 0.02);
@@ -441,6 +442,64 @@ TEST(SolverReuse, AKeptAmgHierarchySolvesPerturbedSystemsLikeAFreshSetup) {
       EXPECT_LT(relative_difference(x_kept, solve_with("cholmod", a, b)), 1e-9) << method << " step " << step;
     }
   }
+}
+
+// The filtered matrix keeps what the AMG preconditioner needs: symmetry, row sums (so the free surface still anchors
+// the pressure), the strong couplings unchanged; only entries under the threshold are gone.
+TEST(SolverFilter, LumpingWeakEntriesKeepsSymmetryRowSumsAndTheStrongCouplings) {
+  const mps::CsrMatrix& a = tank().ppe.matrix;
+  const double largest = mps::largest_off_diagonal(a);
+  ASSERT_GT(largest, 0.0);
+  mps::CsrMatrix m;
+  mps::lump_weak_entries(a, 0.2 * largest, m);
+  ASSERT_NO_THROW(m.validate());
+  EXPECT_TRUE(m.is_symmetric(1e-14));
+  EXPECT_LT(m.nnz(), a.nnz() * 3 / 4) << "the 4.1 l0 stencil loses its outer couplings";
+  for (int r = 0; r < a.rows; ++r) {
+    double row_a = 0.0, row_m = 0.0;
+    for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+      const int c = a.col[static_cast<std::size_t>(k)];
+      const double v = a.val[static_cast<std::size_t>(k)];
+      row_a += v;
+      if (c == r) continue;
+      EXPECT_EQ(m.at(r, c), std::abs(v) >= 0.2 * largest ? v : 0.0) << "row " << r << " col " << c;
+    }
+    for (int k = m.row_ptr[static_cast<std::size_t>(r)]; k < m.row_ptr[static_cast<std::size_t>(r) + 1]; ++k)
+      row_m += m.val[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(row_m, row_a, 1e-12 * a.at(r, r)) << "row " << r;
+  }
+  EXPECT_LT(mps::largest_off_diagonal(m), largest * (1 + 1e-15));
+  // A row block keeps its diagonal by its global number.
+  mps::CsrMatrix block;
+  block.rows = 2;
+  block.cols = 4;
+  block.row_ptr = {0, 3, 6};
+  block.col = {1, 2, 3, 0, 2, 3};
+  block.val = {-0.1, 2.0, -1.0, -0.05, -1.0, 3.0};
+  mps::CsrMatrix lumped;
+  mps::lump_weak_entries(block, 0.5, lumped, 2);
+  EXPECT_EQ(lumped.col, (std::vector<int>{2, 3, 2, 3}));
+  EXPECT_EQ(lumped.val, (std::vector<double>{1.9, -1.0, -1.0, 2.95}));
+  EXPECT_EQ(mps::largest_off_diagonal(block, 2), 1.0);
+}
+
+// PCG still solves A itself: the filter changes only the preconditioner, so the answer is the unfiltered one, and
+// a V-cycle solver, which would converge to the filtered matrix's solution, does not offer it.
+TEST(SolverFilter, FilteredAmgPreconditionsTheSameSolutionAndOnlyPcgOffersIt) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  mps::SolveReport plain, filtered;
+  const auto x = solve_with("hypre-pcg:tol=1e-12", ppe.matrix, ppe.rhs, &plain);
+  const auto xf = solve_with("hypre-pcg:tol=1e-12,filter=0.2", ppe.matrix, ppe.rhs, &filtered);
+  EXPECT_LT(filtered.relative_residual, 1e-12);
+  EXPECT_LT(relative_difference(xf, x), 1e-10);
+  EXPECT_LE(filtered.iterations, 2 * plain.iterations) << "still a good preconditioner";
+  try {
+    mps::make_solver("hypre-amg:filter=0.2");
+    ADD_FAILURE() << "hypre-amg accepted a filter";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no key 'filter'"), std::string::npos) << e.what();
+  }
+  EXPECT_NE(mps::make_solver("auto")->spec().find("filter=0.2"), std::string::npos);
 }
 
 TEST(SolverReuse, TheHierarchyIsRebuiltAfterReuseSolvesAndWhenTheCountChanges) {

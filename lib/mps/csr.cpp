@@ -81,6 +81,54 @@ void CsrMatrix::validate() const {
   }
 }
 
+void lump_weak_entries(const CsrMatrix& a, double threshold, CsrMatrix& m, int first_row) {
+  m.rows = a.rows;
+  m.cols = a.cols;
+  m.row_ptr.assign(a.row_ptr.size(), 0);
+  m.col.clear();
+  m.val.clear();
+  m.col.reserve(a.col.size());
+  m.val.reserve(a.val.size());
+  for (std::size_t i = 0; i < static_cast<std::size_t>(a.rows); ++i) {
+    const int row = first_row + static_cast<int>(i);
+    double lumped = 0.0;
+    std::size_t diagonal = 0;
+    bool has_diagonal = false;
+    for (int k = a.row_ptr[i]; k < a.row_ptr[i + 1]; ++k) {
+      const int j = a.col[static_cast<std::size_t>(k)];
+      const double v = a.val[static_cast<std::size_t>(k)];
+      const bool on_diagonal = j == row;
+      if (!on_diagonal && std::abs(v) < threshold) {
+        lumped += v;
+        continue;
+      }
+      if (on_diagonal) {
+        diagonal = m.val.size();
+        has_diagonal = true;
+      }
+      m.col.push_back(j);
+      m.val.push_back(v);
+    }
+    if (has_diagonal) m.val[diagonal] += lumped;
+    else if (lumped != 0.0) {  // the diagonal slot is made where the columns pass i
+      auto at = std::lower_bound(m.col.begin() + m.row_ptr[i], m.col.end(), row);
+      const auto slot = at - m.col.begin();
+      m.col.insert(at, row);
+      m.val.insert(m.val.begin() + slot, lumped);
+    }
+    m.row_ptr[i + 1] = static_cast<int>(m.col.size());
+  }
+}
+
+double largest_off_diagonal(const CsrMatrix& a, int first_row) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(a.rows); ++i)
+    for (int k = a.row_ptr[i]; k < a.row_ptr[i + 1]; ++k)
+      if (a.col[static_cast<std::size_t>(k)] != first_row + static_cast<int>(i))
+        largest = std::max(largest, std::abs(a.val[static_cast<std::size_t>(k)]));
+  return largest;
+}
+
 double norm2(std::span<const double> x) {
   double s = 0.0;
   for (double v : x) s += v * v;

@@ -21,6 +21,13 @@ struct CsrMatrix {
   void validate() const;  // throws std::invalid_argument if the arrays do not form a CSR matrix
 };
 
+// M = A with each off-diagonal entry of magnitude below `threshold` moved onto its row's diagonal (row sums kept).
+// M is symmetric where A is, and diagonally dominant where A is: a sparser matrix for building a preconditioner.
+// first_row: the global number of a's first row when a is one rank's block of rows.
+void lump_weak_entries(const CsrMatrix& a, double threshold, CsrMatrix& m, int first_row = 0);
+// The largest |a_ij| with i != j (0 for a diagonal matrix).
+double largest_off_diagonal(const CsrMatrix& a, int first_row = 0);
+
 double norm2(std::span<const double> x);
 // ||b - A x|| / ||b|| (or ||b - A x|| when b = 0)
 double relative_residual(const CsrMatrix& a, std::span<const double> x, std::span<const double> b);

@@ -20,8 +20,10 @@ class AutoSolver final : public LinearSolver {
     // Validated here, passed on as written.
     static_cast<void>(o.number("tol", 1e-16, 1e-1));
     static_cast<void>(o.integer("reuse", 0, 1000000));
+    static_cast<void>(o.number("filter", 0.0, 1.0));
     jacobi_ = make_solver("eigen-cg:precond=jacobi," + tol);
-    amg_ = make_solver("hypre-pcg:reuse=" + o.values().at("reuse") + "," + tol, context);
+    amg_ = make_solver("hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol,
+                       context);
     distributed_ = context.mpi_comm.has_value();  // Eigen solves one rank's rows only
   }
 
@@ -58,7 +60,10 @@ SolverEntry auto_entry() {
           {{"tol", "1e-8", "relative residual ||b-Ax||/||b|| to reach, for either backend"},
            {"switch_iterations", "50", "Jacobi iterations above which an unchanged system moves to AMG-PCG"},
            {"steady_solves", "3", "solves in a row with the same unknown count before AMG-PCG is set up"},
-           {"reuse", "20", "hypre-pcg: solves one AMG hierarchy serves while the unknowns stay the same"}},
+           {"reuse", "20", "hypre-pcg: solves one AMG hierarchy serves while the unknowns stay the same"},
+           {"filter", "0.2",
+            "hypre-pcg: AMG built on the PPE with couplings below this fraction of the strongest lumped onto the "
+            "diagonal (half the solve's cost on the 4.1 l0 stencil)"}},
           [](const SolverOptions& o, const SolverContext& c) { return std::make_unique<AutoSolver>(o, c); }};
 }
 

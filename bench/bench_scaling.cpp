@@ -2,13 +2,16 @@
 // particles along the channel as across it), run for a few steps per solver backend, with the step's phases
 // timed by the library (neighbours, predictor, assembly, solver setup, solve, corrector). The first steps are
 // left out (warm-up: first-touch allocation, the first AMG setup). Each run also reports the profile's L2 error
-// against the series solution after its steps, so that backends are compared at equal accuracy.
+// against the series solution after its steps, so that backends are compared at equal accuracy, and the PPE's
+// cost in SpMV-equivalents: setup and solve per step over one product with the last step's matrix.
 //
 //   bench_scaling --sizes 1e4,1e5,1e6 --solvers "eigen-cg;hypre-pcg:reuse=10" --out bench/results/scaling.csv
 #include <omp.h>
 #include <sys/resource.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -29,7 +32,20 @@ struct Row {
   bool warm_start = true;
   double iterations = 0, l2_error = 0;
   double peak_rss_mb = 0;  // of the whole process so far: with sizes ascending, this run's
+  double spmv_s = 0;       // one product with the last step's PPE matrix (median of 11), the SpMV-equivalent unit
 };
+
+double median_spmv_seconds(const mps::CsrMatrix& a) {
+  std::vector<double> x(static_cast<std::size_t>(a.cols), 1.0), y(static_cast<std::size_t>(a.rows));
+  std::vector<double> seconds;
+  for (int k = 0; k < 11; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    a.multiply(x, y);
+    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::nth_element(seconds.begin(), seconds.begin() + 5, seconds.end());
+  return seconds[5];
+}
 
 double peak_rss_mb() {
   rusage u{};
@@ -69,6 +85,7 @@ Row run(long size, const std::string& spec, bool warm_start, int warmup, int ste
   r.iterations = iterations / steps;
   r.l2_error = poiseuille::measure_profile(p, sim).l2_error;
   r.peak_rss_mb = peak_rss_mb();
+  r.spmv_s = median_spmv_seconds(sim.last_ppe().matrix);
   return r;
 }
 
@@ -106,7 +123,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   csv << "particles,fluid,unknowns,solver,warm_start,steps,neighbors_s,predict_s,assemble_s,setup_s,solve_s,"
-         "correct_s,total_s,iterations,particle_steps_per_s,l2_error,threads,peak_rss_mb,solver_spec\n";
+         "correct_s,total_s,iterations,particle_steps_per_s,l2_error,threads,peak_rss_mb,spmv_s,ppe_spmv_equivalents,"
+         "solver_spec\n";
   std::cout << "body-force channel, " << omp_get_max_threads() << " OpenMP threads, " << steps << " timed steps after "
             << warmup << " (seconds per step)\n";
   try {
@@ -120,7 +138,8 @@ int main(int argc, char** argv) {
             << r.steps << std::setprecision(6) << ',' << t.neighbors << ',' << t.predict << ',' << t.assemble << ','
             << t.solver_setup << ',' << t.solve << ',' << t.correct << ',' << t.total() << ',' << r.iterations << ','
             << static_cast<double>(r.fluid) / t.total() << ',' << r.l2_error << ',' << omp_get_max_threads() << ','
-            << r.peak_rss_mb << ",\"" << r.solver_spec << "\"\n";
+            << r.peak_rss_mb << ',' << r.spmv_s << ',' << (t.solver_setup + t.solve) / r.spmv_s << ",\""
+            << r.solver_spec << "\"\n";
         csv.flush();
         std::cout << std::setw(9) << r.fluid << "  " << std::left << std::setw(40)
                   << (r.solver + (r.warm_start ? "" : " (cold)")).substr(0, 40) << std::right << std::fixed

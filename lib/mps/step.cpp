@@ -95,8 +95,12 @@ void Simulation::run(void (StepComponent::*hook)(StepContext&)) {
 
 double max_fluid_speed_squared(const Particles& p) {
   double umax2 = 0.0;
-  for (std::size_t i = 0; i < p.size(); ++i)
+  const auto n = static_cast<Index>(p.size());
+#pragma omp parallel for schedule(static) reduction(max : umax2)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
+  }
   return umax2;
 }
 
@@ -404,7 +408,10 @@ void Simulation::correct() {
            f.carriers, {tilt * (config_.fx - f.balanced_fx), tilt * (config_.fy - f.balanced_fy)},
            f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>());
   const double dt = f.dt;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  const auto n = static_cast<Index>(p.size());
+#pragma omp parallel for schedule(static)
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
     const double du = -dt / config_.rho * f.gx[i], dv = -dt / config_.rho * f.gy[i];
     p.u[i] += du;
@@ -440,22 +447,32 @@ void Simulation::check_guard() const {
   };
   // A fluid particle moves by exactly dt |u^{n+1}| in a step, so the displacement bound is a speed bound.
   const double max_move = config_.max_displacement * config_.l0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    if (p.kind[i] == Kind::ghost) continue;
+  auto bad = [&](std::size_t i) {
+    if (p.kind[i] == Kind::ghost) return false;
     const double speed = std::hypot(p.u[i], p.v[i]);
-    if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
-      fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up");
-    if (!domain_.contains(p.x[i], p.y[i]))
-      fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at (" +
-           fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable");
-    if (speed > config_.max_speed)
-      fail("particle " + std::to_string(i) + " moves at " + fmt(speed) + " m/s, above max_speed " +
-           fmt(config_.max_speed) + " m/s");
-    if (p.kind[i] == Kind::fluid && info_.dt * speed > max_move)
-      fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
-           " l0 in one step, above the limit of " + fmt(config_.max_displacement) +
-           " l0: velocity blow-up");
-  }
+    return !std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]) ||
+           !domain_.contains(p.x[i], p.y[i]) || speed > config_.max_speed ||
+           (p.kind[i] == Kind::fluid && info_.dt * speed > max_move);
+  };
+  // Threads only look for the first offending particle; its message is then made in order.
+  const auto n = static_cast<Index>(p.size());
+  Index first = n;
+#pragma omp parallel for schedule(static) reduction(min : first)
+  for (Index i = 0; i < n; ++i)
+    if (bad(static_cast<std::size_t>(i))) first = std::min(first, i);
+  if (first == n) return;
+  const auto i = static_cast<std::size_t>(first);
+  const double speed = std::hypot(p.u[i], p.v[i]);
+  if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
+    fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up");
+  if (!domain_.contains(p.x[i], p.y[i]))
+    fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at (" +
+         fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable");
+  if (speed > config_.max_speed)
+    fail("particle " + std::to_string(i) + " moves at " + fmt(speed) + " m/s, above max_speed " +
+         fmt(config_.max_speed) + " m/s");
+  fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
+       " l0 in one step, above the limit of " + fmt(config_.max_displacement) + " l0: velocity blow-up");
 }
 
 }  // namespace mps

@@ -460,10 +460,15 @@ class HypreSolver final : public LinearSolver {
   // filtered matrix, as lump_weak_entries makes it); *largest receives the largest off-diagonal magnitude copied.
   bool upload_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold = 0.0, double* largest = nullptr) {
     const HYPRE_Int n = a.rows;
-    if (kept.matrix == nullptr || kept.rows != n || kept.capacity < static_cast<HYPRE_Int>(a.row_ptr.back())) {
+    // hypre zeroes what it allocates, so a filtered matrix is sized by its own entries, not by A's.
+    auto need = static_cast<HYPRE_Int>(a.row_ptr.back());
+    if (threshold > 0.0)
+      need = static_cast<HYPRE_Int>(n + std::count_if(a.val.begin(), a.val.end(), [&](double v) {
+                                      return std::abs(v) >= threshold;
+                                    }));  // an upper bound: diagonals above the threshold counted twice
+    if (kept.matrix == nullptr || kept.rows != n || kept.capacity < need) {
       if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
       HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
-      const auto need = static_cast<HYPRE_Int>(a.row_ptr.back());
       kept.capacity = need + need / 16;  // room for the pattern to grow a little from step to step
       kept.matrix = hypre_ParCSRMatrixCreate(comm_, n, n, starts, starts, 0, kept.capacity, 0);
       hypre_ParCSRMatrixInitialize(kept.matrix);

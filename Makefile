@@ -6,7 +6,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter clean
+.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -138,6 +138,11 @@ bench-default-solver: deps build/release/CMakeCache.txt
 bench-phase-cost: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling
 	/usr/bin/python3 bench/phase_cost.py build/release
+
+# one thread against two with OpenMP's active and passive wait policies, idle and beside a busy process (~5 min)
+bench-thread-wait: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
+	/usr/bin/python3 bench/thread_wait.py build/release
 
 # hypre-pcg's AMG built on the filtered PPE against the unfiltered one, tank PPEs at 4.1 and 3.1 l0 (~3 min)
 bench-solver-filter: deps build/release/CMakeCache.txt

@@ -460,7 +460,7 @@ class HypreSolver final : public LinearSolver {
   // filtered matrix, as lump_weak_entries makes it); *largest receives the largest off-diagonal magnitude copied.
   bool upload_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold = 0.0, double* largest = nullptr) {
     const HYPRE_Int n = a.rows;
-    // hypre zeroes what it allocates, so a filtered matrix is sized by its own entries, not by A's.
+    // A filtered matrix is sized by the entries it keeps, not by A's.
     auto need = static_cast<HYPRE_Int>(a.row_ptr.back());
     if (threshold > 0.0)
       need = static_cast<HYPRE_Int>(n + std::count_if(a.val.begin(), a.val.end(), [&](double v) {

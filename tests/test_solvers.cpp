@@ -550,6 +550,16 @@ TEST(SolverAuto, JacobiWhileTheUnknownsChangeThenReusedAmgOnceTheyStayAndJacobiW
   used.clear();
   for (int k = 0; k < 4; ++k) step(c, k);
   EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "eigen-cg", "eigen-cg", "eigen-cg"}));
+  // Jacobi slower than rebuild_iterations: AMG-PCG from then on, set up afresh when the unknowns change.
+  solver = mps::make_solver("auto:switch_iterations=20,rebuild_iterations=20,tol=1e-12");
+  used.clear();
+  reused.clear();
+  step(t, 0);
+  step(c, 0);
+  step(t, 1);
+  step(t, 2);
+  EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "hypre-pcg", "hypre-pcg", "hypre-pcg"}));
+  EXPECT_EQ(reused, (std::vector<bool>{false, false, false, true}));
 }
 
 TEST(SolverReuse, CholmodReusesItsSymbolicAnalysisWhileThePatternHolds) {

@@ -14,6 +14,7 @@ class AutoSolver final : public LinearSolver {
  public:
   AutoSolver(const SolverOptions& o, const SolverContext& context)
       : switch_iterations_(o.integer("switch_iterations", 0, 100000000)),
+        rebuild_iterations_(o.integer("rebuild_iterations", 0, 100000000)),
         steady_solves_(o.integer("steady_solves", 1, 1000000)),
         spec_(o.spec()) {
     const std::string tol = "tol=" + o.values().at("tol");
@@ -30,7 +31,11 @@ class AutoSolver final : public LinearSolver {
   SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) override {
     steady_ = a.rows == last_rows_ ? steady_ + 1 : 1;
     last_rows_ = a.rows;
-    if (distributed_ || (steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_))) {
+    // Jacobi this slow costs more than a fresh filtered AMG setup and solve (about 150 and 50 SpMVs at 1e5
+    // unknowns, docs/solvers.md): AMG from then on, its hierarchy rebuilt whenever the unknowns change.
+    always_amg_ = always_amg_ || last_jacobi_iterations_ > rebuild_iterations_;
+    if (distributed_ || always_amg_ ||
+        (steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_))) {
       on_amg_ = true;
       return amg_->solve(a, b, x);
     }
@@ -43,9 +48,9 @@ class AutoSolver final : public LinearSolver {
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_;
-  int switch_iterations_, steady_solves_;
+  int switch_iterations_, rebuild_iterations_, steady_solves_;
   std::string spec_;
-  bool distributed_ = false, on_amg_ = false;
+  bool distributed_ = false, on_amg_ = false, always_amg_ = false;
   int last_rows_ = -1, last_jacobi_iterations_ = 0;
   int steady_ = 0;  // solves in a row, this one included, with the same unknown count
 };
@@ -56,9 +61,12 @@ SolverEntry auto_entry() {
   return {"auto",
           "The default: Jacobi-CG (eigen-cg:precond=jacobi) while it needs few iterations or the unknowns change from "
           "step to step; hypre-pcg with its AMG hierarchy reused once the unknowns stay the same and Jacobi needed "
-          "more than switch_iterations. Each solve's report names the backend it used.",
+          "more than switch_iterations, or for good once a Jacobi solve needed more than rebuild_iterations. Each "
+          "solve's report names the backend it used.",
           {{"tol", "1e-8", "relative residual ||b-Ax||/||b|| to reach, for either backend"},
            {"switch_iterations", "50", "Jacobi iterations above which an unchanged system moves to AMG-PCG"},
+           {"rebuild_iterations", "150",
+            "Jacobi iterations above which AMG-PCG takes over for good, set up afresh whenever the unknowns change"},
            {"steady_solves", "3", "solves in a row with the same unknown count before AMG-PCG is set up"},
            {"reuse", "20", "hypre-pcg: solves one AMG hierarchy serves while the unknowns stay the same"},
            {"filter", "0.2",

@@ -20,6 +20,7 @@
 #include "mps/io.hpp"
 #include "mps/step.hpp"
 #include "png.hpp"
+#include "run_config.hpp"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -84,6 +85,7 @@ int main(int argc, char** argv) {
   mps::AcousticConfig config;
   CLI::App app{"SparseMPS acoustics (MPS-WP, seed 001): Gaussian pulses against the exact solution"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--case", case_name, "free | hard | mur | two-pulse | flow")->capture_default_str();
   app.add_option("--size", size, "side of the square box [m]")->capture_default_str()->check(positive_up_to(1e5));
   app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str()->check(positive_up_to(1e3));
@@ -202,7 +204,9 @@ int main(int argc, char** argv) {
                 solver.interior(), solver.particles().size() - solver.interior(), solver.gradient().x.nnz(), config.dt(),
                 cfl_limit, config.cfl);
 
-    clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json", "last_good.vtp"});
+    clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json", "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "acoustic", dir);
     fs::create_directories(dir / "frames");
     fs::create_directories(dir / "maps");
     const std::size_t n_in = solver.interior();

@@ -15,14 +15,17 @@ inline void add_list_solvers_flag(CLI::App& app) {
         std::cout << mps::describe_solvers();
         throw CLI::Success();
       },
-      "print the available solvers with their keys and defaults, and exit");
+      "print the available solvers with their keys and defaults, and exit")
+      ->configurable(false);
 }
 
 // --cold-start: every pressure solve from a zero guess instead of the previous step's pressure
-// (SimulationConfig::warm_start = false), the classic baseline.
+// (SimulationConfig::warm_start = false), the classic baseline. A flag that sets false, not a negated flag: CLI11
+// writes a negated flag's state into config.toml so that reading it back loses the setting.
 inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
-  return app.add_flag("!--cold-start", warm_start,
-                      "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)");
+  return app.add_flag_callback(
+      "--cold-start", [&warm_start] { warm_start = false; },
+      "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)");
 }
 
 inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {

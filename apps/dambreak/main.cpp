@@ -11,6 +11,7 @@
 #include "column.hpp"
 #include "mps/io.hpp"
 #include "mps/version.hpp"
+#include "run_config.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -55,6 +56,7 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS dam break: a water column collapses in an open tank (seed 003 §2.1); the surge front against "
                "Martin & Moyce, the downstream-wall pressure against Buchner"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--column", column_name,
                  "classic: a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, H = 1 m high, "
                  "tank 5.366 m x 3 m (Buchner's wall pressure)")
@@ -121,7 +123,9 @@ int main(int argc, char** argv) {
               << p.l0 << " m, to t = " << p.end_time << " s, solver " << sim.solver().spec() << "\n";
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                        "last_good.vtp"});
+                        "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "dambreak", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "dambreak", frames, p.end_time);
     series.write_if_due(sim);

@@ -12,6 +12,7 @@
 #include "mps/io.hpp"
 #include "mps/version.hpp"
 #include "scene.hpp"
+#include "run_config.hpp"
 #include "run_json.hpp"
 
 namespace fs = std::filesystem;
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS fluid-structure interaction (seed 003): a dam-break column hits an elastic plate (§2.4), "
                "water opens a rubber gate (§2.3)"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--scene", scene_name, "plate: dam break on a plate 0.08 m high, 0.012 m thick; gate: water 0.14 m "
                  "deep held by a rubber gate 0.079 m long, 0.005 m thick")
       ->capture_default_str()->check(CLI::IsMember({"plate", "gate"}));
@@ -83,7 +85,9 @@ int main(int argc, char** argv) {
               << " fluid particles, " << scene.body_particles() << " body particles, dx " << p.l0 << " m, to t = "
               << p.end_time << " s\n";
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp"});
+    clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "fsi", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "fsi", frames, p.end_time);
     series.write_if_due(sim);

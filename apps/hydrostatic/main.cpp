@@ -9,6 +9,7 @@
 #include "checks.hpp"
 #include "mps/version.hpp"
 #include "mps/io.hpp"
+#include "run_config.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 #include "tank.hpp"
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   double tolerance = 0.05;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(positive_up_to(1e3));
   app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()->check(positive_up_to(1e3));
   app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(positive_up_to(1e3));
@@ -62,7 +64,9 @@ int main(int argc, char** argv) {
     const nlohmann::json params = params_json(p, sim);
     std::cout << "hydrostatic tank: " << params.dump() << "\n";
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp"});
+    clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "hydrostatic", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "tank", frames, p.end_time);
     series.write_if_due(sim);

@@ -12,6 +12,7 @@
 #include "mps/version.hpp"
 #include "checks.hpp"
 #include "mps/io.hpp"
+#include "run_config.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS plane channel: the pushing-plate inlet channel against the developed parabola, or the "
                "periodic body-force Poiseuille / Couette start-up against the exact series"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str();
   app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
       ->capture_default_str()->check(positive_up_to(1e6));
@@ -101,7 +103,9 @@ int main(int argc, char** argv) {
     if (!p.periodic()) params["profile_average_D_over_U"] = average;
     std::cout << "channel: " << params.dump() << "\n";
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp"});
+    clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "poiseuille", dir);
     fs::create_directories(dir / "frames");
     mps::PvdSeries series(dir / "channel.pvd");
     const double t_end = end_time * p.convective_time();

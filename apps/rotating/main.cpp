@@ -15,6 +15,7 @@
 #include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "rotor.hpp"
+#include "run_config.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -201,6 +202,7 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS rotating boundaries (seed 000): Taylor-Couette flow against the exact profile, and the "
                "screw channel in the moving- and fixed-boundary models"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--scene", scene, "couette | channel")->capture_default_str();
   app.add_option("--model", model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
                  "compares them)")->capture_default_str();
@@ -216,8 +218,9 @@ int main(int argc, char** argv) {
                  "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str();
   app.add_option("--gradient", gradient, "pressure gradient: min-reference | corrected-min-reference (with the "
                  "corrective matrix)")->capture_default_str();
-  app.add_flag("!--lattice-reference", p.initial_reference, "density source against the square lattice's n0 instead "
-               "of the initial packing (each wall particle's own, the fluid's mean)");
+  app.add_flag_callback("--lattice-reference", [&p] { p.initial_reference = false; },
+                        "density source against the square lattice's n0 instead of the initial packing (each wall "
+                        "particle's own, the fluid's mean)");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
       ->capture_default_str()->check(positive_up_to(100));
   add_shifting_option(app, p.shifting);
@@ -257,7 +260,9 @@ int main(int argc, char** argv) {
                    "use fewer --across", "shorten --times or raise --dt-factor");
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "couette.pvd", "channel.pvd", "couette.csv", "line1.csv", "arc2.csv",
-                        "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed"});
+                        "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed",
+                        "config.toml"});
+    write_run_config(app, "rotating", dir);
     std::vector<std::pair<std::string, RunResult>> runs;
     for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{model}) {
       if (!couette) p.model = rotating::parse_model(m);

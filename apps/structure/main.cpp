@@ -14,6 +14,7 @@
 #include "mps/particles.hpp"
 #include "mps/version.hpp"
 #include "scenes.hpp"
+#include "run_config.hpp"
 
 namespace fs = std::filesystem;
 
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS elastic structures (seed 003 §2.2): total-Lagrangian particle solid; the oscillating plate "
                "against its plane-strain elastic solution, Turek & Hron's CSM3 flag against its reference"};
   app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
+  add_config_option(app);
   app.add_option("--scene", scene_name, "plate: Gray, Monaghan & Swift's clamped plate (L = 0.2 m, H = 0.02 m) set "
                  "swinging by its first mode; csm3: Turek & Hron's flag on a cylinder bending under gravity")
       ->capture_default_str()->check(CLI::IsMember({"plate", "csm3"}));
@@ -123,7 +125,9 @@ int main(int argc, char** argv) {
               << " clamped particles, dx " << dx << " m, dt " << solid.dt() << " s (CFL " << config.cfl << ", stable up to ~" << solid.stable_cfl() << "), to t = " << end_time << " s\n";
 
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp"});
+    clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp",
+                        "config.toml"});
+    write_run_config(app, "structure", dir);
     fs::create_directories(dir / "frames");
     mps::PvdSeries series(dir / "structure.pvd");
     std::vector<double> t, ux, uy, ek, es, eg, et;

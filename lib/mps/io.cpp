@@ -144,6 +144,10 @@ void write_json(const fs::path& path, const nlohmann::json& value) {
   write_atomically(path, [&](std::ofstream& out) { out << value.dump(2) << '\n'; });
 }
 
+void write_text(const fs::path& path, const std::string& text) {
+  write_atomically(path, [&](std::ofstream& out) { out << text; });
+}
+
 void write_matrix_market(const fs::path& path, const CsrMatrix& a) {
   write_atomically(path, [&](std::ofstream& out) {
     out << "%%MatrixMarket matrix coordinate real general\n% written by SparseMPS\n"

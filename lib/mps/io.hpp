@@ -37,6 +37,7 @@ void write_csv(const std::filesystem::path& path, const std::vector<std::string>
                const std::vector<std::vector<double>>& columns);
 
 void write_json(const std::filesystem::path& path, const nlohmann::json& value);
+void write_text(const std::filesystem::path& path, const std::string& text);
 
 // Matrix Market "coordinate real general", 17 significant digits, so a read returns the same matrix.
 void write_matrix_market(const std::filesystem::path& path, const CsrMatrix& a);

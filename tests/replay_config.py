@@ -1,0 +1,91 @@
+#!/usr/bin/python3
+"""Every app writes config.toml beside its summary; `app --config that-file --out elsewhere` must repeat the run
+bitwise: the same exit status, the same summary (timings aside) and the same bytes in every other file it wrote.
+Each case sets options away from their defaults, flags included, so that a setting the file lost would show.
+
+  tests/replay_config.py BUILD_DIR
+"""
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from compare_results import without_timings  # noqa: E402
+
+CASES = {
+    "poiseuille": "--mode body-force --across 10 --end-time 1 --frames 2 --gamma 0.05 --cold-start --tolerance 0.5",
+    "hydrostatic": "--end-time 0.1 --window 0.05 --frames 2 --gamma 0.01",
+    "rotating": "--scene channel --model moving --across 8 --times 0.05 --frames 2 --walls plain "
+                "--lattice-reference --shifting 0",
+    "acoustic": "--case hard --size 20 --l0 0.5 --end-time 0.05 --no-maps --frames 2",
+    "dambreak": "--column classic --end-time 0.05 --frames 2 --shifting 1 --gradient plain --wet-walls",
+    "structure": "--scene csm3 --end-time 0.05 --frames 2",
+    "fsi": "--scene gate --end-time 0.01 --frames 2",
+}
+FLAGS = {"poiseuille": "cold-start=true", "rotating": "lattice-reference=true", "dambreak": "wet-walls=true",
+         "acoustic": "no-maps=true"}
+
+
+def run(build, app, args, out):
+    cmd = [str(Path(build) / "apps" / app / app), *args, "--out", str(out)]
+    proc = subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS="1"), capture_output=True, text=True)
+    return proc.returncode, proc.stderr
+
+
+def outputs(out):
+    files = {}
+    for f in sorted(Path(out).rglob("*")):
+        if f.is_file() and f.name not in ("summary.json", "config.toml"):
+            files[str(f.relative_to(out))] = hashlib.sha256(f.read_bytes()).hexdigest()
+    summary = json.loads((Path(out) / "summary.json").read_text())
+    return files, without_timings(summary)
+
+
+def main():
+    build = sys.argv[1]
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for app, args in CASES.items():
+            first, again = Path(tmp) / app / "first", Path(tmp) / app / "again"
+            status, err = run(build, app, args.split(), first)
+            config = first / "config.toml"
+            if not config.exists():
+                failures.append(f"{app}: no config.toml written (exit {status}): {err[-300:]}")
+                continue
+            text = config.read_text()
+            if app in FLAGS and FLAGS[app] not in text.splitlines():
+                failures.append(f"{app}: config.toml lacks '{FLAGS[app]}'")
+            status2, err2 = run(build, app, ["--config", str(config)], again)
+            if status2 != status:
+                failures.append(f"{app}: exit {status} first, {status2} replayed: {err2[-300:]}")
+                continue
+            files, summary = outputs(first)
+            files2, summary2 = outputs(again)
+            if files != files2:
+                differ = sorted(k for k in set(files) | set(files2) if files.get(k) != files2.get(k))
+                failures.append(f"{app}: files differ on replay: {differ[:5]}")
+            if summary != summary2:
+                keys = sorted(k for k in set(summary) | set(summary2) if summary.get(k) != summary2.get(k))
+                failures.append(f"{app}: summary differs on replay in {keys}")
+            replayed = (again / "config.toml").read_text()
+            if [l for l in text.splitlines() if not l.startswith("out=")] != \
+                    [l for l in replayed.splitlines() if not l.startswith("out=")]:
+                failures.append(f"{app}: the replay's config.toml differs from the first run's")
+            print(f"{app}: exit {status}, {len(files)} files and the summary the same on replay")
+        # A key the app does not know is an error naming it, not a silent default.
+        bad = Path(tmp) / "bad.toml"
+        bad.write_text((Path(tmp) / "poiseuille" / "first" / "config.toml").read_text() + "gama=0.5\n")
+        status, err = run(build, "poiseuille", ["--config", str(bad)], Path(tmp) / "bad")
+        if status == 0 or "gama" not in err:
+            failures.append(f"a misspelt key was accepted (exit {status}): {err[-300:]}")
+    for f in failures:
+        print("FAIL", f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -2,6 +2,8 @@
 """Every app writes config.toml beside its summary; `app --config that-file --out elsewhere` must repeat the run
 bitwise: the same exit status, the same summary (timings aside) and the same bytes in every other file it wrote.
 Each case sets options away from their defaults, flags included, so that a setting the file lost would show.
+Every summary follows the one schema of apps/common/run_json.hpp: a status from one vocabulary, `pass` true exactly
+when the exit status is 0, and the run record (app, version, commit, command line, config file).
 
   tests/replay_config.py BUILD_DIR
 """
@@ -36,12 +38,40 @@ def run(build, app, args, out):
     return proc.returncode, proc.stderr
 
 
+VOCABULARY = {"passed": 0, "check failed": 2, "completed": 0, "failed": 1}
+
+
+def schema_errors(app, args, out, status):
+    """What in out/summary.json breaks the schema, as messages."""
+    summary = json.loads((Path(out) / "summary.json").read_text())
+    errors = []
+    if VOCABULARY.get(summary.get("status")) != status:
+        errors.append(f"status {summary.get('status')!r} with exit status {status}")
+    if summary.get("pass") is not (status == 0):
+        errors.append(f"pass {summary.get('pass')!r} with exit status {status}")
+    if not isinstance(summary.get("parameters"), dict):
+        errors.append("no parameters")
+    run = summary.get("run", {})
+    exe = str(Path(sys.argv[1]) / "apps" / app / app)
+    expected = {"app": app, "command_line": [exe, *args, "--out", str(out)], "config": "config.toml"}
+    for key, value in expected.items():
+        if run.get(key) != value:
+            errors.append(f"run.{key} {run.get(key)!r}, expected {value!r}")
+    commit = run.get("commit", "")
+    if not (commit == "unknown" or (len(commit) == 12 and all(c in "0123456789abcdef" for c in commit))):
+        errors.append(f"run.commit {commit!r}")
+    if not run.get("version"):
+        errors.append("no run.version")
+    return [f"{app} {' '.join(args)}: {e}" for e in errors]
+
+
 def outputs(out):
     files = {}
     for f in sorted(Path(out).rglob("*")):
         if f.is_file() and f.name not in ("summary.json", "config.toml"):
             files[str(f.relative_to(out))] = hashlib.sha256(f.read_bytes()).hexdigest()
     summary = json.loads((Path(out) / "summary.json").read_text())
+    summary.pop("run")  # its command line is the replay's own
     return files, without_timings(summary)
 
 
@@ -52,6 +82,7 @@ def main():
         for app, args in CASES.items():
             first, again = Path(tmp) / app / "first", Path(tmp) / app / "again"
             status, err = run(build, app, args.split(), first)
+            failures += schema_errors(app, args.split(), first, status)
             config = first / "config.toml"
             if not config.exists():
                 failures.append(f"{app}: no config.toml written (exit {status}): {err[-300:]}")
@@ -76,6 +107,11 @@ def main():
                     [l for l in replayed.splitlines() if not l.startswith("out=")]:
                 failures.append(f"{app}: the replay's config.toml differs from the first run's")
             print(f"{app}: exit {status}, {len(files)} files and the summary the same on replay")
+        # A run the guard stops: status "failed", pass false, exit 1.
+        args = "--mode inlet --re 400 --across 10 --end-time 0.5 --frames 0 --dt-factor 20".split()
+        stopped = Path(tmp) / "stopped"
+        status, err = run(build, "poiseuille", args, stopped)
+        failures += schema_errors("poiseuille", args, stopped, status) if status == 1 else [f"no guard stop: {status}"]
         # A key the app does not know is an error naming it, not a silent default.
         bad = Path(tmp) / "bad.toml"
         bad.write_text((Path(tmp) / "poiseuille" / "first" / "config.toml").read_text() + "gama=0.5\n")

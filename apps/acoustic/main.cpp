@@ -21,6 +21,7 @@
 #include "mps/step.hpp"
 #include "png.hpp"
 #include "run_config.hpp"
+#include "run_json.hpp"
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -75,6 +76,7 @@ std::string time_tag(double t) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  record_run("acoustic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   std::string case_name = "free", boundary_name, gradient_name = "mps", weight_name = "classic", out;
   double size = 100.0, half_width = 3.0, amplitude = 1.0, frequency = 200.0, tolerance = 1e-10;
@@ -254,7 +256,7 @@ int main(int argc, char** argv) {
       mps::write_vtp(dir / name, p, {{"exact_pressure", exact_all}});
       series.add(solver.time(), dir / name);
     };
-    auto write_summary = [&](const std::string& status, const std::string& error, double step_s) {
+    auto summarise = [&](const std::string& status, const std::string& error, double step_s) {
       const int steps = solver.steps();
       const double per_step = steps > 0 ? step_s / steps : 0.0;
       nlohmann::json s = {{"status", status}, {"parameters", params}, {"time_s", solver.time()}, {"steps", steps},
@@ -272,7 +274,7 @@ int main(int argc, char** argv) {
                       {"per_step_spmv_equivalents", spmv_median > 0 ? step_median / spmv_median : 0.0},
                       {"spmv_samples", spmv_times.size()}, {"exact_solution_s", exact_s},
                       {"particle_steps_per_second", step_s > 0 ? static_cast<double>(n_in) * steps / step_s : 0.0}};
-      mps::write_json(dir / "summary.json", s);
+      write_summary(dir, s);
       return s;
     };
 
@@ -359,13 +361,13 @@ int main(int argc, char** argv) {
       p.v = solver.velocity_y();
       mps::write_vtp(dir / "last_good.vtp", p);
       mps::write_csv(dir / "energy.csv", {"time_s", "energy_fraction"}, {energy_t, energy_fraction});
-      write_summary("failed", e.what(), step_s);
+      summarise("failed", e.what(), step_s);
       std::cerr << "error: " << e.what() << "\nlast good state (t = " << solver.time() << " s) written to "
                 << (dir / "last_good.vtp").string() << "\n";
       return 1;
     }
     mps::write_csv(dir / "energy.csv", {"time_s", "energy_fraction"}, {energy_t, energy_fraction});
-    const nlohmann::json s = write_summary("completed", "", step_s);
+    const nlohmann::json s = summarise("completed", "", step_s);
     const auto& tm = s["timings"];
     std::printf("\n%d steps in %.2f s; median step %.3g ms = %.1f SpMV-equivalents (median gradient SpMV %.3g ms); "
                 "setup %.2f s, exact solution %.2f s\n",

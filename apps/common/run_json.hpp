@@ -3,12 +3,17 @@
 // stability guard stopped.
 #include <cstdio>
 #include <filesystem>
-#include <string>
 #include <iostream>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "mps/io.hpp"
 #include "mps/step.hpp"
+#include "mps/version.hpp"
+#include "source_commit.hpp"
 
 // Frames at end_time / count intervals, the first at t = 0: dir/frames/<stem>_NNNN.vtp, listed in dir/<stem>.pvd
 // (count 0: none).
@@ -35,6 +40,32 @@ class FrameSeries {
   mps::PvdSeries series_;
 };
 
+// Who made a summary: the app, the library's version and source commit, the command line and the config file beside
+// it. Set once at the start of main.
+inline nlohmann::json& run_record() {
+  static nlohmann::json record = nlohmann::json::object();
+  return record;
+}
+inline void record_run(const std::string& app, int argc, char** argv) {
+  run_record() = {{"app", app},
+                  {"version", mps::version},
+                  {"commit", source_commit},
+                  {"command_line", std::vector<std::string>(argv, argv + argc)},
+                  {"config", "config.toml"}};
+}
+
+// Every app's summary.json. One status vocabulary: "passed" (its check passed, exit 0), "check failed" (exit 2),
+// "completed" (a run with no check, exit 0), "failed" (stopped by the guard or an error, exit 1); `pass` is true
+// exactly when the exit status is 0.
+inline void write_summary(const std::filesystem::path& dir, nlohmann::json summary) {
+  static const std::set<std::string> vocabulary = {"passed", "check failed", "completed", "failed"};
+  const std::string status = summary.at("status").get<std::string>();
+  if (vocabulary.count(status) == 0) throw std::logic_error("summary status '" + status + "' is not in the vocabulary");
+  summary["pass"] = status == "passed" || status == "completed";
+  summary["run"] = run_record();
+  mps::write_json(dir / "summary.json", summary);
+}
+
 inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::size_t particles) {
   return {{"neighbors_s", t.neighbors}, {"predict_s", t.predict}, {"assemble_s", t.assemble},
           {"solver_setup_s", t.solver_setup}, {"solve_s", t.solve}, {"correct_s", t.correct}, {"total_s", t.total()},
@@ -48,8 +79,8 @@ inline int report_guard_stop(const std::filesystem::path& dir, const mps::Simula
   std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
   try {
     mps::write_vtp(dir / "last_good.vtp", sim.particles());
-    mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", error.what()}, {"parameters", params},
-                                           {"time_s", sim.time()}, {"steps", sim.last_step().step}});
+    write_summary(dir, {{"status", "failed"}, {"error", error.what()}, {"parameters", params}, {"time_s", sim.time()},
+                        {"steps", sim.last_step().step}});
     std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";
   } catch (const std::exception& e) {
     std::cerr << "error: the last good state could not be saved: " << e.what() << "\n";

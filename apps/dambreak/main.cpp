@@ -48,6 +48,7 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
 }  // namespace
 
 int main(int argc, char** argv) {
+  record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;
   double dx = 0, end_time = 0, front_tolerance = 0.03;
@@ -221,7 +222,7 @@ int main(int argc, char** argv) {
     checks["fluid_removed_as_spray"] = scene.removed();
     checks["most_fluid_inside_walls"] = scene.most_inside_walls();
     checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
-    mps::write_json(dir / "summary.json",
+    write_summary(dir,
                     {{"status", column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
                      {"parameters", params},
                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", sim.particles().size()}}},

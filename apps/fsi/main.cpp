@@ -18,6 +18,7 @@
 namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
+  record_run("fsi", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   fsi::Params p;
   std::string out = "runs/fsi", scene_name = "plate";
@@ -144,7 +145,7 @@ int main(int argc, char** argv) {
       checks["pressure_work_on_body_j_per_m"] = st->solid().external_work();
       checks["body_energy_j_per_m"] = body;
     }
-    mps::write_json(dir / "summary.json",
+    write_summary(dir,
                     {{"status", "completed"}, {"parameters", params}, {"steps", sim.last_step().step},
                      {"time_s", sim.time()}, {"checks", checks},
                      {"timings", timings}});

@@ -34,6 +34,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  record_run("hydrostatic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;
   std::string out = "runs/hydrostatic";
@@ -98,7 +99,7 @@ int main(int argc, char** argv) {
     mps::write_csv(dir / "pressure.csv", {"y_m", "mean_pressure_pa", "exact_pressure_pa", "relative_error"},
                    {y, measured, exact, error});
     const bool pass = r.max_error_below_top <= tolerance;
-    mps::write_json(dir / "summary.json",
+    write_summary(dir,
                     {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
                      {"particles", {{"fluid", r.fluid}, {"boundary", r.boundary}}}, {"steps", r.steps},
                      {"time_s", r.time}, {"dt_limit", r.dt_limit},

@@ -47,6 +47,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
 }  // namespace
 
 int main(int argc, char** argv) {
+  record_run("poiseuille", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   poiseuille::Params p;
   std::string mode = "inlet", out = "runs/poiseuille";
@@ -171,7 +172,7 @@ int main(int argc, char** argv) {
     const double checked = p.periodic() ? last.l2_error : last.peak_error;
     const bool pass = checked <= tolerance;
     const nlohmann::json timings = timings_json(sim.times(), steps, s.size());
-    mps::write_json(dir / "summary.json",
+    write_summary(dir,
                     {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
                      {"particles", s.size()}, {"steps", steps}, {"time_s", sim.time()},
                      {"dt_limit", sim.last_step().dt_limit},

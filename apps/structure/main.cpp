@@ -15,6 +15,7 @@
 #include "mps/version.hpp"
 #include "scenes.hpp"
 #include "run_config.hpp"
+#include "run_json.hpp"
 
 namespace fs = std::filesystem;
 
@@ -37,6 +38,7 @@ double relative(double value, double reference) { return std::abs(value - refere
 }  // namespace
 
 int main(int argc, char** argv) {
+  record_run("structure", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string scene_name = "plate", model_name = "svk", out = "runs/structure", data = STRUCTURE_DATA_DIR;
   double dx = 0, end_time = 0, sample_interval = 0, period_tolerance = 0.02, amplitude_tolerance = 0.05;
@@ -174,7 +176,7 @@ int main(int argc, char** argv) {
       std::cerr << "error: " << e.what() << "\n";
       mps::write_vtp(dir / "last_good.vtp", as_particles(solid));
       mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {t, ux, uy});
-      mps::write_json(dir / "summary.json", {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
+      write_summary(dir, {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
                                              {"time_s", solid.time()}, {"steps", solid.steps()}});
       std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";
       return 1;
@@ -268,7 +270,7 @@ int main(int argc, char** argv) {
       spmv_s /= reps;
     }
     const double spmv_per_step = seconds / solid.steps() / spmv_s;
-    mps::write_json(dir / "summary.json",
+    write_summary(dir,
                     {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
                      {"particles", {{"moving", solid.moving()}, {"clamped", solid.size() - solid.moving()}}},
                      {"steps", solid.steps()}, {"time_s", solid.time()}, {"checks", checks},

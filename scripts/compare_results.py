@@ -4,7 +4,8 @@
   scripts/compare_results.py record BUILD_DIR RECORD.json   # before the change
   scripts/compare_results.py check  BUILD_DIR RECORD.json   # after: exit 1 and list every difference
 
-Recorded per case: the exit status, summary.json without its timings (wall-clock figures differ run to run), and the
+Recorded per case: the exit status, summary.json without its timings and run record (wall-clock figures and the
+command line differ run to run), and the
 SHA-256 of every other file the run wrote (frames, CSVs). One OpenMP thread, so that reductions add in one order.
 """
 import hashlib
@@ -45,7 +46,9 @@ CASES = {
     "fsi-plate-min-reference": ("fsi", "--end-time 0.16 --frames 2 --pressure-gradient min-reference --relaxation 0.1"),
     "fsi-gate": ("fsi", "--scene gate --end-time 0.01 --frames 2"),
 }
-TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s"}
+# Wall-clock figures differ run to run; "run" records the command line (its --out) and the commit, which a refactor
+# changes by definition.
+TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s", "run"}
 
 
 def without_timings(value):
@@ -68,6 +71,9 @@ def run_case(build: Path, app: str, args: str) -> dict:
             rel = str(f.relative_to(out))
             if f.name == "summary.json":
                 record["summary"] = without_timings(json.loads(f.read_text()))
+            elif f.name == "config.toml":  # every option but the temporary --out
+                options = [line for line in f.read_text().splitlines() if not line.startswith("out=")]
+                record["files"][rel] = hashlib.sha256("\n".join(options).encode()).hexdigest()
             else:
                 record["files"][rel] = hashlib.sha256(f.read_bytes()).hexdigest()
         if "summary" not in record:

@@ -59,6 +59,18 @@ def without_timings(value):
     return value
 
 
+def comparable_bytes(path: Path) -> bytes:
+    """A file's bytes less what differs between identical runs: config.toml's temporary out= line, solves.csv's
+    wall-clock columns."""
+    if path.name == "config.toml":
+        return "\n".join(l for l in path.read_text().splitlines() if not l.startswith("out=")).encode()
+    if path.name == "solves.csv":
+        rows = [line.split(",") for line in path.read_text().splitlines()]
+        keep = [k for k, name in enumerate(rows[0]) if name not in ("setup_s", "solve_s")]
+        return "\n".join(",".join(row[k] for k in keep) for row in rows).encode()
+    return path.read_bytes()
+
+
 def run_case(build: Path, app: str, args: str) -> dict:
     with tempfile.TemporaryDirectory() as out:
         exe = build / "apps" / app / app
@@ -71,11 +83,8 @@ def run_case(build: Path, app: str, args: str) -> dict:
             rel = str(f.relative_to(out))
             if f.name == "summary.json":
                 record["summary"] = without_timings(json.loads(f.read_text()))
-            elif f.name == "config.toml":  # every option but the temporary --out
-                options = [line for line in f.read_text().splitlines() if not line.startswith("out=")]
-                record["files"][rel] = hashlib.sha256("\n".join(options).encode()).hexdigest()
             else:
-                record["files"][rel] = hashlib.sha256(f.read_bytes()).hexdigest()
+                record["files"][rel] = hashlib.sha256(comparable_bytes(f)).hexdigest()
         if "summary" not in record:
             record["stderr"] = proc.stderr[-2000:]
         return record

@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from compare_results import without_timings  # noqa: E402
+from compare_results import comparable_bytes, without_timings  # noqa: E402
 
 CASES = {
     "poiseuille": "--mode body-force --across 10 --end-time 1 --frames 2 --gamma 0.05 --cold-start --tolerance 0.5",
@@ -69,7 +69,7 @@ def outputs(out):
     files = {}
     for f in sorted(Path(out).rglob("*")):
         if f.is_file() and f.name not in ("summary.json", "config.toml"):
-            files[str(f.relative_to(out))] = hashlib.sha256(f.read_bytes()).hexdigest()
+            files[str(f.relative_to(out))] = hashlib.sha256(comparable_bytes(f)).hexdigest()
     summary = json.loads((Path(out) / "summary.json").read_text())
     summary.pop("run")  # its command line is the replay's own
     return files, without_timings(summary)

@@ -21,7 +21,8 @@ inline void add_config_option(CLI::App& app) {
 // given, so that the replay derives it again.
 inline void write_run_config(const CLI::App& app, const std::string& name, const std::filesystem::path& dir) {
   std::istringstream all(app.config_to_str(true, false));
-  std::string text = "# " + name + ", SparseMPS " + mps::version + ": the run's options; repeat it with --config this-file\n";
+  std::string text =
+      "# " + name + ", SparseMPS " + mps::version + ": the run's options; repeat it with --config this-file\n";
   for (std::string line; std::getline(all, line);)
     if (line.size() < 3 || line.compare(line.size() - 3, 3, "=\"\"") != 0) text += line + "\n";
   mps::write_text(dir / "config.toml", text);

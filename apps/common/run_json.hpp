@@ -13,6 +13,7 @@
 #include "mps/io.hpp"
 #include "mps/step.hpp"
 #include "mps/version.hpp"
+#include "solve_log.hpp"
 #include "source_commit.hpp"
 
 // Frames at end_time / count intervals, the first at t = 0: dir/frames/<stem>_NNNN.vtp, listed in dir/<stem>.pvd
@@ -79,6 +80,7 @@ inline int report_guard_stop(const std::filesystem::path& dir, const mps::Simula
   std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
   try {
     mps::write_vtp(dir / "last_good.vtp", sim.particles());
+    write_solves(dir, sim);
     write_summary(dir, {{"status", "failed"}, {"error", error.what()}, {"parameters", params}, {"time_s", sim.time()},
                         {"steps", sim.last_step().step}});
     std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";

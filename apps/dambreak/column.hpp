@@ -77,6 +77,7 @@ class Scene {
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
   [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
   [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
+  [[nodiscard]] mps::Simulation& sim() { return sim_; }  // to add components of one's own
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] const std::vector<Sample>& samples() const { return samples_; }  // t = 0 and after every step
   // Fluid removed as spray over the walls, as mps::RemoveEscaped counted it (so that fluid plus spray equals the

@@ -12,6 +12,7 @@
 #include "mps/io.hpp"
 #include "mps/version.hpp"
 #include "run_config.hpp"
+#include "solve_log.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -84,6 +85,8 @@ int main(int argc, char** argv) {
                "where their number density calls them dry (mps::WetWalls)");
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
   app.add_option("--front-tolerance", front_tolerance,
@@ -125,7 +128,9 @@ int main(int argc, char** argv) {
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
                         "last_good.vtp",
-                        "config.toml"});
+                        "config.toml", "solves.csv", "ppe"});
+    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()),
+                              "dambreak, " + column_name + " column");
     write_run_config(app, "dambreak", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "dambreak", frames, p.end_time);
@@ -222,6 +227,7 @@ int main(int argc, char** argv) {
     checks["fluid_removed_as_spray"] = scene.removed();
     checks["most_fluid_inside_walls"] = scene.most_inside_walls();
     checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
+    write_solves(dir, sim);
     write_summary(dir,
                     {{"status", column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
                      {"parameters", params},

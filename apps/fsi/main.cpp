@@ -13,6 +13,7 @@
 #include "mps/version.hpp"
 #include "scene.hpp"
 #include "run_config.hpp"
+#include "solve_log.hpp"
 #include "run_json.hpp"
 
 namespace fs = std::filesystem;
@@ -57,6 +58,8 @@ int main(int argc, char** argv) {
   app.add_option("--end-time", end_time, "simulated time [s] (default: plate 0.3, gate 0.4)")
       ->check(positive_up_to(100));
   app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str();
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
   app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -87,7 +90,8 @@ int main(int argc, char** argv) {
               << p.end_time << " s\n";
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp",
-                        "config.toml"});
+                        "config.toml", "solves.csv", "ppe"});
+    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "fsi, " + scene_name);
     write_run_config(app, "fsi", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "fsi", frames, p.end_time);
@@ -145,6 +149,7 @@ int main(int argc, char** argv) {
       checks["pressure_work_on_body_j_per_m"] = st->solid().external_work();
       checks["body_energy_j_per_m"] = body;
     }
+    write_solves(dir, sim);
     write_summary(dir,
                     {{"status", "completed"}, {"parameters", params}, {"steps", sim.last_step().step},
                      {"time_s", sim.time()}, {"checks", checks},

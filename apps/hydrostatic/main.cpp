@@ -10,6 +10,7 @@
 #include "mps/version.hpp"
 #include "mps/io.hpp"
 #include "run_config.hpp"
+#include "solve_log.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 #include "tank.hpp"
@@ -52,6 +53,8 @@ int main(int argc, char** argv) {
   app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds")->capture_default_str()->check(positive_up_to(1e6));
   app.add_option("--band", p.band, "height of averaging bands, in l0 (at most H / l0)")->capture_default_str()->check(number_in(1.0, 1e6));
   add_solver_options(app, p.solver);
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
   app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")->capture_default_str()->check(positive_up_to(10));
   app.add_option("--out", out, "output directory")->capture_default_str();
@@ -66,7 +69,8 @@ int main(int argc, char** argv) {
     std::cout << "hydrostatic tank: " << params.dump() << "\n";
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
-                        "config.toml"});
+                        "config.toml", "solves.csv", "ppe"});
+    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "hydrostatic tank");
     write_run_config(app, "hydrostatic", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "tank", frames, p.end_time);
@@ -99,6 +103,7 @@ int main(int argc, char** argv) {
     mps::write_csv(dir / "pressure.csv", {"y_m", "mean_pressure_pa", "exact_pressure_pa", "relative_error"},
                    {y, measured, exact, error});
     const bool pass = r.max_error_below_top <= tolerance;
+    write_solves(dir, sim);
     write_summary(dir,
                     {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
                      {"particles", {{"fluid", r.fluid}, {"boundary", r.boundary}}}, {"steps", r.steps},

@@ -48,6 +48,7 @@ class Tank {
   [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
   [[nodiscard]] Result result() const;
   [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
+  [[nodiscard]] mps::Simulation& sim() { return sim_; }  // to add components of one's own
   [[nodiscard]] const Params& params() const { return params_; }
 
  private:

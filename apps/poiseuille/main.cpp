@@ -13,6 +13,7 @@
 #include "checks.hpp"
 #include "mps/io.hpp"
 #include "run_config.hpp"
+#include "solve_log.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -83,6 +84,8 @@ int main(int argc, char** argv) {
   add_shifting_option(app, p.shifting);
   app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e3));
   add_solver_options(app, p.solver);
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(positive_up_to(1e6));
   app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
@@ -105,7 +108,8 @@ int main(int argc, char** argv) {
     std::cout << "channel: " << params.dump() << "\n";
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
-                        "config.toml"});
+                        "config.toml", "solves.csv", "ppe"});
+    sim.add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "poiseuille --mode " + mode);
     write_run_config(app, "poiseuille", dir);
     fs::create_directories(dir / "frames");
     mps::PvdSeries series(dir / "channel.pvd");
@@ -156,6 +160,7 @@ int main(int argc, char** argv) {
     } catch (const mps::SimulationError& e) {
       return report_guard_stop(dir, e, params, sim);
     }
+    write_solves(dir, sim);
     mps::write_csv(dir / "profile.csv", header, columns);
     // The axis: u of the fluid nearest y = D/2, against x (uniform in a periodic channel at steady state).
     std::vector<double> cx, cu, ce;

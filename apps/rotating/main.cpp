@@ -16,6 +16,7 @@
 #include "mps/io.hpp"
 #include "rotor.hpp"
 #include "run_config.hpp"
+#include "solve_log.hpp"
 #include "run_json.hpp"
 #include "solver_cli.hpp"
 
@@ -63,9 +64,10 @@ struct RunResult {
 
 // One simulation to the last of `times`, sampling each curve over the last `average` fraction of each time.
 RunResult run(const rotating::Params& p, const std::vector<double>& times, double average, int frames,
-              const fs::path& dir) {
+              const fs::path& dir, const std::set<int>& export_ppe) {
   const bool couette = p.scene == rotating::Scene::couette;
   mps::Simulation sim = rotating::make_simulation(p);
+  sim.add<SolveLog>(dir, export_ppe, couette ? "rotating, Taylor-Couette" : "rotating, screw channel");
   const nlohmann::json params = params_json(p, sim, times, average);
   std::cout << "rotating: " << params.dump() << "\n";
   fs::create_directories(dir / "frames");
@@ -165,6 +167,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   out.summary = {{"status", "completed"}, {"parameters", params}, {"particles", sim.particles().size()}, {"steps", steps},
                  {"time_s", sim.time()}, {"dt_limit", sim.last_step().dt_limit}, {"checks", checks},
                  {"particle_steps_per_second", timings["particle_steps_per_second"]}, {"timings", timings}};
+  write_solves(dir, sim);
   write_summary(dir, out.summary);
   return out;
 }
@@ -227,6 +230,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(positive_up_to(100));
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   add_cold_start_flag(app, p.warm_start);
   app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")
       ->capture_default_str();
@@ -263,12 +268,13 @@ int main(int argc, char** argv) {
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "couette.pvd", "channel.pvd", "couette.csv", "line1.csv", "arc2.csv",
                         "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed",
-                        "config.toml"});
+                        "config.toml", "solves.csv", "ppe"});
     write_run_config(app, "rotating", dir);
     std::vector<std::pair<std::string, RunResult>> runs;
     for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{model}) {
       if (!couette) p.model = rotating::parse_model(m);
-      runs.emplace_back(m, run(p, times, average, frames, both ? dir / m : dir));
+      runs.emplace_back(m, run(p, times, average, frames, both ? dir / m : dir,
+                                 std::set<int>(export_ppe.begin(), export_ppe.end())));
       if (runs.back().second.status != 0) return runs.back().second.status;
     }
     const nlohmann::json& checks = runs.front().second.summary["checks"];

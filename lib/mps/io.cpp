@@ -148,13 +148,26 @@ void write_text(const fs::path& path, const std::string& text) {
   write_atomically(path, [&](std::ofstream& out) { out << text; });
 }
 
-void write_matrix_market(const fs::path& path, const CsrMatrix& a) {
+void write_matrix_market(const fs::path& path, const CsrMatrix& a) { write_matrix_market(path, a, {}, false); }
+
+void write_matrix_market(const fs::path& path, const CsrMatrix& a, const std::vector<std::string>& comments,
+                         bool symmetric) {
+  if (symmetric && !a.is_symmetric(0.0))
+    throw std::invalid_argument("write_matrix_market: " + path.string() + " asked for as symmetric, but A is not");
+  std::size_t entries = 0;
+  for (int i = 0; i < a.rows; ++i)
+    for (int k = a.row_ptr[static_cast<std::size_t>(i)]; k < a.row_ptr[static_cast<std::size_t>(i) + 1]; ++k)
+      entries += !symmetric || a.col[static_cast<std::size_t>(k)] <= i ? 1 : 0;
   write_atomically(path, [&](std::ofstream& out) {
-    out << "%%MatrixMarket matrix coordinate real general\n% written by SparseMPS\n"
-        << a.rows << ' ' << a.cols << ' ' << a.nnz() << '\n';
-    for (int i = 0; i < a.rows; ++i)
+    out << "%%MatrixMarket matrix coordinate real " << (symmetric ? "symmetric" : "general")
+        << "\n% written by SparseMPS\n";
+    for (const std::string& line : comments) out << "% " << line << '\n';
+    out << a.rows << ' ' << a.cols << ' ' << entries << '\n';
+    for (int i = 0; i < a.rows; ++i)  // symmetric: the lower triangle, row by row
       for (int k = a.row_ptr[static_cast<std::size_t>(i)]; k < a.row_ptr[static_cast<std::size_t>(i) + 1]; ++k)
-        out << i + 1 << ' ' << a.col[static_cast<std::size_t>(k)] + 1 << ' ' << a.val[static_cast<std::size_t>(k)] << '\n';
+        if (!symmetric || a.col[static_cast<std::size_t>(k)] <= i)
+          out << i + 1 << ' ' << a.col[static_cast<std::size_t>(k)] + 1 << ' ' << a.val[static_cast<std::size_t>(k)]
+              << '\n';
   });
 }
 

@@ -41,6 +41,10 @@ void write_text(const std::filesystem::path& path, const std::string& text);
 
 // Matrix Market "coordinate real general", 17 significant digits, so a read returns the same matrix.
 void write_matrix_market(const std::filesystem::path& path, const CsrMatrix& a);
+// With comment lines after the banner (each prefixed "% "); symmetric: only the lower triangle is written, and a
+// matrix that is not exactly symmetric is refused.
+void write_matrix_market(const std::filesystem::path& path, const CsrMatrix& a, const std::vector<std::string>& comments,
+                         bool symmetric);
 void write_matrix_market(const std::filesystem::path& path, std::span<const double> vector);  // "array real general"
 CsrMatrix read_matrix_market(const std::filesystem::path& path);  // coordinate, general or symmetric
 std::vector<double> read_matrix_market_vector(const std::filesystem::path& path);

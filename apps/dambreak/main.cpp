@@ -11,9 +11,10 @@
 #include "column.hpp"
 #include "mps/io.hpp"
 #include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "solve_log.hpp"
 #include "solver_cli.hpp"
 
 namespace fs = std::filesystem;
@@ -49,6 +50,7 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;

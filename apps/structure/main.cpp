@@ -13,9 +13,10 @@
 #include "mps/io.hpp"
 #include "mps/particles.hpp"
 #include "mps/version.hpp"
-#include "scenes.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
+#include "scenes.hpp"
 
 namespace fs = std::filesystem;
 
@@ -38,6 +39,7 @@ double relative(double value, double reference) { return std::abs(value - refere
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("structure", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string scene_name = "plate", model_name = "svk", out = "runs/structure", data = STRUCTURE_DATA_DIR;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -14,7 +15,9 @@
 #include <vector>
 
 #include "convert.hpp"
+#include "mps/components.hpp"
 #include "mps/geometry.hpp"
+#include "mps/io.hpp"
 #include "mps/step.hpp"
 
 namespace sparsemps {
@@ -339,6 +342,21 @@ const char* ppe_doc =
     "positive definite; x is the pressure, or P - offset when the config splits off the hydrostatic pressure.\n"
     "Per-unknown arrays are in unknown order, per-particle arrays in the particles' order of that step.";
 
+// The scene components that need no callback, with the ranges the apps accept.
+void add_asymmetry_surface(mps::Simulation& sim, double fraction) {
+  if (!(fraction > 0.0 && fraction <= 10.0))
+    throw py::value_error("asymmetry fraction must be in (0, 10], got " + std::to_string(fraction));
+  sim.add<mps::AsymmetrySurface>(fraction);
+}
+
+void add_particle_collision(mps::Simulation& sim, double distance, double restitution) {
+  if (!(distance > 0.0 && distance < 1.0))
+    throw py::value_error("collision distance must be in (0, 1) l0, got " + std::to_string(distance));
+  if (!(restitution >= 0.0 && restitution <= 1.0))
+    throw py::value_error("restitution must be in [0, 1], got " + std::to_string(restitution));
+  sim.add<mps::ParticleCollision>(distance, restitution);
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // The simulation, with a lock so that a step running without the GIL is never overlapped by another call.
 
@@ -347,6 +365,8 @@ struct Simulation {
   std::shared_ptr<Ppe> recorded = std::make_shared<Ppe>();
   mutable std::mutex mutex;
 
+  // The recorder goes first among the scene's components: those offered here do not hook before_assembly, so it
+  // still sees every field as the assembly does.
   Simulation(const mps::Particles& particles, const mps::Domain& domain, const Config& config)
       : sim(std::make_unique<mps::Simulation>(particles, domain, config)) {
     sim->add<Recorder>(recorded);
@@ -366,7 +386,8 @@ struct Simulation {
 };
 
 // PPE assembly: the step's own stages run on particles placed at r* with velocities u*, up to the solve.
-Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config config) {
+Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config config, double asymmetry,
+             bool wet_walls) {
   if (!(dt > 0.0 && std::isfinite(dt))) throw py::value_error("dt must be positive and finite");
   // dt exactly as given: no CFL or viscous limit (viscosity does not enter the PPE); no reordering, so unknowns are
   // numbered in the particles' order.
@@ -399,6 +420,8 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
   auto out = std::make_shared<Ppe>();
   AssemblyState state;
   mps::Simulation sim(star, domain, config, std::make_unique<StopAtSolve>(state));
+  if (asymmetry > 0.0) add_asymmetry_surface(sim, asymmetry);
+  if (wet_walls) sim.add<mps::WetWalls>();
   sim.add<Injector>(out, star, state);
   std::string error;
   {
@@ -434,6 +457,8 @@ const char* assemble_doc =
     "source (1 - gamma)(rho/dt) div u* - gamma (rho/dt^2)(n* - n0)/n0 (divergence only where the source kernel\n"
     "reaches the free surface), the hydrostatic split under a body force, the assembly. So the matrix and rhs are\n"
     "bitwise those Simulation.step() builds for the same particles.\n\n"
+    "asymmetry, wet_walls: the free-surface components of Simulation.add_asymmetry_surface and add_wet_walls\n"
+    "(0 / False: off).\n"
     "dt: the step [s]. domain: Domain or (xmin, xmax, ymin, ymax), needed for periodic axes, along which r* is\n"
     "wrapped as the predictor wraps it (default: a box around the particles). config / keyword fields: SimulationConfig fields (l0 required; the radii, weight, rho,\n"
     "gamma, beta, theta, fx, fy, hydrostatic_split, sound_speed, initial_reference_density matter).";
@@ -633,20 +658,39 @@ void bind_scene(py::module_& m) {
 
   m.def(
       "assemble_ppe",
-      [](const mps::Particles& particles, double dt, py::handle domain, py::handle config, const py::kwargs& fields) {
-        return assemble(particles, dt, domain, config_of(config, fields));
+      [](const mps::Particles& particles, double dt, py::handle domain, py::handle config, double asymmetry,
+         bool wet_walls, const py::kwargs& fields) {
+        return assemble(particles, dt, domain, config_of(config, fields), asymmetry, wet_walls);
       },
       py::arg("particles"), py::kw_only(), py::arg("dt"), py::arg("domain") = py::none(),
-      py::arg("config") = py::none(), assemble_doc);
+      py::arg("config") = py::none(), py::arg("asymmetry") = 0.0, py::arg("wet_walls") = false, assemble_doc);
   m.def(
       "assemble_ppe",
       [](py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind, double dt, py::handle domain,
-         py::handle config, const py::kwargs& fields) {
-        return assemble(particles_from_arrays(x, y, u, v, kind), dt, domain, config_of(config, fields));
+         py::handle config, double asymmetry, bool wet_walls, const py::kwargs& fields) {
+        return assemble(particles_from_arrays(x, y, u, v, kind), dt, domain, config_of(config, fields), asymmetry,
+                        wet_walls);
       },
       py::arg("x"), py::arg("y"), py::arg("u"), py::arg("v"), py::arg("kind"), py::kw_only(), py::arg("dt"),
-      py::arg("domain") = py::none(), py::arg("config") = py::none(),
+      py::arg("domain") = py::none(), py::arg("config") = py::none(), py::arg("asymmetry") = 0.0,
+      py::arg("wet_walls") = false,
       "Same, from arrays: positions x, y (r*), velocities u, v (u*) and kind (0 fluid, 1 wall, 2 dummy, 3 ghost).");
+
+  m.def(
+      "write_vtp",
+      [](const std::string& path, const mps::Particles& particles, const py::dict& fields) {
+        std::vector<std::pair<std::string, std::vector<double>>> columns;
+        for (const auto& [name, values] : fields)
+          columns.emplace_back(py::str(name).cast<std::string>(),
+                               to_doubles(values, py::str(name).cast<std::string>(),
+                                          static_cast<py::ssize_t>(particles.size())));
+        std::map<std::string, std::span<const double>> extra;
+        for (const auto& [name, values] : columns) extra[name] = values;
+        mps::write_vtp(path, particles, extra);
+      },
+      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(),
+      "Writes a ParaView frame (VTK PolyData, as the apps' frames): position, velocity, pressure, kind, group, id\n"
+      "and any per-particle arrays of `fields` ({name: array}).");
 
   py::class_<Simulation>(m, "Simulation",
                          "The MPS time loop (mps::Simulation) on a copy of the particles. Steps run without the GIL.")
@@ -673,6 +717,23 @@ void bind_scene(py::module_& m) {
           },
           py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
           "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.")
+      .def(
+          "add_particle_collision",
+          [](Simulation& s, double distance, double restitution) {
+            s.locked([&] { add_particle_collision(*s.sim, distance, restitution); });
+          },
+          py::arg("distance") = 0.8, py::arg("restitution") = 0.2,
+          "Close pairs collide after the predictor (mps::ParticleCollision): fluid particles nearer than distance l0\n"
+          "that approach lose their approach speed down to restitution of it (the dam break's default).")
+      .def(
+          "add_asymmetry_surface",
+          [](Simulation& s, double fraction) { s.locked([&] { add_asymmetry_surface(*s.sim, fraction); }); },
+          py::arg("fraction") = 0.9,
+          "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
+          "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
+      .def(
+          "add_wet_walls", [](Simulation& s) { s.locked([&] { s.sim->add<mps::WetWalls>(); }); },
+          "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")
       .def_property_readonly("time", [](const Simulation& s) { return s.locked([&] { return s.sim->time(); }); })
       .def_property_readonly("steps", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
       .def_property_readonly("last_step", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step(); }); })

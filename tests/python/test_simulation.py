@@ -7,26 +7,25 @@ import pytest
 import scipy.io
 
 import sparsemps
-from conftest import DAMBREAK_END, dambreak_scene, read_vtp
+from conftest import DAMBREAK_END, dambreak_simulation, read_vtp
 
 
 def test_dambreak_from_python_matches_the_app_bitwise(dambreak_run):
-    particles, domain, config = dambreak_scene()
-    sim = sparsemps.Simulation(particles, domain, config)
-    reports, ppe_40 = [], None
+    sim = dambreak_simulation()
+    reports, ppe_100 = [], None
     while sim.time < DAMBREAK_END - 1e-12:  # the app's loop (Scene::done)
         info = sim.step()
         reports.append(info.solve)
-        if info.step == 40:
-            ppe_40 = sim.last_ppe
+        if info.step == 100:
+            ppe_100 = sim.last_ppe
     # Every pressure solve as the app logged it (17 digits: a float's every bit).
     with open(dambreak_run / "solves.csv") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == len(reports) == sim.steps == 41
+    assert len(rows) == len(reports) == sim.steps == 123
     for row, report in zip(rows, reports):
         assert (row["backend"], int(row["iterations"])) == (report.backend, report.iterations)
         assert float(row["relative_residual"]) == report.relative_residual
-    assert sum(r.iterations for r in reports) > 500  # real solves: the column is falling
+    assert sum(r.iterations for r in reports) > 2000  # real solves: the column is falling
     # The last frame: every particle's position, velocity, pressure and id.
     frame = read_vtp(dambreak_run / "frames" / "dambreak_0001.vtp")
     state = sim.particles
@@ -38,13 +37,15 @@ def test_dambreak_from_python_matches_the_app_bitwise(dambreak_run):
     assert np.array_equal(frame["pressure"], state.p[active])
     assert np.array_equal(frame["id"], state.id[active])
     assert np.abs(state.v[state.kind == 0]).max() > 0.3  # it moved
-    # Step 40's PPE as the app exported it.
-    a = scipy.io.mmread(dambreak_run / "ppe" / "step_000040.mtx").tocsr()
+    # Step 100's PPE as the app exported it.
+    a = scipy.io.mmread(dambreak_run / "ppe" / "step_000100.mtx").tocsr()
     a.sort_indices()
-    b = np.asarray(scipy.io.mmread(dambreak_run / "ppe" / "step_000040_rhs.mtx")).ravel()
-    m = ppe_40.matrix
+    b = np.asarray(scipy.io.mmread(dambreak_run / "ppe" / "step_000100_rhs.mtx")).ravel()
+    m = ppe_100.matrix
     assert np.array_equal(m.indptr, a.indptr) and np.array_equal(m.indices, a.indices)
-    assert np.array_equal(m.data, a.data) and np.array_equal(ppe_40.rhs, b)
+    assert np.array_equal(m.data, a.data) and np.array_equal(ppe_100.rhs, b)
+    assert (m != m.T).nnz == 0
+    np.linalg.cholesky(m.toarray())  # positive definite in the disordered, splashing state too
 
 
 def test_tank_in_a_few_lines_stays_at_rest_with_hydrostatic_pressure():
@@ -119,3 +120,27 @@ def test_particles_from_arrays_and_geometry():
         sparsemps.Particles([0.0], [0.0], "water")
     with pytest.raises(ValueError, match=r"unknown side 'front'"):
         p.add_rectangle_walls((0, 0, 1, 1), 0.01, sides="front")
+
+
+def test_frames_written_from_python_read_back_bitwise(tmp_path):
+    sim = dambreak_simulation()
+    sim.run(steps=5)
+    state = sim.particles
+    speed = np.hypot(state.u, state.v)
+    sparsemps.write_vtp(str(tmp_path / "frame.vtp"), state, {"speed": speed})
+    frame = read_vtp(tmp_path / "frame.vtp")
+    assert np.array_equal(frame["points"][:, 1], state.y) and np.array_equal(frame["pressure"], state.p)
+    assert np.array_equal(frame["speed"], speed) and np.array_equal(frame["kind"], state.kind)
+    with pytest.raises(ValueError, match=r"speed has length 3"):
+        sparsemps.write_vtp(str(tmp_path / "bad.vtp"), state, {"speed": [1.0, 2.0, 3.0]})
+
+
+def test_components_refuse_parameters_out_of_range():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3)
+    with pytest.raises(ValueError, match=r"collision distance must be in \(0, 1\) l0"):
+        sim.add_particle_collision(1.5)
+    with pytest.raises(ValueError, match=r"restitution must be in \[0, 1\]"):
+        sim.add_particle_collision(0.8, -0.1)
+    with pytest.raises(ValueError, match=r"asymmetry fraction must be in \(0, 10\]"):
+        sim.add_asymmetry_surface(0.0)

@@ -61,7 +61,8 @@ DAMBREAK_ASYMMETRY = 0.9         # the app's --asymmetry
 
 def dambreak_scene(l0=DAMBREAK_DX):
     """Particles, domain and config as apps/dambreak/column.cpp makes them (make_particles, make_domain, make_config)."""
-    a, h, length, height, g = 0.146, 0.292, 0.584, 0.438, 9.81
+    a, g = 0.146, 9.81
+    h, length, height = 2 * a, 4 * a, 3 * a  # as dambreak::defaults computes them, to the last bit
     particles = sparsemps.Particles().fill_rectangle((0, 0, a, h), l0).add_rectangle_walls((0, 0, length, height), l0)
     margin = 6 * l0
     domain = sparsemps.Domain(-margin, length + margin, -margin, height + 0.5 * h + margin)

@@ -13,6 +13,7 @@ packages=(
   libgtest-dev
   libcli11-dev nlohmann-json3-dev
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
+  pybind11-dev python3-dev python3-scipy python3-pytest   # the Python module sparsemps and its tests (python/)
 )
 
 missing=()

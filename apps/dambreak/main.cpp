@@ -9,6 +9,7 @@
 
 #include "checks.hpp"
 #include "column.hpp"
+#include "data_dir.hpp"
 #include "mps/io.hpp"
 #include "mps/version.hpp"
 #include "openmp_wait.hpp"
@@ -53,7 +54,8 @@ int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;
+  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak",
+              data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
   double dx = 0, end_time = 0, front_tolerance = 0.03;
   int frames = 20;
   dambreak::Params p;

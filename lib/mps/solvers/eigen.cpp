@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 
+#include "mps/parallel.hpp"
 #include "mps/solvers/backend_util.hpp"
 #include "mps/solvers/registry.hpp"
 
@@ -49,7 +50,10 @@ SolveReport run_eigen(const std::string& backend, const std::string& label, doub
   Eigen::Map<const Eigen::VectorXd> rhs(b.data(), static_cast<Eigen::Index>(b.size()));
   Eigen::Map<Eigen::VectorXd> sol(x.data(), static_cast<Eigen::Index>(x.size()));
   const Eigen::VectorXd guess = sol;
+  // Eigen threads its products from 20,000 entries on; below the library's own threshold one thread does it all.
+  Eigen::setNbThreads(detail::worth_threads(a.rows) ? 0 : 1);  // 0: OpenMP's thread count
   sol = solver.solveWithGuess(rhs, guess);
+  Eigen::setNbThreads(0);
   report.solve_seconds = seconds_since(t1);
   report.iterations = static_cast<int>(solver.iterations());
   if (!all_finite(x)) {

@@ -1,7 +1,9 @@
 #pragma once
-// Output: VTK XML PolyData frames (.vtp) and their series (.pvd) for ParaView, CSV tables, JSON summaries,
-// and Matrix Market for exporting any PPE to other solvers. Every file is written to a temporary name and
-// renamed into place, so a run that stops leaves its last complete outputs, never a half-written file.
+// Output: VTK XML PolyData frames (.vtp, binary and zlib-compressed) and their series (.pvd) for ParaView, CSV
+// tables, JSON summaries, and Matrix Market for exporting any PPE to other solvers. Every file is written to a
+// temporary name and renamed into place, so a run that stops leaves its last complete outputs, never a half-written
+// file.
+#include <array>
 #include <filesystem>
 #include <map>
 #include <span>
@@ -15,10 +17,18 @@
 
 namespace mps {
 
-// Writes position, velocity, pressure, kind and group of every non-ghost particle, plus any extra
-// per-particle scalar fields (each of length particles.size()).
-void write_vtp(const std::filesystem::path& path, const Particles& particles,
-               const std::map<std::string, std::span<const double>>& extra = {});
+// Per-particle fields beyond the particles' own, each of length particles.size(): scalars, and vectors given as
+// their (x, y) components (written as 3-component arrays, z = 0, so ParaView treats them as vectors).
+struct PointFields {
+  std::map<std::string, std::span<const double>> scalars{};
+  std::map<std::string, std::array<std::span<const double>, 2>> vectors{};
+};
+
+// A frame at simulation time `time`: position, velocity, pressure, kind, group and id of every non-ghost particle,
+// plus `extra`, as VTK XML PolyData with binary appended, zlib-compressed arrays (VTK's own block layout, UInt64
+// headers), and `time` as the field-data array TIME. A failed compression throws, naming the array and the file.
+void write_vtp(const std::filesystem::path& path, const Particles& particles, double time,
+               const PointFields& extra = {});
 
 // A time series of frames: each add() rewrites the .pvd index, so it is valid after every frame.
 class PvdSeries {

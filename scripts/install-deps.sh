@@ -12,6 +12,8 @@ packages=(
   libopenmpi-dev openmpi-bin
   libgtest-dev
   libcli11-dev nlohmann-json3-dev
+  zlib1g-dev             # the .vtp frames' compression
+  python3-vtk9           # VTK's own reader in the frame tests and scripts/compare_results.py
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
 )
 

@@ -13,6 +13,7 @@ packages=(
   libgtest-dev
   libcli11-dev nlohmann-json3-dev
   zlib1g-dev             # the .vtp frames' compression
+  libpng-dev             # the acoustic app's pressure maps
   python3-vtk9           # VTK's own reader in the frame tests and scripts/compare_results.py
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
 )

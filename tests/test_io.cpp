@@ -217,7 +217,7 @@ TEST(Io, VtpBlocksEndingExactlyAndEmptyFramesDecode) {
   EXPECT_EQ(bits(e.values<double>("TIME")), bits({2.0}));
 }
 
-TEST(Io, VtpRefusesFieldsOfTheWrongLengthOrName) {
+TEST(Io, VtpRefusesFieldsOfTheWrongLengthOrNameAndATimeThatIsNotFinite) {
   const mps::Particles p = awkward_particles(4);
   const std::vector<double> short_field(3), ok(4);
   EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"s", short_field}}}), std::invalid_argument);
@@ -226,6 +226,7 @@ TEST(Io, VtpRefusesFieldsOfTheWrongLengthOrName) {
   EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"pressure", ok}}}), std::invalid_argument);
   EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"f", ok}}, .vectors = {{"f", {ok, ok}}}}),
                std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, std::nan("")), std::invalid_argument);
   EXPECT_FALSE(fs::exists(scratch("bad.vtp")));
 }
 

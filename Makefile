@@ -2,11 +2,12 @@
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
 # Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
-# bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make test-sanitize.
+# bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make test-sanitize;
+# make docs (the API reference); make install PREFIX=/opt/sparsemps.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -25,6 +26,23 @@ demo: deps build/release/CMakeCache.txt
 hydrostatic: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target hydrostatic
 	./build/release/apps/hydrostatic/hydrostatic --out runs/hydrostatic
+
+# The library, its headers, CMake package, sparsemps.pc, the apps (bin/sparsemps-<app>) and their data into PREFIX, from
+# a build of its own without tests and benchmarks (SHARED=OFF for a static library). docs/library.md.
+PREFIX ?= /usr/local
+SHARED ?= ON
+install: deps
+	cmake -S . -B build/install -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) \
+	  -DBUILD_SHARED_LIBS=$(SHARED) -DSPARSEMPS_BUILD_TESTS=OFF -DSPARSEMPS_BUILD_BENCH=OFF
+	cmake --build build/install -j$(JOBS)
+	cmake --install build/install
+
+# The API reference of the installed headers (Doxygen, docs/Doxyfile.in) into build/docs/html/index.html; nothing is
+# compiled. The test ApiReferenceDocumented fails on any public member left without a /// comment.
+docs: deps
+	cmake -S . -B build/docs -DSPARSEMPS_BUILD_APPS=OFF -DSPARSEMPS_BUILD_TESTS=OFF -DSPARSEMPS_BUILD_BENCH=OFF
+	cmake --build build/docs --target docs
+	@echo "API reference: build/docs/html/index.html"
 
 # One OpenMP thread per test while ctest runs JOBS tests at once: more threads than cores spin at every
 # barrier, and the small scenes of the tests ran 10x slower that way.

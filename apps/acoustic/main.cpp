@@ -15,10 +15,11 @@
 #include <vector>
 
 #include "checks.hpp"
-#include "mps/version.hpp"
 #include "mps/acoustic.hpp"
 #include "mps/io.hpp"
 #include "mps/step.hpp"
+#include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "png.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -76,6 +77,7 @@ std::string time_tag(double t) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("acoustic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   std::string case_name = "free", boundary_name, gradient_name = "mps", weight_name = "classic", out;

@@ -9,11 +9,13 @@
 
 #include "checks.hpp"
 #include "column.hpp"
+#include "data_dir.hpp"
 #include "mps/io.hpp"
 #include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "solve_log.hpp"
 #include "solver_cli.hpp"
 
 namespace fs = std::filesystem;
@@ -49,9 +51,11 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak", data = DAMBREAK_DATA_DIR;
+  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak",
+              data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
   double dx = 0, end_time = 0, front_tolerance = 0.03;
   int frames = 20;
   dambreak::Params p;

@@ -11,14 +11,16 @@
 #include "checks.hpp"
 #include "mps/io.hpp"
 #include "mps/version.hpp"
-#include "scene.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "scene.hpp"
+#include "solve_log.hpp"
 
 namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("fsi", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   fsi::Params p;

@@ -7,11 +7,12 @@
 #include <iostream>
 
 #include "checks.hpp"
-#include "mps/version.hpp"
 #include "mps/io.hpp"
+#include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "solve_log.hpp"
 #include "solver_cli.hpp"
 #include "tank.hpp"
 
@@ -35,6 +36,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("hydrostatic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;

@@ -9,12 +9,13 @@
 #include <iostream>
 
 #include "channel.hpp"
-#include "mps/version.hpp"
 #include "checks.hpp"
 #include "mps/io.hpp"
+#include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "solve_log.hpp"
 #include "solver_cli.hpp"
 
 namespace fs = std::filesystem;
@@ -48,6 +49,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("poiseuille", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   poiseuille::Params p;

@@ -12,12 +12,13 @@
 #include <numbers>
 
 #include "checks.hpp"
-#include "mps/version.hpp"
 #include "mps/io.hpp"
+#include "mps/version.hpp"
+#include "openmp_wait.hpp"
 #include "rotor.hpp"
 #include "run_config.hpp"
-#include "solve_log.hpp"
 #include "run_json.hpp"
+#include "solve_log.hpp"
 #include "solver_cli.hpp"
 
 namespace fs = std::filesystem;
@@ -197,6 +198,7 @@ std::vector<double> parse_times(const std::string& list) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("rotating", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   rotating::Params p;

@@ -10,12 +10,14 @@
 #include <omp.h>
 
 #include "checks.hpp"
+#include "data_dir.hpp"
 #include "mps/io.hpp"
 #include "mps/particles.hpp"
 #include "mps/version.hpp"
-#include "scenes.hpp"
+#include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
+#include "scenes.hpp"
 
 namespace fs = std::filesystem;
 
@@ -38,9 +40,11 @@ double relative(double value, double reference) { return std::abs(value - refere
 }  // namespace
 
 int main(int argc, char** argv) {
+  prefer_passive_openmp_wait(argv);
   record_run("structure", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string scene_name = "plate", model_name = "svk", out = "runs/structure", data = STRUCTURE_DATA_DIR;
+  std::string scene_name = "plate", model_name = "svk", out = "runs/structure",
+              data = default_data_dir("structures", STRUCTURE_DATA_DIR);
   double dx = 0, end_time = 0, sample_interval = 0, period_tolerance = 0.02, amplitude_tolerance = 0.05;
   double csm3_tolerance = 0.02;
   int frames = 20;

@@ -1,4 +1,5 @@
 #include "mps/boundary.hpp"
+#include "mps/parallel.hpp"
 
 #include "mps/kernel.hpp"
 
@@ -47,7 +48,7 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
   const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0};
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   // Writes go to walls and dummies, reads come from fluid only: the loop has no dependence between particles.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if ((p.kind[i] != Kind::wall && p.kind[i] != Kind::dummy) || p.group[i] != wall.group) continue;
@@ -88,7 +89,7 @@ void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, d
   const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0};
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   // Writes go to buffer particles, reads come from fluid outside it only: no dependence between particles.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || !in_buffer[i]) continue;

@@ -1,4 +1,5 @@
 #include "mps/components.hpp"
+#include "mps/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -191,7 +192,7 @@ void ParticleShifting::after_corrector(StepContext& c) {
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   movable_.assign(p.size(), 0);
   near_surface_.assign(p.size(), 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;

@@ -1,4 +1,5 @@
 #include "mps/csr.hpp"
+#include "mps/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,7 @@ namespace mps {
 void CsrMatrix::multiply(std::span<const double> x, std::span<double> y) const {
   if (x.size() != static_cast<std::size_t>(cols) || y.size() != static_cast<std::size_t>(rows))
     throw std::invalid_argument("CsrMatrix::multiply: vector sizes do not match the matrix");
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(rows))
   for (int i = 0; i < rows; ++i) {
     double s = 0.0;
     for (int k = row_ptr[static_cast<std::size_t>(i)]; k < row_ptr[static_cast<std::size_t>(i) + 1]; ++k)

@@ -1,30 +1,35 @@
 #pragma once
-// Initial particle arrangements: square lattices, concentric rings, and wall/dummy layers around them.
+/// \file
+/// Initial particle arrangements: square lattices, concentric rings, and wall/dummy layers around them.
 #include "mps/particles.hpp"
 
 namespace mps {
 
+/// An axis-aligned rectangle [x0, x1] x [y0, y1].
 struct Rect {
-  double x0, y0, x1, y1;
+  /// @{ lower-left (x0, y0) and upper-right (x1, y1) corners [m]
+  double x0, y0, x1, y1;  /// @}
 };
 
-// Square lattice filling rect; points sit at cell centres, (x0 + (i + 1/2) l0, y0 + (j + 1/2) l0), so two
-// rectangles sharing an edge tile without overlap.
+/// Square lattice filling rect; points sit at cell centres, (x0 + (i + 1/2) l0, y0 + (j + 1/2) l0), so two
+/// rectangles sharing an edge tile without overlap.
 void fill_rectangle(Particles& particles, Rect rect, double l0, Kind kind, int group = 0);
 
+/// Sides of a rectangle, combined with |, e.g. `left | right | bottom` for a tank open at the top.
 enum Side : unsigned { left = 1u, right = 2u, bottom = 4u, top = 8u };
 
-// Adds boundary layers outside `inner` on the given sides (corners between walled sides included), on the
-// same lattice as fill_rectangle: the first `wall_layers` layers are Kind::wall, the next `dummy_layers`
-// are Kind::dummy. An unwalled side stays open (e.g. a tank's top).
+/// Adds boundary layers outside `inner` on the given sides (corners between walled sides included), on the
+/// same lattice as fill_rectangle: the first `wall_layers` layers are Kind::wall, the next `dummy_layers`
+/// are Kind::dummy. An unwalled side stays open (e.g. a tank's top).
 void add_rectangle_walls(Particles& particles, Rect inner, double l0, unsigned sides, int wall_layers,
                          int dummy_layers, int group = 0);
 
+/// How fill_annular_sector places particles.
 enum class Lattice { square, rings };
 
-// Fills r0 <= r < r1, theta0 <= theta < theta1 (radians, counter-clockwise) about (cx, cy).
-// rings: ring k at r0 + (k + 1/2) l0 with round(r * span / l0) evenly spaced particles;
-// square: the cell-centred square lattice clipped to the sector.
+/// Fills r0 <= r < r1, theta0 <= theta < theta1 (radians, counter-clockwise) about (cx, cy).
+/// rings: ring k at r0 + (k + 1/2) l0 with round(r * span / l0) evenly spaced particles;
+/// square: the cell-centred square lattice clipped to the sector.
 void fill_annular_sector(Particles& particles, double r0, double r1, double theta0, double theta1, double l0,
                          Kind kind, Lattice lattice, int group = 0, double cx = 0.0, double cy = 0.0);
 

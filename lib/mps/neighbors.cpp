@@ -1,4 +1,5 @@
 #include "mps/neighbors.hpp"
+#include "mps/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -173,7 +174,7 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
       run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), x - sx, y - sy);
     });
   };
-#pragma omp parallel
+#pragma omp parallel if (detail::worth_threads(n))
   {
 #ifdef _OPENMP
     const std::ptrdiff_t threads = omp_get_num_threads(), thread = omp_get_thread_num();
@@ -262,7 +263,7 @@ void restrict_radius(const NeighborList& list, const Particles& particles, const
                                        particles.y[static_cast<std::size_t>(j)]);
     return d[0] * d[0] + d[1] * d[1];
   };
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     int count = 0;
@@ -271,7 +272,7 @@ void restrict_radius(const NeighborList& list, const Particles& particles, const
   }
   for (std::size_t i = 1; i < out.offsets.size(); ++i) out.offsets[i] += out.offsets[i - 1];
   out.index.resize(static_cast<std::size_t>(out.offsets.back()));
-#pragma omp parallel
+#pragma omp parallel if (detail::worth_threads(n))
   {
     std::vector<int> row;  // written unconditionally, kept ones counted: no branch to mispredict
 #pragma omp for schedule(static)

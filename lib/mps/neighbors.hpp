@@ -1,5 +1,6 @@
 #pragma once
-// Neighbour search on a uniform cell grid, producing CSR neighbour lists (one per radius).
+/// \file
+/// Neighbour search on a uniform cell grid, producing CSR neighbour lists (one per radius).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -10,21 +11,23 @@
 
 namespace mps {
 
-// The region particles may occupy. A particle outside a non-periodic extent has escaped (the stability
-// guard reports it); a periodic axis wraps positions and measures distances by the minimum image.
+/// The region particles may occupy. A particle outside a non-periodic extent has escaped (the stability
+/// guard reports it); a periodic axis wraps positions and measures distances by the minimum image.
 struct Domain {
-  double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
-  bool periodic_x = false, periodic_y = false;
+  /// @{ extent [m]
+  double xmin = 0, xmax = 0, ymin = 0, ymax = 0;  /// @}
+  /// @{ whether an axis wraps around (period: width() or height())
+  bool periodic_x = false, periodic_y = false;  /// @}
 
-  [[nodiscard]] double width() const { return xmax - xmin; }
-  [[nodiscard]] double height() const { return ymax - ymin; }
-  // r_j - r_i, by the minimum image on periodic axes.
+  [[nodiscard]] double width() const { return xmax - xmin; }   ///< xmax - xmin
+  [[nodiscard]] double height() const { return ymax - ymin; }  ///< ymax - ymin
+  /// r_j - r_i, by the minimum image on periodic axes.
   [[nodiscard]] std::array<double, 2> displacement(double xi, double yi, double xj, double yj) const {
     return {periodic_x ? nearest_image(xj - xi, width()) : xj - xi,
             periodic_y ? nearest_image(yj - yi, height()) : yj - yi};
   }
-  // d - L round(d / L), rounding half to even; the comparisons settle the usual |d| < 1.5 L without a
-  // division (this sits in every pair loop of a periodic channel).
+  /// d - L round(d / L), rounding half to even; the comparisons settle the usual |d| < 1.5 L without a
+  /// division (this sits in every pair loop of a periodic channel).
   [[nodiscard]] static double nearest_image(double d, double length) {
     const double half = 0.5 * length;
     if (d > half && d < 3.0 * half) return d - length;
@@ -32,46 +35,48 @@ struct Domain {
     if (d >= -half && d <= half) return d;
     return d - length * std::nearbyint(d / length);
   }
-  [[nodiscard]] bool contains(double x, double y) const;
-  void wrap(double& x, double& y) const;  // into [min, max) on periodic axes
-  void validate() const;                  // throws std::invalid_argument with the reason
+  [[nodiscard]] bool contains(double x, double y) const;  ///< finite and inside the extent on non-periodic axes
+  void wrap(double& x, double& y) const;  ///< into [min, max) on periodic axes
+  void validate() const;                  ///< throws std::invalid_argument with the reason
 };
 
-// neighbours of particle i are index[offsets[i] .. offsets[i+1]), sorted ascending, i itself excluded.
+/// Neighbours in CSR form: those of particle i are index[offsets[i] .. offsets[i+1]), sorted ascending, i itself
+/// excluded.
 struct NeighborList {
-  double radius = 0;
-  std::vector<int> offsets{0};
-  std::vector<int> index;
+  double radius = 0;            ///< the search radius [m]
+  std::vector<int> offsets{0};  ///< particles() + 1 entries
+  std::vector<int> index;       ///< neighbour indices, row after row
 
+  /// The neighbours of particle i.
   [[nodiscard]] std::span<const int> of(std::size_t i) const {
     return {index.data() + offsets[i], static_cast<std::size_t>(offsets[i + 1] - offsets[i])};
   }
-  [[nodiscard]] std::size_t particles() const { return offsets.size() - 1; }
-  [[nodiscard]] std::size_t pairs() const { return index.size(); }
+  [[nodiscard]] std::size_t particles() const { return offsets.size() - 1; }  ///< rows of the list
+  [[nodiscard]] std::size_t pairs() const { return index.size(); }  ///< entries, each pair counted from both sides
 };
 
-// Bins the active (non-ghost) particles into square cells at least half of `cell_size` wide; one binning
-// serves every radius up to cell_size. The binned coordinates are kept in cell order, so a search scans a few
-// contiguous runs of memory (one per row of cells) instead of chasing particle indices.
+/// Bins the active (non-ghost) particles into square cells at least half of `cell_size` wide; one binning
+/// serves every radius up to cell_size. The binned coordinates are kept in cell order, so a search scans a few
+/// contiguous runs of memory (one per row of cells) instead of chasing particle indices.
 class CellGrid {
  public:
-  CellGrid(const Domain& domain, double cell_size);
-  void bin(const Particles& particles);
-  // `particles` must be those last passed to bin(), not moved since.
+  CellGrid(const Domain& domain, double cell_size);  ///< an empty grid; throws for a bad domain or size
+  void bin(const Particles& particles);  ///< sorts the particles' current positions into the cells
+  /// `particles` must be those last passed to bin(), not moved since.
   [[nodiscard]] NeighborList neighbors(const Particles& particles, double radius) const;
-  // Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
-  // the kernel hand out (and zero) fresh pages every step.
+  /// Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
+  /// the kernel hand out (and zero) fresh pages every step.
   void neighbors(const Particles& particles, double radius, NeighborList& out) const;
-  // One search filling the lists of two radii, `inner` for inner_radius <= radius: cheaper than searching
-  // once and restricting the list.
+  /// One search filling the lists of two radii, `inner` for inner_radius <= radius: cheaper than searching
+  /// once and restricting the list.
   void neighbors(const Particles& particles, double radius, NeighborList& out, double inner_radius,
                  NeighborList& inner) const;
-  // A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
-  // neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
+  /// A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
+  /// neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
-  [[nodiscard]] double cell_size() const { return cell_size_; }
-  // Calls f(j, dx, dy) for every binned particle j closer than radius (<= cell size) to the point (x, y),
-  // with (dx, dy) = r_j - (x, y) by the minimum image.
+  [[nodiscard]] double cell_size() const { return cell_size_; }  ///< the largest radius a search may use
+  /// Calls f(j, dx, dy) for every binned particle j closer than radius (<= cell size) to the point (x, y),
+  /// with (dx, dy) = r_j - (x, y) by the minimum image.
   template <class F>
   void for_each_near(double x, double y, double radius, F&& f) const {
     if (domain_.periodic_x || domain_.periodic_y) domain_.wrap(x, y);
@@ -125,12 +130,13 @@ class CellGrid {
   std::vector<int> ghosts_;
 };
 
-// The pairs of `list` closer than radius (<= list.radius): a smaller kernel's list without a second search.
+/// The pairs of `list` closer than radius (<= list.radius): a smaller kernel's list without a second search.
 NeighborList restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius);
+/// Same, refilling `out` in place (reusing its memory).
 void restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius,
                      NeighborList& out);
 
-// One-off search (bins and searches once).
+/// One-off search (bins and searches once).
 NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius);
 
 }  // namespace mps

@@ -1,4 +1,5 @@
 #include "mps/operators.hpp"
+#include "mps/parallel.hpp"
 
 #include <algorithm>
 #include <array>
@@ -49,7 +50,7 @@ CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient
   CsrMatrix a;
   a.rows = a.cols = static_cast<int>(n);
   a.row_ptr.assign(static_cast<std::size_t>(n) + 1, 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
     int c = diagonal ? 1 : 0;
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double, double, double, double) { ++c; });
@@ -58,7 +59,7 @@ CsrMatrix pair_matrix(const Stencil& s, bool diagonal, Coefficient&& coefficient
   for (std::size_t i = 1; i < a.row_ptr.size(); ++i) a.row_ptr[i] += a.row_ptr[i - 1];
   a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
   a.val.resize(a.col.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
     auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(i)]);
     std::size_t diag_slot = k;
@@ -115,7 +116,7 @@ std::vector<double> number_density(const Stencil& s) {
 void number_density(const Stencil& s, std::vector<double>& out) {
   const Index n = count(s);
   out.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
     double sum = 0.0;
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double, double, double, double w) { sum += w; });
@@ -126,7 +127,7 @@ void number_density(const Stencil& s, std::vector<double>& out) {
 void neighbour_asymmetry(const Stencil& s, std::vector<double>& out) {
   const Index n = count(s);
   out.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
     double fx = 0.0, fy = 0.0;
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, double dx, double dy, double r2, double w) {
@@ -199,7 +200,7 @@ void gradient(const Stencil& s, std::span<const double> phi, std::span<double> g
   const double scale = kDim / s.kernel.n0;
   const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
   const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     double ref = variant == GradientVariant::conservative ? -phi[i] : phi[i];
@@ -242,7 +243,7 @@ void conservative_gradient_terms(const Stencil& s, std::span<const double> phi, 
   check_size(ox.size(), n, "ox");
   check_size(oy.size(), n, "oy");
   const double scale = kDim / s.kernel.n0;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(count(s)))
   for (Index jj = 0; jj < count(s); ++jj) {
     const auto j = static_cast<std::size_t>(jj);
     double sx = 0.0, sy = 0.0;
@@ -265,7 +266,7 @@ void divergence(const Stencil& s, std::span<const double> u, std::span<const dou
   check_size(v.size(), s.particles.size(), "v");
   check_size(out.size(), s.particles.size(), "out");
   const double scale = kDim / s.kernel.n0;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     double sum = 0.0;
@@ -288,7 +289,7 @@ void laplacian_of(const Stencil& s, const std::array<std::span<const double>, K>
   }
   const Index n = count(s);
   const double scale = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     std::array<double, K> sum{};
@@ -326,7 +327,7 @@ void surface_normals(const Stencil& s, std::span<const char> want, std::vector<d
   check_size(want.size(), static_cast<std::size_t>(n), "want");
   nx.assign(static_cast<std::size_t>(n), 0.0);
   ny.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (!want[i]) continue;
@@ -354,7 +355,7 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
   }
   std::vector<double> dx(size, 0.0), dy(size, 0.0);
   const double scale = diffusion * 2.0 / s.kernel.n0;  // d = 2
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (!movable[i]) continue;
@@ -375,7 +376,7 @@ double shift_particles(const Stencil& s, double diffusion, double max_shift, std
   }
   // The velocity gradients before any particle moves, only where a particle moves.
   std::vector<std::array<double, 4>> grad_uv(size);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (movable[i]) grad_uv[i] = corrected_velocity_gradient(s, i, particles.u, particles.v);
@@ -402,7 +403,7 @@ long collision_velocity_changes(const Particles& p, const Domain& domain, const 
   du.assign(p.size(), 0.0);
   dv.assign(p.size(), 0.0);
   long pairs = 0;
-#pragma omp parallel for schedule(static) reduction(+ : pairs)
+#pragma omp parallel for schedule(static) reduction(+ : pairs) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || !movable[i]) continue;

@@ -1,6 +1,7 @@
 #pragma once
-// The MPS particle operators (design §3), each as a loop over neighbour pairs and as a CSR matrix that
-// gives the same numbers. Sums run over every active neighbour (fluid, wall and dummy alike).
+/// \file
+/// The MPS particle operators (design §3), each as a loop over neighbour pairs and as a CSR matrix that
+/// gives the same numbers. Sums run over every active neighbour (fluid, wall and dummy alike).
 #include <array>
 #include <span>
 #include <string_view>
@@ -13,100 +14,104 @@
 
 namespace mps {
 
-// What one operator application needs: where the particles are, who neighbours whom, and the weight.
-// The neighbour list's radius may exceed the kernel's; pairs beyond kernel.re weigh zero.
+/// What one operator application needs: where the particles are, who neighbours whom, and the weight.
+/// The neighbour list's radius may exceed the kernel's; pairs beyond kernel.re weigh zero.
 struct Stencil {
-  const Particles& particles;
-  const Domain& domain;
-  const NeighborList& neighbors;
-  const Kernel& kernel;
+  const Particles& particles;     ///< positions (and kinds: ghosts are skipped)
+  const Domain& domain;           ///< for the minimum image on periodic axes
+  const NeighborList& neighbors;  ///< pairs to sum over
+  const Kernel& kernel;           ///< the weight, n0 and lambda
 };
 
-// n_i = sum_j w_ij
+/// n_i = sum_j w_ij
 std::vector<double> number_density(const Stencil& s);
-void number_density(const Stencil& s, std::vector<double>& out);  // reusing out's memory
+void number_density(const Stencil& s, std::vector<double>& out);  ///< same, reusing out's memory
 
-// |sum_j w_ij r_ij / |r_ij|| / n0: how one-sided particle i's neighbours lie (Khayyer et al. 2009); 0 inside a full
-// kernel, asymmetry_of_flat_surface(kernel) in the top row of a lattice.
+/// |sum_j w_ij r_ij / |r_ij|| / n0: how one-sided particle i's neighbours lie (Khayyer et al. 2009); 0 inside a full
+/// kernel, asymmetry_of_flat_surface(kernel) in the top row of a lattice.
 void neighbour_asymmetry(const Stencil& s, std::vector<double>& out);
+/// The value neighbour_asymmetry takes in the top row of a perfect lattice of spacing l0 (a flat free surface).
 double asymmetry_of_flat_surface(const Kernel& kernel, double l0);
 
+/// The discrete gradient's form; the pressure gradient's choice is SimulationConfig::pressure_gradient.
 enum class GradientVariant {
-  plain,          // (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij
-  min_reference,  // phi_i replaced by the minimum over i and its neighbours (Koshizuka 1998): keeps the
-                  // pressure gradient repulsive, which suppresses particle clustering
-  corrected,      // plain, multiplied by the corrective matrix [(d/n0) sum w r_ij r_ij^T/|r_ij|^2]^-1
-                  // (Randles & Libersky 1996; Khayyer & Gotoh 2011): exact for linear fields with any
-                  // neighbourhood, truncated ones at free surfaces and walls included
-  corrected_min_reference,  // the corrective matrix applied to the min_reference sum
-  conservative,   // (d/n0) sum (phi_i + phi_j) r_ij/|r_ij|^2 w_ij: each pair's term is antisymmetric, so the momentum
-                  // two particles exchange sums to zero (a structure feels the exact reaction of the fluid's push);
-                  // exact for linear fields on a full lattice only, the price of that symmetry
+  plain,          ///< (d/n0) sum (phi_j - phi_i) r_ij/|r_ij|^2 w_ij
+  min_reference,  ///< phi_i replaced by the minimum over i and its neighbours (Koshizuka 1998): keeps the
+                  ///< pressure gradient repulsive, which suppresses particle clustering
+  corrected,      ///< plain, multiplied by the corrective matrix [(d/n0) sum w r_ij r_ij^T/|r_ij|^2]^-1
+                  ///< (Randles & Libersky 1996; Khayyer & Gotoh 2011): exact for linear fields with any
+                  ///< neighbourhood, truncated ones at free surfaces and walls included
+  corrected_min_reference,  ///< the corrective matrix applied to the min_reference sum
+  conservative,   ///< (d/n0) sum (phi_i + phi_j) r_ij/|r_ij|^2 w_ij: each pair's term is antisymmetric, so the
+                  ///< momentum two particles exchange sums to zero (a structure feels the exact reaction of the
+                  ///< fluid's push); exact for linear fields on a full lattice only, the price of that symmetry
 };
-// "plain", "min-reference", "corrected", "corrected-min-reference", "conservative"; the parser throws
-// std::invalid_argument naming the valid names.
+/// "plain", "min-reference", "corrected", "corrected-min-reference", "conservative"; the parser throws
+/// std::invalid_argument naming the valid names.
 std::string_view to_string(GradientVariant variant);
-GradientVariant gradient_variant_from_name(std::string_view name);
-// `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
-// the particles that hold a value of phi at all (for pressure: not dry walls, see set_dummy_pressure).
-// `min_tilt` (the min-reference variants): the minimum is taken of phi_j - min_tilt . r_ij, i.e. of phi less a
-// known linear part. For pressure under a body force f pass rho f, so that the hydrostatic drop across the kernel
-// is no dip (docs/numerics.md).
-// `own_reference` (the min-reference variants), if given: particles i with own_reference[i] != 0 take phi_i itself as
-// the reference instead of the minimum over their neighbours (for pressure: free-surface particles, whose phi is
-// imposed; see the HydrostaticSplit component).
+GradientVariant gradient_variant_from_name(std::string_view name);  ///< the inverse of to_string
+/// `carriers`, if given, limits the sum (and the corrective matrix) to neighbours j with carriers[j] != 0:
+/// the particles that hold a value of phi at all (for pressure: not dry walls, see set_dummy_pressure).
+/// `min_tilt` (the min-reference variants): the minimum is taken of phi_j - min_tilt . r_ij, i.e. of phi less a
+/// known linear part. For pressure under a body force f pass rho f, so that the hydrostatic drop across the kernel
+/// is no dip (docs/numerics.md).
+/// `own_reference` (the min-reference variants), if given: particles i with own_reference[i] != 0 take phi_i itself as
+/// the reference instead of the minimum over their neighbours (for pressure: free-surface particles, whose phi is
+/// imposed; see the HydrostaticSplit component).
 void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
               std::array<double, 2> min_tilt = {0.0, 0.0}, std::span<const char> own_reference = {});
 
-// What the particles j with targets[j] give the conservative gradient of their neighbours i with sources[i], pair by
-// pair: out_j = sum_i (d/n0) (phi_i + phi_j) r_ij/|r_ij|^2 w_ij with r_ij = r_j - r_i, the very terms of i's gradient
-// (j counted only if carriers[j], as there). A force -V grad phi on the sources is so met by +V out on the targets.
+/// What the particles j with targets[j] give the conservative gradient of their neighbours i with sources[i], pair by
+/// pair: out_j = sum_i (d/n0) (phi_i + phi_j) r_ij/|r_ij|^2 w_ij with r_ij = r_j - r_i, the very terms of i's gradient
+/// (j counted only if carriers[j], as there). A force -V grad phi on the sources is so met by +V out on the targets.
 void conservative_gradient_terms(const Stencil& s, std::span<const double> phi, std::span<const char> sources,
                                  std::span<const char> targets, std::span<const char> carriers, std::span<double> ox,
                                  std::span<double> oy);
 
-// (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
+/// (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
 void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out);
 
-// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij
+/// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij
 void laplacian(const Stencil& s, std::span<const double> phi, std::span<double> out);
-// Both components of a vector field in one pass over the pairs (the viscous term): the same numbers as two
-// calls, at half the distance and kernel evaluations.
+/// Both components of a vector field in one pass over the pairs (the viscous term): the same numbers as two
+/// calls, at half the distance and kernel evaluations.
 void laplacian(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> lu,
                std::span<double> lv);
 
+/// The Laplacian as a matrix L with L phi = laplacian(s, phi) (row sums zero).
 CsrMatrix laplacian_matrix(const Stencil& s);
 
-// grad phi = (x * phi, y * phi) and div(u, v) = x * u + y * v: the divergence uses the same two matrices.
+/// grad phi = (x * phi, y * phi) and div(u, v) = x * u + y * v: the divergence uses the same two matrices.
 struct GradientMatrices {
-  CsrMatrix x, y;
+  /// @{ the x and y components of the plain gradient
+  CsrMatrix x, y;  /// @}
 };
-GradientMatrices gradient_matrices(const Stencil& s);
+GradientMatrices gradient_matrices(const Stencil& s);  ///< the plain gradient's matrices (GradientVariant::plain)
 
-// Particle shifting (after Lind et al. 2012, in MPS form): particle i moves down the gradient of the particle
-// concentration, dr_i = -diffusion (d/n0) sum_j r_ij/|r_ij|^2 w_ij, capped at max_shift, which evens out a lattice
-// that the flow has drawn apart or bunched up; its velocity is carried to the new position by the first-order
-// Taylor term, u_i += dr_i . grad u_i (corrected gradient: exact for linear fields), so a smooth flow is not
-// diffused by the move. Every neighbour counts towards the concentration (walls and dummies keep fluid off the
-// wall); only particles with movable[i] != 0 move. Where (normal_x[i], normal_y[i]) is a non-zero unit vector (a free
-// surface's normal at i) the shift keeps only its part along the surface (Lind et al. 2012), so a surface is evened
-// out without being moved off itself. Returns the largest shift.
+/// Particle shifting (after Lind et al. 2012, in MPS form): particle i moves down the gradient of the particle
+/// concentration, dr_i = -diffusion (d/n0) sum_j r_ij/|r_ij|^2 w_ij, capped at max_shift, which evens out a lattice
+/// that the flow has drawn apart or bunched up; its velocity is carried to the new position by the first-order
+/// Taylor term, u_i += dr_i . grad u_i (corrected gradient: exact for linear fields), so a smooth flow is not
+/// diffused by the move. Every neighbour counts towards the concentration (walls and dummies keep fluid off the
+/// wall); only particles with movable[i] != 0 move. Where (normal_x[i], normal_y[i]) is a non-zero unit vector (a free
+/// surface's normal at i) the shift keeps only its part along the surface (Lind et al. 2012), so a surface is evened
+/// out without being moved off itself. Returns the largest shift.
 double shift_particles(const Stencil& s, double diffusion, double max_shift, std::span<const char> movable,
                        Particles& particles, std::span<const double> normal_x = {},
                        std::span<const double> normal_y = {});
 
-// The outward unit normal of a free surface at each particle with want[i] != 0 (for shifting, take a kernel wider than
-// the shift's, or the normal is the shift's own direction): minus the direction of
-// sum_j r_ij/|r_ij|^2 w_ij over all neighbours (walls fill the kernel on their side, so it points away from the
-// liquid and the walls), (0, 0) where that sum is round-off (a full kernel) or want[i] == 0.
+/// The outward unit normal of a free surface at each particle with want[i] != 0 (for shifting, take a kernel wider than
+/// the shift's, or the normal is the shift's own direction): minus the direction of
+/// sum_j r_ij/|r_ij|^2 w_ij over all neighbours (walls fill the kernel on their side, so it points away from the
+/// liquid and the walls), (0, 0) where that sum is round-off (a full kernel) or want[i] == 0.
 void surface_normals(const Stencil& s, std::span<const char> want, std::vector<double>& nx, std::vector<double>& ny);
 
-// Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
-// than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between
-// two movable fluid particles the impulse is shared (momentum conserved); a wall, dummy or unmovable fluid particle is
-// fixed and the movable one takes all of it. Writes each particle's velocity change (du, dv) from the velocities as
-// they are, so the result does not depend on the particles' order; the caller applies it. Returns the pairs found.
+/// Collisions of close pairs (Koshizuka et al. 1998): a fluid particle i with movable[i] != 0 and a neighbour j nearer
+/// than `reach` that approach each other lose their approach speed along r_ij down to `restitution` of it. Between
+/// two movable fluid particles the impulse is shared (momentum conserved); a wall, dummy or unmovable fluid particle is
+/// fixed and the movable one takes all of it. Writes each particle's velocity change (du, dv) from the velocities as
+/// they are, so the result does not depend on the particles' order; the caller applies it. Returns the pairs found.
 long collision_velocity_changes(const Particles& particles, const Domain& domain, const NeighborList& neighbors,
                                 double reach, double restitution, std::span<const char> movable,
                                 std::vector<double>& du, std::vector<double>& dv);

@@ -1,4 +1,5 @@
 #include "mps/ppe.hpp"
+#include "mps/parallel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -159,7 +160,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   sys.particle.clear();
   sys.floating.clear();
   std::vector<char> candidate(n, 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(static_cast<Index>(n)))
   for (Index ii = 0; ii < static_cast<Index>(n); ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (!in_ppe_sum(p.kind[i]) || free_surface[i]) continue;
@@ -181,7 +182,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   sys.rhs.resize(static_cast<std::size_t>(m));
   std::vector<char> anchored(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
 
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(m))
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
     int entries = 1;
@@ -197,7 +198,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
 
   // Unknowns are numbered in particle order and neighbour lists are sorted, so columns come out sorted
   // once the diagonal is slotted in at its place.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(m))
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
     auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
@@ -272,7 +273,7 @@ void set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> fr
                         double fy, std::vector<char>& carrier) {
   const auto n = static_cast<Index>(p.size());
   carrier.assign(p.size(), 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] == Kind::fluid || (p.kind[i] == Kind::wall && !free_surface[i])) carrier[i] = 1;

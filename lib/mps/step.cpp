@@ -1,4 +1,5 @@
 #include "mps/step.hpp"
+#include "mps/parallel.hpp"
 
 #include "mps/components.hpp"
 
@@ -96,7 +97,7 @@ void Simulation::run(void (StepComponent::*hook)(StepContext&)) {
 double max_fluid_speed_squared(const Particles& p) {
   double umax2 = 0.0;
   const auto n = static_cast<Index>(p.size());
-#pragma omp parallel for schedule(static) reduction(max : umax2)
+#pragma omp parallel for schedule(static) reduction(max : umax2) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
@@ -215,7 +216,7 @@ void Simulation::explicit_viscous_predictor() {
   f.lu.assign(p.size(), 0.0);
   f.lv.assign(p.size(), 0.0);
   laplacian({p, domain_, near_now_, k_laplacian_}, p.u, p.v, f.lu, f.lv);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid) continue;
@@ -330,7 +331,7 @@ void Simulation::compute_source() {
   // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
   // expansion, and would ask for suction growing as 1/dt^2: there the divergence term alone drives the PPE.
   const NeighborList& reach = neighbors_at_star(k_density_);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     for (int j : reach.of(i)) {
@@ -409,7 +410,7 @@ void Simulation::correct() {
            f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>());
   const double dt = f.dt;
   const auto n = static_cast<Index>(p.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
@@ -457,7 +458,7 @@ void Simulation::check_guard() const {
   // Threads only look for the first offending particle; its message is then made in order.
   const auto n = static_cast<Index>(p.size());
   Index first = n;
-#pragma omp parallel for schedule(static) reduction(min : first)
+#pragma omp parallel for schedule(static) reduction(min : first) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i)
     if (bad(static_cast<std::size_t>(i))) first = std::min(first, i);
   if (first == n) return;

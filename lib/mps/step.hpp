@@ -1,8 +1,9 @@
 #pragma once
-// The semi-implicit MPS step (design §3), time-step control and the stability guard. A step runs named stages,
-// neighbours -> predictor -> n*, div u* -> free surface -> PPE source -> assemble -> solve -> pressure boundary
-// values -> corrector -> post-step, and a scene adds components (mps/components.hpp) that hook in between them.
-// docs/step.md describes the stages, the hooks and each component.
+/// \file
+/// The semi-implicit MPS step (design §3), time-step control and the stability guard. A step runs named stages,
+/// neighbours -> predictor -> n*, div u* -> free surface -> PPE source -> assemble -> solve -> pressure boundary
+/// values -> corrector -> post-step, and a scene adds components (mps/components.hpp) that hook in between them.
+/// docs/step.md describes the stages, the hooks and each component.
 #include <functional>
 #include <limits>
 #include <memory>
@@ -21,130 +22,143 @@
 
 namespace mps {
 
-// The physics and numerics of a run; docs/step.md gives the reason and the measurement behind each default.
+/// The physics and numerics of a run; docs/step.md gives the reason and the measurement behind each default.
 struct SimulationConfig {
-  double l0 = 0;  // initial particle spacing [m]
-  // Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1 Laplacian,
-  // short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
-  double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;
-  Weight weight = Weight::bounded;
-  double rho = 1000.0;          // density [kg/m^3]
-  double nu = 1e-6;             // kinematic viscosity [m^2/s]
-  double fx = 0.0, fy = 0.0;    // body force per unit mass [m/s^2]
-  double gamma = 0.99;          // mixed source weight: 1 = number density error only, 0 = divergence only
-  double beta = 0.97;           // free surface: n* < beta n0 ...
-  double theta = 0.85;          // ... and fewer than theta N0 neighbours (0: density test only)
-  double dt_max = 0;            // the time step when neither limit below binds [s]
-  double cfl = 0.2;             // dt <= cfl l0 / |u|max
-  double viscous_number = 0.2;  // dt <= viscous_number l0^2 / nu (explicit viscosity)
-  // Implicit viscosity: (I - dt nu L) u* = u^n + dt f, solved with `viscosity_solver`; drops the viscous limit.
+  double l0 = 0;  ///< initial particle spacing [m]
+  /// @{ Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1
+  /// Laplacian, short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
+  double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;  /// @}
+  Weight weight = Weight::bounded;  ///< the weight function of every kernel
+  double rho = 1000.0;          ///< density [kg/m^3]
+  double nu = 1e-6;             ///< kinematic viscosity [m^2/s]
+  /// @{ body force per unit mass [m/s^2]
+  double fx = 0.0, fy = 0.0;  /// @}
+  double gamma = 0.99;          ///< mixed source weight: 1 = number density error only, 0 = divergence only
+  double beta = 0.97;           ///< free surface: n* < beta n0 ...
+  double theta = 0.85;          ///< ... and fewer than theta N0 neighbours (0: density test only)
+  double dt_max = 0;            ///< the time step when neither limit below binds [s]
+  double cfl = 0.2;             ///< dt <= cfl l0 / |u|max
+  double viscous_number = 0.2;  ///< dt <= viscous_number l0^2 / nu (explicit viscosity)
+  /// Implicit viscosity: (I - dt nu L) u* = u^n + dt f, solved with `viscosity_solver`; drops the viscous limit.
   bool implicit_viscosity = false;
-  std::string viscosity_solver = "eigen-cg:precond=jacobi";
-  // Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
-  // the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
+  std::string viscosity_solver = "eigen-cg:precond=jacobi";  ///< solver spec for the implicit viscous systems
+  /// Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
+  /// the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
   bool initial_reference_density = false;
-  GradientVariant pressure_gradient = GradientVariant::min_reference;
-  // Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
-  // destabilises a liquid at rest under gravity).
+  GradientVariant pressure_gradient = GradientVariant::min_reference;  ///< the pressure gradient's form
+  /// Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
+  /// destabilises a liquid at rest under gravity).
   bool min_reference_tilt = true;
-  // With min_reference_tilt: the body force along non-periodic axes is balanced by P_h = rho f_h . r exactly and
-  // the PPE solves for P - P_h (component HydrostaticSplit), so a liquid at rest is an equilibrium on any packing.
+  /// With min_reference_tilt: the body force along non-periodic axes is balanced by P_h = rho f_h . r exactly and
+  /// the PPE solves for P - P_h (component HydrostaticSplit), so a liquid at rest is an equilibrium on any packing.
   bool hydrostatic_split = true;
-  // Artificial sound speed [m/s] (0: incompressible): the PPE becomes (-lap + 1/(c dt)^2) P = -source, so a long
-  // channel's coherent density error is not expelled within one step.
+  /// Artificial sound speed [m/s] (0: incompressible): the PPE becomes (-lap + 1/(c dt)^2) P = -source, so a long
+  /// channel's coherent density error is not expelled within one step.
   double sound_speed = 0;
-  // Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
-  // the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
+  /// Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
+  /// the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
   double shifting = 0;
-  // With shifting: particles on or next to a free surface shift too, along it only (Lind et al. 2012).
+  /// With shifting: particles on or next to a free surface shift too, along it only (Lind et al. 2012).
   bool shift_along_free_surface = false;
-  bool clamp_negative_pressure = true;  // P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
-  int reorder_every = 20;        // steps between reorderings of particles by cell (0: never)
-  double max_displacement = 0.5;  // guard: largest move of a particle in one step, in l0
-  double max_speed = std::numeric_limits<double>::infinity();  // guard: largest speed [m/s]
-  std::string dt_option;  // the host program's option for the time step, named in the guard's advice (e.g. --dt-factor)
-  // The pressure solver's spec. "auto" picks Jacobi-CG or reused AMG-PCG per solve by a fixed rule (docs/solvers.md);
-  // "eigen-cg" (incomplete-Cholesky CG) is the classic MPS baseline.
+  bool clamp_negative_pressure = true;  ///< P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
+  int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
+  double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
+  double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]
+  /// The host program's option for the time step, named in the guard's advice (e.g. --dt-factor).
+  std::string dt_option;
+  /// The pressure solver's spec. "auto" picks Jacobi-CG or reused AMG-PCG per solve by a fixed rule (docs/solvers.md);
+  /// "eigen-cg" (incomplete-Cholesky CG) is the classic MPS baseline.
   std::string solver = "auto";
-  // Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
+  /// Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
   bool warm_start = true;
 
-  void validate() const;  // throws std::invalid_argument naming the bad parameter and its valid range
+  void validate() const;  ///< throws std::invalid_argument naming the bad parameter and its valid range
 };
 
+/// What the last step did.
 struct StepInfo {
-  int step = 0;                 // steps completed
-  double time = 0, dt = 0;
-  std::string dt_limit;         // which bound set dt: "dt_max", "cfl" or "viscous"
-  SolveReport solve;
-  int viscosity_iterations = 0;  // implicit viscosity: CG iterations of both components
-  std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;
-  double max_speed = 0;
+  int step = 0;                 ///< steps completed
+  /// @{ simulated time at the end of the step, and the step's time step [s]
+  double time = 0, dt = 0;  /// @}
+  std::string dt_limit;         ///< which bound set dt: "dt_max", "cfl" or "viscous"
+  SolveReport solve;            ///< the pressure solve
+  int viscosity_iterations = 0;  ///< implicit viscosity: CG iterations of both components
+  /// @{ the PPE's unknowns, free-surface particles and closed groups (each with its gauge)
+  std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;  /// @}
+  double max_speed = 0;         ///< the fluid's largest speed at the end of the step [m/s]
 };
 
+/// Wall-clock seconds spent in each phase of the step, summed over every step so far.
 struct PhaseTimes {
-  double neighbors = 0, predict = 0, assemble = 0, solver_setup = 0, solve = 0, correct = 0;
+  /// @{ neighbour searches, predictor, n* to assembly, solver setup, solve, pressure boundary values to corrector
+  double neighbors = 0, predict = 0, assemble = 0, solver_setup = 0, solve = 0, correct = 0;  /// @}
+  /// The sum of the phases.
   [[nodiscard]] double total() const { return neighbors + predict + assemble + solver_setup + solve + correct; }
 };
 
-// What one step's stages hand on to the next, per particle unless said. Kept by the simulation so that its memory
-// is reused from step to step. Components read and write it at their hooks.
+/// What one step's stages hand on to the next, per particle unless said. Kept by the simulation so that its memory
+/// is reused from step to step. Components read and write it at their hooks.
 struct StepFields {
-  double dt = 0;
-  double time = 0;  // at the end of the step
-  // The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
-  double balanced_fx = 0, balanced_fy = 0;
-  std::vector<char> prescribed;  // fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
-  std::vector<double> n_star;    // number density at r* (density kernel)
-  std::vector<double> n_surface;  // at the surface kernel's radius, when it differs
-  std::vector<double> n_source;  // the density the source reads in place of n_star (empty: n_star)
-  std::vector<double> div;       // div u*
-  std::vector<char> surface;     // free-surface particles
-  std::vector<double> source;    // right-hand side of lap P = source
-  std::vector<char> held;        // particles held at a given pressure in the PPE (empty: the free surface)
-  std::vector<double> held_value;       // the pressure they are held at (empty: 0)
-  std::vector<double> pressure_offset;  // the PPE solves for P - offset (empty: for P)
-  bool surface_own_reference = false;   // free-surface particles take their own P as the gradient's reference
-  std::vector<char> carriers;    // particles whose pressure the gradient sees
-  std::vector<double> lu, lv, pressure, residual, gx, gy;  // scratch
+  double dt = 0;    ///< this step's time step [s]
+  double time = 0;  ///< at the end of the step
+  /// @{ The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
+  double balanced_fx = 0, balanced_fy = 0;  /// @}
+  std::vector<char> prescribed;  ///< fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
+  std::vector<double> n_star;    ///< number density at r* (density kernel)
+  std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
+  std::vector<double> n_source;  ///< the density the source reads in place of n_star (empty: n_star)
+  std::vector<double> div;       ///< div u*
+  std::vector<char> surface;     ///< free-surface particles
+  std::vector<double> source;    ///< right-hand side of lap P = source
+  std::vector<char> held;        ///< particles held at a given pressure in the PPE (empty: the free surface)
+  std::vector<double> held_value;       ///< the pressure they are held at (empty: 0)
+  std::vector<double> pressure_offset;  ///< the PPE solves for P - offset (empty: for P)
+  bool surface_own_reference = false;   ///< free-surface particles take their own P as the gradient's reference
+  std::vector<char> carriers;    ///< particles whose pressure the gradient sees
+  /// @{ scratch
+  std::vector<double> lu, lv, pressure, residual, gx, gy;  /// @}
 };
 
-// max |u|^2 over the fluid particles.
+/// max |u|^2 over the fluid particles.
 double max_fluid_speed_squared(const Particles& particles);
 
 class Simulation;
 
-// What a hook sees: the simulation (configuration, domain, kernels, grid and neighbour lists), its particles and
-// this step's fields.
+/// What a hook sees: the simulation (configuration, domain, kernels, grid and neighbour lists), its particles and
+/// this step's fields.
 struct StepContext {
-  const Simulation& sim;
-  Particles& particles;
-  StepFields& fields;
+  const Simulation& sim;  ///< the simulation, read-only
+  Particles& particles;   ///< its particles, for the component to change
+  StepFields& fields;     ///< this step's fields
 };
 
-// A scene-specific treatment hooked into the step. Each hook runs at a named point, components in the order they
-// were added; a component overrides the hooks it needs (docs/step.md lists which one each uses).
+/// A scene-specific treatment hooked into the step. Each hook runs at a named point, components in the order they
+/// were added; a component overrides the hooks it needs (docs/step.md lists which one each uses).
 class StepComponent {
  public:
-  virtual ~StepComponent() = default;
-  virtual void before_predictor(StepContext&) {}   // neighbours of r^n found, grid binned at r^n
-  virtual void after_predictor(StepContext&) {}    // particles at r*, fields.time the new time
-  virtual void before_projection(StepContext&) {}  // before n* and div u*
-  virtual void before_source(StepContext&) {}      // n*, div u* and the free surface known
-  virtual void before_assembly(StepContext&) {}    // source known
-  virtual void after_pressure(StepContext&) {}     // pressures scattered, dummies set, carriers known
-  virtual void after_corrector(StepContext&) {}    // velocities and positions at n+1
+  virtual ~StepComponent() = default;  ///< components are owned through this base (Simulation::add)
+  virtual void before_predictor(StepContext&) {}   ///< neighbours of r^n found, grid binned at r^n
+  virtual void after_predictor(StepContext&) {}    ///< particles at r*, fields.time the new time
+  virtual void before_projection(StepContext&) {}  ///< before n* and div u*
+  virtual void before_source(StepContext&) {}      ///< n*, div u* and the free surface known
+  virtual void before_assembly(StepContext&) {}    ///< source known
+  virtual void after_pressure(StepContext&) {}     ///< pressures scattered, dummies set, carriers known
+  virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1
 };
 
+/// A run: particles in a domain, stepped by the semi-implicit MPS step with the components added to it.
 class Simulation {
  public:
+  /// Validates the configuration and the particles (throws std::invalid_argument naming what is wrong), makes the
+  /// pressure solver from config.solver and adds the components the configuration asks for.
   Simulation(Particles particles, Domain domain, SimulationConfig config);
+  /// Same, with a pressure solver of the caller's making (config.solver is then not read).
   Simulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
 
-  // Advances one step or throws SimulationError and keeps the previous state.
+  /// Advances one step or throws SimulationError and keeps the previous state.
   const StepInfo& step();
 
-  // Adds a component (mps/components.hpp, or a scene's own) after those already there; returns it.
+  /// Adds a component (mps/components.hpp, or a scene's own) after those already there; returns it.
   template <class Component, class... Args>
   Component& add(Args&&... args) {
     auto component = std::make_unique<Component>(std::forward<Args>(args)...);
@@ -152,7 +166,7 @@ class Simulation {
     components_.push_back(std::move(component));
     return added;
   }
-  // The first component of that type, or nullptr.
+  /// The first component of that type, or nullptr.
   template <class Component>
   [[nodiscard]] const Component* find() const {
     for (const auto& c : components_)
@@ -160,26 +174,28 @@ class Simulation {
     return nullptr;
   }
 
-  [[nodiscard]] const Particles& particles() const { return particles_; }
-  [[nodiscard]] const Domain& domain() const { return domain_; }
-  [[nodiscard]] const SimulationConfig& config() const { return config_; }
-  [[nodiscard]] const LinearSolver& solver() const { return *solver_; }
-  [[nodiscard]] const StepInfo& last_step() const { return info_; }
-  [[nodiscard]] const PhaseTimes& times() const { return times_; }
-  [[nodiscard]] double time() const { return info_.time; }
+  [[nodiscard]] const Particles& particles() const { return particles_; }  ///< the particles now
+  [[nodiscard]] const Domain& domain() const { return domain_; }           ///< the domain
+  [[nodiscard]] const SimulationConfig& config() const { return config_; }  ///< the configuration
+  [[nodiscard]] const LinearSolver& solver() const { return *solver_; }    ///< the pressure solver
+  [[nodiscard]] const StepInfo& last_step() const { return info_; }        ///< what the last step did
+  [[nodiscard]] const PhaseTimes& times() const { return times_; }         ///< time per phase, all steps so far
+  [[nodiscard]] double time() const { return info_.time; }                 ///< simulated time [s]
+  /// @{ the kernels at the configured radii: number density (source), free surface, gradient, Laplacian
   [[nodiscard]] const Kernel& density_kernel() const { return k_density_; }
   [[nodiscard]] const Kernel& surface_kernel() const { return k_surface_; }
   [[nodiscard]] const Kernel& gradient_kernel() const { return k_gradient_; }
   [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
-  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  // n* of the last step
-  [[nodiscard]] const PpeSystem& last_ppe() const { return ppe_; }
-  [[nodiscard]] const CellGrid& grid() const { return grid_; }
-  // Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
-  // largest of the smaller ones.
+  /// @}
+  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  ///< n* of the last step
+  [[nodiscard]] const PpeSystem& last_ppe() const { return ppe_; }  ///< the last step's PPE (matrix, rhs, maps)
+  [[nodiscard]] const CellGrid& grid() const { return grid_; }  ///< the cell grid, binned at the last search
+  /// Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
+  /// largest of the smaller ones.
   [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
     return k.re <= small_radius_ ? close_star_ : near_star_;
   }
-  // Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection).
+  /// Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection).
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_now_; }
 
  private:

@@ -4,13 +4,13 @@
 #include <sstream>
 
 namespace mps {
-namespace {
-
-const std::vector<SolverEntry>& registry() {
+const std::vector<SolverEntry>& solver_registry() {
   static const std::vector<SolverEntry> entries = {auto_entry(),      eigen_cg_entry(),  eigen_bicgstab_entry(),
                                                    cholmod_entry(),   hypre_amg_entry(), hypre_pcg_entry()};
   return entries;
 }
+
+namespace {
 
 std::string trim(std::string_view s) {
   const auto b = s.find_first_not_of(" \t");
@@ -55,7 +55,7 @@ std::unique_ptr<LinearSolver> make_solver(std::string_view spec) { return make_s
 
 std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverContext& context) {
   const SolverSpec parsed = parse_solver_spec(spec);
-  for (const auto& entry : registry()) {
+  for (const auto& entry : solver_registry()) {
     if (entry.name != parsed.name) continue;
     std::map<std::string, std::string> values;
     for (const auto& key : entry.keys) values[key.name] = key.default_value;
@@ -75,13 +75,13 @@ std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverCon
 
 std::vector<std::string> solver_names() {
   std::vector<std::string> names;
-  for (const auto& entry : registry()) names.push_back(entry.name);
+  for (const auto& entry : solver_registry()) names.push_back(entry.name);
   return names;
 }
 
 std::string describe_solvers() {
   std::ostringstream out;
-  for (const auto& entry : registry()) {
+  for (const auto& entry : solver_registry()) {
     out << entry.name << "\n    " << entry.summary << "\n";
     for (const auto& key : entry.keys)
       out << "    " << key.name << "=" << key.default_value << "  " << key.help << "\n";

@@ -1,5 +1,6 @@
 #pragma once
-// What a backend declares to the registry: its keys with defaults, and a factory over validated options.
+/// \file
+/// What a backend declares to the registry: its keys with defaults, and a factory over validated options.
 #include <functional>
 #include <initializer_list>
 #include <map>
@@ -11,23 +12,26 @@
 
 namespace mps {
 
+/// One key a backend accepts in its spec.
 struct SolverKey {
-  std::string name;
-  std::string default_value;
-  std::string help;
+  std::string name;           ///< as written in the spec, e.g. "tol"
+  std::string default_value;  ///< the value when the spec leaves the key out
+  std::string help;           ///< a line for --list-solvers
 };
 
-// The options of one spec, with defaults filled in; typed getters reject bad values with a message that
-// names the solver, the key and what is allowed.
+/// The options of one spec, with defaults filled in; typed getters reject bad values with a message that
+/// names the solver, the key and what is allowed.
 class SolverOptions {
  public:
+  /// The options of solver `solver`: every declared key with its value (the spec's or the default).
   SolverOptions(std::string solver, std::map<std::string, std::string> values)
       : solver_(std::move(solver)), values_(std::move(values)) {}
-  [[nodiscard]] double number(const std::string& key, double min, double max) const;
-  [[nodiscard]] int integer(const std::string& key, int min, int max) const;
+  [[nodiscard]] double number(const std::string& key, double min, double max) const;  ///< a number in [min, max]
+  [[nodiscard]] int integer(const std::string& key, int min, int max) const;  ///< a whole number in [min, max]
+  /// One of `allowed`.
   [[nodiscard]] std::string choice(const std::string& key, std::initializer_list<const char*> allowed) const;
-  [[nodiscard]] const std::map<std::string, std::string>& values() const { return values_; }
-  // "name:key=value,..." with every key, in key order.
+  [[nodiscard]] const std::map<std::string, std::string>& values() const { return values_; }  ///< key -> value
+  /// "name:key=value,..." with every key, in key order.
   [[nodiscard]] std::string spec() const;
 
  private:
@@ -36,19 +40,27 @@ class SolverOptions {
   std::map<std::string, std::string> values_;
 };
 
+/// A backend as the registry knows it.
 struct SolverEntry {
-  std::string name;
-  std::string summary;
-  std::vector<SolverKey> keys;
+  std::string name;             ///< the spec's name, e.g. "hypre-pcg"
+  std::string summary;          ///< a line on when to use it (--list-solvers)
+  std::vector<SolverKey> keys;  ///< every key it accepts, with defaults
+  /// Builds the solver from validated options.
   std::function<std::unique_ptr<LinearSolver>(const SolverOptions&, const SolverContext&)> make;
 };
 
-// One function per backend file; the registry lists them.
+/// @{ The backends' registry entries, one function per backend file (named beside each); make_solver and
+/// describe_solvers list them.
 SolverEntry eigen_cg_entry();        // eigen.cpp
 SolverEntry eigen_bicgstab_entry();  // eigen.cpp
 SolverEntry cholmod_entry();         // cholmod.cpp
 SolverEntry hypre_amg_entry();       // hypre.cpp
 SolverEntry hypre_pcg_entry();       // hypre.cpp
 SolverEntry auto_entry();            // auto.cpp
+/// @}
+
+// Every registered backend in listing order, with its keys, defaults and help (what describe_solvers prints, as data
+// for bindings and tools that present the choices themselves).
+const std::vector<SolverEntry>& solver_registry();
 
 }  // namespace mps

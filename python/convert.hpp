@@ -1,0 +1,42 @@
+#pragma once
+// Conversions between the library's plain arrays and NumPy / SciPy, shared by the binding files. Everything is copied:
+// a NumPy array never aliases a std::vector the library may reallocate.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "mps/csr.hpp"
+
+namespace sparsemps {
+
+namespace py = pybind11;
+
+template <class T>
+py::array_t<T> to_numpy(const std::vector<T>& v) {
+  py::array_t<T> out(static_cast<py::ssize_t>(v.size()));
+  std::copy(v.begin(), v.end(), out.mutable_data());
+  return out;
+}
+
+// Flags (std::vector<char>) as a NumPy bool array.
+py::array_t<bool> flags_to_numpy(const std::vector<char>& v);
+
+// A 1-D array of real numbers (any real dtype) as doubles; `n` >= 0 demands that length. The messages name `what`.
+std::vector<double> to_doubles(py::handle obj, const std::string& what, py::ssize_t n = -1);
+// A 1-D array of integers as ints; `n` >= 0 demands that length.
+std::vector<int> to_ints(py::handle obj, const std::string& what, py::ssize_t n = -1);
+
+// Anything scipy.sparse.csr_matrix accepts (a CSR, COO, ... matrix or array, a dense array) as the library's CSR:
+// duplicates summed, columns sorted, indices checked to fit 32 bits.
+mps::CsrMatrix to_csr(py::handle obj);
+// scipy.sparse.csr_matrix over copies of the arrays (int32 indices, float64 values).
+py::object to_scipy(const mps::CsrMatrix& a);
+
+void bind_solvers(py::module_& m);
+void bind_scene(py::module_& m);
+
+}  // namespace sparsemps

@@ -1,0 +1,770 @@
+// Particles, domain, configuration, the time loop and PPE assembly from particle arrays.
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "convert.hpp"
+#include "mps/components.hpp"
+#include "mps/geometry.hpp"
+#include "mps/io.hpp"
+#include "mps/step.hpp"
+
+namespace sparsemps {
+namespace {
+
+using Config = mps::SimulationConfig;
+
+// ---------------------------------------------------------------------------------------------------------------
+// Kinds and particles
+
+mps::Kind kind_of(py::handle obj) {
+  if (py::isinstance<mps::Kind>(obj)) return obj.cast<mps::Kind>();
+  if (py::isinstance<py::str>(obj)) {
+    const auto name = obj.cast<std::string>();
+    for (const mps::Kind k : {mps::Kind::fluid, mps::Kind::wall, mps::Kind::dummy, mps::Kind::ghost})
+      if (name == mps::to_string(k)) return k;
+    throw py::value_error("unknown particle kind '" + name + "'; valid: fluid, wall, dummy, ghost");
+  }
+  if (PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr())) {
+    const auto v = obj.cast<long long>();
+    if (v < 0 || v > 3) throw py::value_error("particle kind " + std::to_string(v) + " is not 0-3 (fluid, wall, dummy, ghost)");
+    return static_cast<mps::Kind>(v);
+  }
+  throw py::type_error("a particle kind is a Kind, a name ('fluid', 'wall', 'dummy', 'ghost') or 0-3");
+}
+
+bool is_scalar_kind(py::handle obj) {
+  return py::isinstance<mps::Kind>(obj) || py::isinstance<py::str>(obj) ||
+         (PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr()) && !py::isinstance<py::array>(obj));
+}
+
+std::vector<mps::Kind> kinds_of(py::handle obj, std::size_t n) {
+  if (is_scalar_kind(obj)) return std::vector<mps::Kind>(n, kind_of(obj));
+  const std::vector<int> values = to_ints(obj, "kind", static_cast<py::ssize_t>(n));
+  std::vector<mps::Kind> out(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (values[i] < 0 || values[i] > 3)
+      throw py::value_error("kind[" + std::to_string(i) + "] = " + std::to_string(values[i]) +
+                            " is not 0-3 (fluid, wall, dummy, ghost)");
+    out[i] = static_cast<mps::Kind>(values[i]);
+  }
+  return out;
+}
+
+py::array_t<std::uint8_t> kinds_to_numpy(const std::vector<mps::Kind>& kinds) {
+  py::array_t<std::uint8_t> out(static_cast<py::ssize_t>(kinds.size()));
+  std::uint8_t* data = out.mutable_data();
+  for (std::size_t i = 0; i < kinds.size(); ++i) data[i] = static_cast<std::uint8_t>(kinds[i]);
+  return out;
+}
+
+unsigned sides_of(py::handle obj) {
+  std::vector<std::string> names;
+  if (py::isinstance<py::str>(obj)) {
+    std::string text = obj.cast<std::string>();
+    std::replace_if(text.begin(), text.end(), [](char c) { return c == '|' || c == ','; }, ' ');
+    std::istringstream words(text);
+    for (std::string w; words >> w;) names.push_back(w);
+  } else {
+    for (py::handle item : obj) names.push_back(py::str(item).cast<std::string>());
+  }
+  unsigned sides = 0;
+  for (const std::string& name : names) {
+    if (name == "left") sides |= mps::left;
+    else if (name == "right") sides |= mps::right;
+    else if (name == "bottom") sides |= mps::bottom;
+    else if (name == "top") sides |= mps::top;
+    else throw py::value_error("unknown side '" + name + "'; valid: left, right, bottom, top");
+  }
+  return sides;
+}
+
+mps::Rect rect_of(py::handle obj, const char* what) {
+  const auto v = obj.cast<std::vector<double>>();
+  if (v.size() != 4) throw py::value_error(std::string(what) + " must be (x0, y0, x1, y1)");
+  return {v[0], v[1], v[2], v[3]};
+}
+
+// A per-particle double array: a copy out, and a checked copy in.
+void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<double> mps::Particles::*member,
+               const char* doc) {
+  c.def_property(
+      name, [member](const mps::Particles& p) { return to_numpy(p.*member); },
+      [member, name](mps::Particles& p, py::handle values) {
+        p.*member = to_doubles(values, name, static_cast<py::ssize_t>(p.size()));
+      },
+      doc);
+}
+
+mps::Domain domain_of(py::handle obj) {
+  if (py::isinstance<mps::Domain>(obj)) return obj.cast<mps::Domain>();
+  const auto v = obj.cast<std::vector<double>>();
+  if (v.size() != 4) throw py::value_error("a domain is a Domain or (xmin, xmax, ymin, ymax)");
+  const mps::Domain d{v[0], v[1], v[2], v[3]};
+  d.validate();
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// SimulationConfig as a table of fields, so that keyword construction, attributes and to_dict() share one list and a
+// misspelt key is an error naming it.
+
+double as_number(py::handle v, const std::string& name) {
+  if (PyBool_Check(v.ptr()) || py::isinstance<py::str>(v) || !PyNumber_Check(v.ptr()))
+    throw py::type_error("SimulationConfig." + name + " takes a number, got " +
+                         py::str(py::type::of(v).attr("__name__")).cast<std::string>());
+  try {
+    return v.cast<double>();
+  } catch (const py::cast_error&) {
+    throw py::type_error("SimulationConfig." + name + " takes a real number");
+  }
+}
+
+bool as_bool(py::handle v, const std::string& name) {
+  const bool numpy_bool = py::isinstance(v, py::module_::import("numpy").attr("bool_"));
+  if (!PyBool_Check(v.ptr()) && !numpy_bool)
+    throw py::type_error("SimulationConfig." + name + " takes True or False, got " +
+                         py::str(py::type::of(v).attr("__name__")).cast<std::string>());
+  return v.cast<bool>();
+}
+
+int as_int(py::handle v, const std::string& name) {
+  if (PyBool_Check(v.ptr()) || !PyIndex_Check(v.ptr()))
+    throw py::type_error("SimulationConfig." + name + " takes an integer, got " +
+                         py::str(py::type::of(v).attr("__name__")).cast<std::string>());
+  const auto value = v.cast<long long>();
+  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max())
+    throw py::value_error("SimulationConfig." + name + " = " + std::to_string(value) + " is beyond 32 bits");
+  return static_cast<int>(value);
+}
+
+std::string as_string(py::handle v, const std::string& name) {
+  if (!py::isinstance<py::str>(v))
+    throw py::type_error("SimulationConfig." + name + " takes a string, got " +
+                         py::str(py::type::of(v).attr("__name__")).cast<std::string>());
+  return v.cast<std::string>();
+}
+
+struct Field {
+  std::string name;
+  std::function<py::object(const Config&)> get;
+  std::function<void(Config&, py::handle)> set;
+  std::string doc;
+};
+
+Field number(const char* name, double Config::*m, const char* doc) {
+  return {name, [m](const Config& c) { return py::object(py::float_(c.*m)); },
+          [m, name](Config& c, py::handle v) { c.*m = as_number(v, name); }, doc};
+}
+Field flag(const char* name, bool Config::*m, const char* doc) {
+  return {name, [m](const Config& c) { return py::object(py::bool_(c.*m)); },
+          [m, name](Config& c, py::handle v) { c.*m = as_bool(v, name); }, doc};
+}
+Field text(const char* name, std::string Config::*m, const char* doc) {
+  return {name, [m](const Config& c) { return py::object(py::str(c.*m)); },
+          [m, name](Config& c, py::handle v) { c.*m = as_string(v, name); }, doc};
+}
+
+// mps::SimulationConfig's fields, in its order (lib/mps/step.hpp has the reasons behind the defaults).
+const std::vector<Field>& config_fields() {
+  static const std::vector<Field> fields = {
+      number("l0", &Config::l0, "initial particle spacing [m] (required)"),
+      number("radius_density", &Config::radius_density, "number density (source) kernel radius [l0]"),
+      number("radius_surface", &Config::radius_surface, "free-surface detection kernel radius [l0]"),
+      number("radius_gradient", &Config::radius_gradient, "gradient and divergence kernel radius [l0]"),
+      number("radius_laplacian", &Config::radius_laplacian, "Laplacian (PPE, viscosity) kernel radius [l0]"),
+      {"weight", [](const Config& c) { return py::object(py::str(std::string(mps::to_string(c.weight)))); },
+       [](Config& c, py::handle v) { c.weight = mps::parse_weight(as_string(v, "weight")); },
+       "'bounded' (seed 004) or 'classic' (re/r - 1)"},
+      number("rho", &Config::rho, "density [kg/m^3]"),
+      number("nu", &Config::nu, "kinematic viscosity [m^2/s]"),
+      number("fx", &Config::fx, "body force per unit mass, x [m/s^2]"),
+      number("fy", &Config::fy, "body force per unit mass, y [m/s^2]"),
+      number("gamma", &Config::gamma, "mixed source weight: 1 number density error only, 0 divergence only"),
+      number("beta", &Config::beta, "free surface: n* < beta n0 ..."),
+      number("theta", &Config::theta, "... and fewer than theta N0 neighbours (0: density test only)"),
+      number("dt_max", &Config::dt_max, "the time step when neither the CFL nor the viscous limit binds [s]"),
+      number("cfl", &Config::cfl, "dt <= cfl l0 / |u|max"),
+      number("viscous_number", &Config::viscous_number, "dt <= viscous_number l0^2 / nu (explicit viscosity)"),
+      flag("implicit_viscosity", &Config::implicit_viscosity, "solve the viscous predictor implicitly"),
+      text("viscosity_solver", &Config::viscosity_solver, "solver spec of the implicit viscosity"),
+      flag("initial_reference_density", &Config::initial_reference_density,
+           "source against each particle's t = 0 number density instead of the lattice n0"),
+      {"pressure_gradient",
+       [](const Config& c) { return py::object(py::str(std::string(mps::to_string(c.pressure_gradient)))); },
+       [](Config& c, py::handle v) {
+         c.pressure_gradient = mps::gradient_variant_from_name(as_string(v, "pressure_gradient"));
+       },
+       "plain, min-reference, corrected, corrected-min-reference or conservative"},
+      flag("min_reference_tilt", &Config::min_reference_tilt, "min-reference of P - rho f.r instead of P"),
+      flag("hydrostatic_split", &Config::hydrostatic_split, "solve for P - rho f.r (with min_reference_tilt)"),
+      number("sound_speed", &Config::sound_speed, "artificial sound speed [m/s] (0: incompressible)"),
+      number("shifting", &Config::shifting, "particle shifting coefficient (0: off)"),
+      flag("shift_along_free_surface", &Config::shift_along_free_surface, "shift surface particles along it"),
+      flag("clamp_negative_pressure", &Config::clamp_negative_pressure, "P < 0 -> 0 where a free surface is near"),
+      {"reorder_every", [](const Config& c) { return py::object(py::int_(c.reorder_every)); },
+       [](Config& c, py::handle v) { c.reorder_every = as_int(v, "reorder_every"); },
+       "steps between reorderings of the particles by cell (0: never)"},
+      number("max_displacement", &Config::max_displacement, "guard: largest move in one step [l0]"),
+      number("max_speed", &Config::max_speed, "guard: largest speed [m/s]"),
+      text("dt_option", &Config::dt_option, "the host's option for the time step, named in the guard's advice"),
+      text("solver", &Config::solver, "pressure solver spec (default 'auto')"),
+      flag("warm_start", &Config::warm_start, "start each solve from the previous pressure"),
+  };
+  return fields;
+}
+
+void set_fields(Config& c, const py::dict& values) {
+  for (const auto& [key, value] : values) {
+    const auto name = py::str(key).cast<std::string>();
+    const auto& fields = config_fields();
+    const auto it = std::find_if(fields.begin(), fields.end(), [&](const Field& f) { return f.name == name; });
+    if (it == fields.end()) {
+      std::string valid;
+      for (const Field& f : fields) valid += (valid.empty() ? "" : ", ") + f.name;
+      throw py::value_error("SimulationConfig has no field '" + name + "'; valid fields: " + valid);
+    }
+    it->set(c, value);
+  }
+}
+
+// config: None, a SimulationConfig or a dict; `overrides` (keyword arguments) are applied on top.
+Config config_of(py::handle config, const py::dict& overrides) {
+  Config c;
+  if (py::isinstance<Config>(config)) c = config.cast<Config>();
+  else if (py::isinstance<py::dict>(config)) set_fields(c, config.cast<py::dict>());
+  else if (!config.is_none()) throw py::type_error("config must be a SimulationConfig, a dict or None");
+  set_fields(c, overrides);
+  return c;
+}
+
+py::dict config_dict(const Config& c) {
+  py::dict out;
+  for (const Field& f : config_fields()) out[py::str(f.name)] = f.get(c);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The PPE with what the step knew when it assembled it.
+
+struct Ppe {
+  mps::PpeSystem system;
+  std::vector<mps::Kind> kind;  // of the particles, in the step's order
+  std::vector<char> surface, held;
+  std::vector<double> n_star, div, source, held_value, offset;
+};
+
+// Copies the step's fields at the last hook before assembly (components run in the order added, so it sees the
+// source and held values every earlier component set).
+class Recorder : public mps::StepComponent {
+ public:
+  explicit Recorder(std::shared_ptr<Ppe> out) : out_(std::move(out)) {}
+  void before_assembly(mps::StepContext& c) override {
+    const mps::StepFields& f = c.fields;
+    Ppe& o = *out_;
+    o.kind = c.particles.kind;
+    o.surface = f.surface;
+    o.held = f.held.empty() ? f.surface : f.held;
+    o.n_star = f.n_star;
+    o.div = f.div;
+    o.source = f.source;
+    o.held_value = f.held_value;
+    o.offset = f.pressure_offset;
+  }
+
+ protected:
+  std::shared_ptr<Ppe> out_;
+};
+
+// Set when the step has assembled its PPE and stops; any other stop is an error in the particles.
+struct AssemblyState {
+  bool assembled = false;
+};
+struct Assembled : std::exception {
+  [[nodiscard]] const char* what() const noexcept override { return "sparsemps: PPE assembled"; }
+};
+
+// The particles at r* with velocities u*, whatever the predictor made of them; wrapped onto periodic axes as the
+// predictor wraps r*, so that r + dt u* given unwrapped lands where the step puts it.
+class Injector final : public Recorder {
+ public:
+  Injector(std::shared_ptr<Ppe> out, const mps::Particles& star, AssemblyState& state)
+      : Recorder(std::move(out)), star_(star), state_(state) {}
+  void after_predictor(mps::StepContext& c) override {
+    mps::Particles& p = c.particles;
+    p.x = star_.x;
+    p.y = star_.y;
+    p.u = star_.u;
+    p.v = star_.v;
+    for (std::size_t i = 0; i < p.size(); ++i) c.sim.domain().wrap(p.x[i], p.y[i]);
+  }
+  // Reached when the step skips the solve (no unknowns, or b = 0).
+  void after_pressure(mps::StepContext&) override {
+    state_.assembled = true;
+    throw Assembled();
+  }
+
+ private:
+  const mps::Particles& star_;
+  AssemblyState& state_;
+};
+
+// Stops the step at its solve: assemble_ppe wants the system, not its solution.
+class StopAtSolve final : public mps::LinearSolver {
+ public:
+  explicit StopAtSolve(AssemblyState& state) : state_(state) {}
+  mps::SolveReport solve(const mps::CsrMatrix&, std::span<const double>, std::span<double>) override {
+    state_.assembled = true;
+    throw Assembled();
+  }
+  [[nodiscard]] std::string spec() const override { return "none (assemble_ppe)"; }
+
+ private:
+  AssemblyState& state_;
+};
+
+py::object optional_doubles(const std::vector<double>& v) { return v.empty() ? py::object(py::none()) : to_numpy(v); }
+
+const char* ppe_doc =
+    "A pressure Poisson equation A x = b as a time step assembled it (mps::PpeSystem and the step's fields).\n\n"
+    "A = -(discrete Laplacian) over the unknowns (wet fluid and wall particles off the free surface), symmetric\n"
+    "positive definite; x is the pressure, or P - offset when the config splits off the hydrostatic pressure.\n"
+    "Per-unknown arrays are in unknown order, per-particle arrays in the particles' order of that step.";
+
+// The scene components that need no callback, with the ranges the apps accept.
+void add_asymmetry_surface(mps::Simulation& sim, double fraction) {
+  if (!(fraction > 0.0 && fraction <= 10.0))
+    throw py::value_error("asymmetry fraction must be in (0, 10], got " + std::to_string(fraction));
+  sim.add<mps::AsymmetrySurface>(fraction);
+}
+
+void add_particle_collision(mps::Simulation& sim, double distance, double restitution) {
+  if (!(distance > 0.0 && distance < 1.0))
+    throw py::value_error("collision distance must be in (0, 1) l0, got " + std::to_string(distance));
+  if (!(restitution >= 0.0 && restitution <= 1.0))
+    throw py::value_error("restitution must be in [0, 1], got " + std::to_string(restitution));
+  sim.add<mps::ParticleCollision>(distance, restitution);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The simulation, with a lock so that a step running without the GIL is never overlapped by another call.
+
+struct Simulation {
+  std::unique_ptr<mps::Simulation> sim;
+  std::shared_ptr<Ppe> recorded = std::make_shared<Ppe>();
+  mutable std::mutex mutex;
+
+  // The recorder goes first among the scene's components: those offered here do not hook before_assembly, so it
+  // still sees every field as the assembly does.
+  Simulation(const mps::Particles& particles, const mps::Domain& domain, const Config& config)
+      : sim(std::make_unique<mps::Simulation>(particles, domain, config)) {
+    sim->add<Recorder>(recorded);
+  }
+
+  template <class F>
+  auto locked(F&& f) const {
+    const std::lock_guard<std::mutex> lock(mutex);
+    return f();
+  }
+
+  mps::StepInfo step() {
+    const py::gil_scoped_release release;
+    const std::lock_guard<std::mutex> lock(mutex);
+    return sim->step();
+  }
+};
+
+// PPE assembly: the step's own stages run on particles placed at r* with velocities u*, up to the solve.
+Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config config, double asymmetry,
+             bool wet_walls) {
+  if (!(dt > 0.0 && std::isfinite(dt))) throw py::value_error("dt must be positive and finite");
+  // dt exactly as given: no CFL or viscous limit (viscosity does not enter the PPE); no reordering, so unknowns are
+  // numbered in the particles' order.
+  config.dt_max = dt;
+  config.cfl = std::numeric_limits<double>::max();
+  config.nu = 0.0;
+  config.implicit_viscosity = false;
+  config.shifting = 0.0;
+  config.reorder_every = 0;
+  config.validate();
+  mps::Domain domain;
+  if (domain_in.is_none()) {
+    // Any box holding the particles gives the same system: neighbour lists are sorted whatever the cells.
+    const double margin = config.l0 * (2.0 + std::max({config.radius_density, config.radius_surface,
+                                                       config.radius_gradient, config.radius_laplacian}));
+    double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+    bool first = true;
+    for (std::size_t i = 0; i < star.size(); ++i) {
+      if (star.kind[i] == mps::Kind::ghost || !std::isfinite(star.x[i]) || !std::isfinite(star.y[i])) continue;
+      x0 = first ? star.x[i] : std::min(x0, star.x[i]);
+      x1 = first ? star.x[i] : std::max(x1, star.x[i]);
+      y0 = first ? star.y[i] : std::min(y0, star.y[i]);
+      y1 = first ? star.y[i] : std::max(y1, star.y[i]);
+      first = false;
+    }
+    domain = {x0 - margin, x1 + margin, y0 - margin, y1 + margin};
+  } else {
+    domain = domain_of(domain_in);
+  }
+  auto out = std::make_shared<Ppe>();
+  AssemblyState state;
+  mps::Simulation sim(star, domain, config, std::make_unique<StopAtSolve>(state));
+  if (asymmetry > 0.0) add_asymmetry_surface(sim, asymmetry);
+  if (wet_walls) sim.add<mps::WetWalls>();
+  sim.add<Injector>(out, star, state);
+  std::string error;
+  {
+    const py::gil_scoped_release release;
+    try {
+      sim.step();
+    } catch (const mps::SimulationError& e) {
+      error = e.what();  // the step stops at the solve on purpose; any other stop is the particles' fault
+    }
+  }
+  if (!state.assembled) throw py::value_error("assemble_ppe: " + (error.empty() ? "no PPE assembled" : error));
+  out->system = sim.last_ppe();
+  return std::move(*out);
+}
+
+mps::Particles particles_from_arrays(py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind) {
+  mps::Particles p;
+  const std::vector<double> xs = to_doubles(x, "x");
+  const auto n = static_cast<py::ssize_t>(xs.size());
+  const std::vector<double> ys = to_doubles(y, "y", n);
+  const std::vector<mps::Kind> kinds = kinds_of(kind, xs.size());
+  p.reserve(xs.size());
+  for (std::size_t i = 0; i < xs.size(); ++i) p.add(xs[i], ys[i], kinds[i]);
+  if (!u.is_none()) p.u = to_doubles(u, "u", n);
+  if (!v.is_none()) p.v = to_doubles(v, "v", n);
+  return p;
+}
+
+const char* assemble_doc =
+    "The PPE a time step assembles for particles at r* with velocities u* (after the predictor); returns a Ppe.\n\n"
+    "It runs mps::Simulation's own stages on the particles as given and stops at the solve: neighbours at r*,\n"
+    "number density n* and div u*, free surface (n* < beta n0 and fewer than theta N0 neighbours), the mixed\n"
+    "source (1 - gamma)(rho/dt) div u* - gamma (rho/dt^2)(n* - n0)/n0 (divergence only where the source kernel\n"
+    "reaches the free surface), the hydrostatic split under a body force, the assembly. So the matrix and rhs are\n"
+    "bitwise those Simulation.step() builds for the same particles.\n\n"
+    "asymmetry, wet_walls: the free-surface components of Simulation.add_asymmetry_surface and add_wet_walls\n"
+    "(0 / False: off).\n"
+    "dt: the step [s]. domain: Domain or (xmin, xmax, ymin, ymax), needed for periodic axes, along which r* is\n"
+    "wrapped as the predictor wraps it (default: a box around the particles). config / keyword fields: SimulationConfig fields (l0 required; the radii, weight, rho,\n"
+    "gamma, beta, theta, fx, fy, hydrostatic_split, sound_speed, initial_reference_density matter).";
+
+}  // namespace
+
+void bind_scene(py::module_& m) {
+  py::enum_<mps::Kind>(m, "Kind", "Particle kinds: fluid, wall (first boundary layer, a PPE unknown), dummy (outer "
+                                  "layers), ghost (inactive). Kind arrays are uint8 with these values.")
+      .value("fluid", mps::Kind::fluid)
+      .value("wall", mps::Kind::wall)
+      .value("dummy", mps::Kind::dummy)
+      .value("ghost", mps::Kind::ghost);
+
+  py::class_<mps::Domain>(m, "Domain",
+                          "The region particles may occupy; a periodic axis wraps positions (mps::Domain).")
+      .def(py::init([](double xmin, double xmax, double ymin, double ymax, bool px, bool py_) {
+             mps::Domain d{xmin, xmax, ymin, ymax, px, py_};
+             d.validate();
+             return d;
+           }),
+           py::arg("xmin"), py::arg("xmax"), py::arg("ymin"), py::arg("ymax"), py::arg("periodic_x") = false,
+           py::arg("periodic_y") = false)
+      .def_readwrite("xmin", &mps::Domain::xmin)
+      .def_readwrite("xmax", &mps::Domain::xmax)
+      .def_readwrite("ymin", &mps::Domain::ymin)
+      .def_readwrite("ymax", &mps::Domain::ymax)
+      .def_readwrite("periodic_x", &mps::Domain::periodic_x)
+      .def_readwrite("periodic_y", &mps::Domain::periodic_y)
+      .def("contains", &mps::Domain::contains, py::arg("x"), py::arg("y"))
+      .def("__repr__", [](const mps::Domain& d) {
+        std::ostringstream s;
+        s.precision(17);
+        s << "Domain(" << d.xmin << ", " << d.xmax << ", " << d.ymin << ", " << d.ymax
+          << ", periodic_x=" << (d.periodic_x ? "True" : "False") << ", periodic_y=" << (d.periodic_y ? "True" : "False")
+          << ")";
+        return s.str();
+      });
+
+  py::class_<mps::Particles> particles_class(
+      m, "Particles",
+      "Particle state as arrays (mps::Particles): x, y, u, v, p, kind, group, id. Reading an attribute gives a\n"
+      "NumPy copy; assigning one takes an array of the same length. id is each particle's index at creation and\n"
+      "follows it through the reorderings a Simulation makes.");
+  particles_class
+      .def(py::init([](py::handle x, py::handle y, py::handle kind, py::handle u, py::handle v, py::handle p,
+                       py::handle group) {
+             if (x.is_none() && y.is_none()) return mps::Particles{};
+             if (kind.is_none()) throw py::value_error("Particles(x, y, kind): kind is required with positions");
+             mps::Particles out = particles_from_arrays(x, y, u, v, kind);
+             const auto n = static_cast<py::ssize_t>(out.size());
+             if (!p.is_none()) out.p = to_doubles(p, "p", n);
+             if (!group.is_none()) out.group = to_ints(group, "group", n);
+             return out;
+           }),
+           py::arg("x") = py::none(), py::arg("y") = py::none(), py::arg("kind") = py::none(),
+           py::arg("u") = py::none(), py::arg("v") = py::none(), py::arg("p") = py::none(),
+           py::arg("group") = py::none(),
+           "Empty, or from arrays: x, y and kind (an array of 0-3, or one Kind / name for all); u, v, p, group\n"
+           "default to 0.")
+      .def("__len__", &mps::Particles::size)
+      .def("count", [](const mps::Particles& p, py::handle kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
+           "How many particles are of this kind.")
+      .def(
+          "fill_rectangle",
+          [](mps::Particles& p, py::handle rect, double l0, py::handle kind, int group) -> mps::Particles& {
+            mps::fill_rectangle(p, rect_of(rect, "rect"), l0, kind_of(kind), group);
+            return p;
+          },
+          py::arg("rect"), py::arg("l0"), py::arg("kind") = "fluid", py::arg("group") = 0,
+          py::return_value_policy::reference_internal,
+          "Adds a square lattice of spacing l0 filling rect = (x0, y0, x1, y1), points at cell centres; returns self.")
+      .def(
+          "add_rectangle_walls",
+          [](mps::Particles& p, py::handle inner, double l0, py::handle sides, int wall_layers, int dummy_layers,
+             int group) -> mps::Particles& {
+            mps::add_rectangle_walls(p, rect_of(inner, "inner"), l0, sides_of(sides), wall_layers, dummy_layers,
+                                     group);
+            return p;
+          },
+          py::arg("inner"), py::arg("l0"), py::arg("sides") = "left|right|bottom", py::arg("wall_layers") = 1,
+          py::arg("dummy_layers") = 4, py::arg("group") = 0, py::return_value_policy::reference_internal,
+          "Adds wall_layers of wall and dummy_layers of dummy particles outside inner = (x0, y0, x1, y1) on the\n"
+          "given sides ('left|right|bottom' or a list of names; corners between walled sides included); returns self.")
+      .def_property(
+          "kind", [](const mps::Particles& p) { return kinds_to_numpy(p.kind); },
+          [](mps::Particles& p, py::handle values) { p.kind = kinds_of(values, p.size()); },
+          "uint8 array: 0 fluid, 1 wall, 2 dummy, 3 ghost")
+      .def_property(
+          "group", [](const mps::Particles& p) { return to_numpy(p.group); },
+          [](mps::Particles& p, py::handle values) {
+            p.group = to_ints(values, "group", static_cast<py::ssize_t>(p.size()));
+          },
+          "user tag, e.g. which wall moves with which motion")
+      .def_property_readonly(
+          "id", [](const mps::Particles& p) { return to_numpy(p.id); }, "index at creation")
+      .def("__repr__", [](const mps::Particles& p) {
+        return "Particles(" + std::to_string(p.size()) + ": " + std::to_string(p.count(mps::Kind::fluid)) +
+               " fluid, " + std::to_string(p.count(mps::Kind::wall)) + " wall, " +
+               std::to_string(p.count(mps::Kind::dummy)) + " dummy, " + std::to_string(p.count(mps::Kind::ghost)) +
+               " ghost)";
+      });
+  def_array(particles_class, "x", &mps::Particles::x, "position x [m]");
+  def_array(particles_class, "y", &mps::Particles::y, "position y [m]");
+  def_array(particles_class, "u", &mps::Particles::u, "velocity x [m/s]");
+  def_array(particles_class, "v", &mps::Particles::v, "velocity y [m/s]");
+  def_array(particles_class, "p", &mps::Particles::p, "pressure [Pa]");
+
+  std::string config_doc =
+      "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step.hpp and docs/step.md give each\n"
+      "default's reason). SimulationConfig(**fields); a misspelt field is a ValueError naming it.\n\nFields:\n";
+  for (const Field& f : config_fields()) config_doc += "  " + f.name + ": " + f.doc + "\n";
+  py::class_<Config> config_class(m, "SimulationConfig", config_doc.c_str());
+  config_class.def(py::init([](const py::kwargs& fields) { return config_of(py::none(), fields); }))
+      .def("to_dict", &config_dict, "Every field with its value.")
+      .def("validate", &Config::validate, "Raises ValueError naming a parameter out of its range.")
+      .def("__repr__", [](const Config& c) {
+        std::string out = "SimulationConfig(";
+        bool first = true;
+        for (const Field& f : config_fields()) {
+          out += (first ? "" : ", ") + f.name + "=" + py::repr(f.get(c)).cast<std::string>();
+          first = false;
+        }
+        return out + ")";
+      });
+  for (const Field& f : config_fields())
+    config_class.def_property(
+        f.name.c_str(), [get = f.get](const Config& c) { return get(c); },
+        [set = f.set](Config& c, py::handle v) { set(c, v); }, f.doc.c_str());
+
+  py::class_<mps::StepInfo>(m, "StepInfo", "What the last step did (mps::StepInfo).")
+      .def_readonly("step", &mps::StepInfo::step, "steps completed")
+      .def_readonly("time", &mps::StepInfo::time)
+      .def_readonly("dt", &mps::StepInfo::dt)
+      .def_readonly("dt_limit", &mps::StepInfo::dt_limit, "which bound set dt: dt_max, cfl or viscous")
+      .def_readonly("solve", &mps::StepInfo::solve, "the pressure solve's SolveReport")
+      .def_readonly("viscosity_iterations", &mps::StepInfo::viscosity_iterations)
+      .def_readonly("unknowns", &mps::StepInfo::unknowns)
+      .def_readonly("free_surface", &mps::StepInfo::free_surface, "particles flagged free surface")
+      .def_readonly("floating_groups", &mps::StepInfo::floating_groups, "closed groups given the gauge")
+      .def_readonly("max_speed", &mps::StepInfo::max_speed, "largest fluid speed [m/s]")
+      .def("__repr__", [](const mps::StepInfo& s) {
+        std::ostringstream out;
+        out << "StepInfo(step=" << s.step << ", time=" << s.time << ", dt=" << s.dt << " (" << s.dt_limit
+            << "), unknowns=" << s.unknowns << ", " << s.solve.backend << " iterations=" << s.solve.iterations
+            << ", max_speed=" << s.max_speed << ")";
+        return out.str();
+      });
+
+  py::class_<Ppe>(m, "Ppe", ppe_doc)
+      .def_property_readonly(
+          "matrix", [](const Ppe& p) { return to_scipy(p.system.matrix); }, "A as scipy.sparse.csr_matrix")
+      .def_property_readonly(
+          "rhs", [](const Ppe& p) { return to_numpy(p.system.rhs); }, "b: -(source) plus the held values' terms")
+      .def_property_readonly(
+          "unknown", [](const Ppe& p) { return to_numpy(p.system.unknown); }, "particle -> unknown, or -1")
+      .def_property_readonly(
+          "particle", [](const Ppe& p) { return to_numpy(p.system.particle); }, "unknown -> particle")
+      .def_property_readonly(
+          "floating_groups", [](const Ppe& p) { return p.system.floating.size(); },
+          "closed groups of unknowns (no free surface) given the gauge (lib/mps/ppe.hpp)")
+      .def_property_readonly(
+          "free_surface", [](const Ppe& p) { return flags_to_numpy(p.surface); }, "per particle")
+      .def_property_readonly(
+          "held", [](const Ppe& p) { return flags_to_numpy(p.held); },
+          "per particle: held at a given pressure, not unknowns (the free surface unless a boundary holds others)")
+      .def_property_readonly(
+          "number_density", [](const Ppe& p) { return to_numpy(p.n_star); }, "n* per particle")
+      .def_property_readonly(
+          "divergence", [](const Ppe& p) { return to_numpy(p.div); }, "div u* per particle")
+      .def_property_readonly(
+          "source", [](const Ppe& p) { return to_numpy(p.source); }, "per particle: lap P = source")
+      .def_property_readonly(
+          "offset", [](const Ppe& p) { return optional_doubles(p.offset); },
+          "per particle: x solves for P - offset (the hydrostatic split), None when x is P")
+      .def(
+          "pressures",
+          [](const Ppe& p, py::handle x, bool clamp_negative) {
+            const std::vector<double> solution = to_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
+            mps::Particles scratch;
+            for (const mps::Kind k : p.kind) scratch.add(0.0, 0.0, k);
+            p.system.scatter(solution, scratch, clamp_negative, p.offset);
+            // As the step does: a held fluid particle shows the pressure it was held at.
+            if (!p.held_value.empty())
+              for (std::size_t i = 0; i < p.kind.size(); ++i)
+                if (p.kind[i] == mps::Kind::fluid && p.surface[i])
+                  scratch.p[i] = p.held_value[i] + (p.offset.empty() ? 0.0 : p.offset[i]);
+            return to_numpy(scratch.p);
+          },
+          py::arg("x"), py::arg("clamp_negative") = false,
+          "Particle pressures from a solution x, as the step scatters them: closed groups shifted to zero mean,\n"
+          "the offset added back, held particles at their value, other non-unknowns and dummies 0.")
+      .def("__repr__", [](const Ppe& p) {
+        return "Ppe(" + std::to_string(p.system.size()) + " unknowns, " + std::to_string(p.system.matrix.nnz()) +
+               " nonzeros, " + std::to_string(p.system.floating.size()) + " floating groups)";
+      });
+
+  m.def(
+      "assemble_ppe",
+      [](const mps::Particles& particles, double dt, py::handle domain, py::handle config, double asymmetry,
+         bool wet_walls, const py::kwargs& fields) {
+        return assemble(particles, dt, domain, config_of(config, fields), asymmetry, wet_walls);
+      },
+      py::arg("particles"), py::kw_only(), py::arg("dt"), py::arg("domain") = py::none(),
+      py::arg("config") = py::none(), py::arg("asymmetry") = 0.0, py::arg("wet_walls") = false, assemble_doc);
+  m.def(
+      "assemble_ppe",
+      [](py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind, double dt, py::handle domain,
+         py::handle config, double asymmetry, bool wet_walls, const py::kwargs& fields) {
+        return assemble(particles_from_arrays(x, y, u, v, kind), dt, domain, config_of(config, fields), asymmetry,
+                        wet_walls);
+      },
+      py::arg("x"), py::arg("y"), py::arg("u"), py::arg("v"), py::arg("kind"), py::kw_only(), py::arg("dt"),
+      py::arg("domain") = py::none(), py::arg("config") = py::none(), py::arg("asymmetry") = 0.0,
+      py::arg("wet_walls") = false,
+      "Same, from arrays: positions x, y (r*), velocities u, v (u*) and kind (0 fluid, 1 wall, 2 dummy, 3 ghost).");
+
+  m.def(
+      "write_vtp",
+      [](const std::string& path, const mps::Particles& particles, const py::dict& fields) {
+        std::vector<std::pair<std::string, std::vector<double>>> columns;
+        for (const auto& [name, values] : fields)
+          columns.emplace_back(py::str(name).cast<std::string>(),
+                               to_doubles(values, py::str(name).cast<std::string>(),
+                                          static_cast<py::ssize_t>(particles.size())));
+        std::map<std::string, std::span<const double>> extra;
+        for (const auto& [name, values] : columns) extra[name] = values;
+        mps::write_vtp(path, particles, extra);
+      },
+      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(),
+      "Writes a ParaView frame (VTK PolyData, as the apps' frames): position, velocity, pressure, kind, group, id\n"
+      "and any per-particle arrays of `fields` ({name: array}).");
+
+  py::class_<Simulation>(m, "Simulation",
+                         "The MPS time loop (mps::Simulation) on a copy of the particles. Steps run without the GIL.")
+      .def(py::init([](const mps::Particles& p, py::handle domain, py::handle config, const py::kwargs& fields) {
+             return std::make_unique<Simulation>(p, domain_of(domain), config_of(config, fields));
+           }),
+           py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
+           "particles: Particles. domain: Domain or (xmin, xmax, ymin, ymax). config: SimulationConfig or dict;\n"
+           "keyword fields override it. Raises ValueError for a bad configuration or particles outside the domain.")
+      .def("step", &Simulation::step,
+           "Advances one step; returns its StepInfo. Raises SimulationError (the state kept as before the step) if\n"
+           "the stability guard trips or the solve fails.")
+      .def(
+          "run",
+          [](Simulation& s, std::optional<double> end_time, std::optional<int> steps) {
+            if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
+            for (int done = 0;; ++done) {
+              if (end_time && s.sim->time() >= *end_time - 1e-12) break;
+              if (steps && done >= *steps) break;
+              s.step();
+              if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C between steps
+            }
+            return s.sim->last_step();
+          },
+          py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
+          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.")
+      .def(
+          "add_particle_collision",
+          [](Simulation& s, double distance, double restitution) {
+            s.locked([&] { add_particle_collision(*s.sim, distance, restitution); });
+          },
+          py::arg("distance") = 0.8, py::arg("restitution") = 0.2,
+          "Close pairs collide after the predictor (mps::ParticleCollision): fluid particles nearer than distance l0\n"
+          "that approach lose their approach speed down to restitution of it (the dam break's default).")
+      .def(
+          "add_asymmetry_surface",
+          [](Simulation& s, double fraction) { s.locked([&] { add_asymmetry_surface(*s.sim, fraction); }); },
+          py::arg("fraction") = 0.9,
+          "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
+          "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
+      .def(
+          "add_wet_walls", [](Simulation& s) { s.locked([&] { s.sim->add<mps::WetWalls>(); }); },
+          "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")
+      .def_property_readonly("time", [](const Simulation& s) { return s.locked([&] { return s.sim->time(); }); })
+      .def_property_readonly("steps", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
+      .def_property_readonly("last_step", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step(); }); })
+      .def_property_readonly(
+          "particles",
+          [](Simulation& s) {
+            const std::lock_guard<std::mutex> lock(s.mutex);
+            return s.sim->particles();
+          },
+          "a copy of the particles (reordered by cell every reorder_every steps: id follows each one)")
+      .def_property_readonly(
+          "last_ppe",
+          [](Simulation& s) {
+            const std::lock_guard<std::mutex> lock(s.mutex);
+            Ppe out = *s.recorded;
+            out.system = s.sim->last_ppe();
+            return out;
+          },
+          "the PPE of the last step (a copy)")
+      .def_property_readonly("solver_spec", [](const Simulation& s) { return s.sim->solver().spec(); })
+      .def_property_readonly("config", [](const Simulation& s) { return s.sim->config(); }, "a copy")
+      .def_property_readonly("domain", [](const Simulation& s) { return s.sim->domain(); })
+      .def_property_readonly(
+          "phase_times",
+          [](const Simulation& s) {
+            const mps::PhaseTimes& t = s.sim->times();
+            return py::dict(py::arg("neighbors") = t.neighbors, py::arg("predict") = t.predict,
+                            py::arg("assemble") = t.assemble, py::arg("solver_setup") = t.solver_setup,
+                            py::arg("solve") = t.solve, py::arg("correct") = t.correct, py::arg("total") = t.total());
+          },
+          "wall-clock seconds per phase, summed over the steps");
+}
+
+}  // namespace sparsemps

@@ -1,0 +1,147 @@
+"""PPE assembly from particle arrays: bitwise the system the C++ step assembles (the dambreak app's --export-ppe and
+the step of a Simulation), symmetric positive definite, and its pressures those of the step."""
+import numpy as np
+import pytest
+import scipy.io
+import scipy.sparse
+
+import sparsemps
+from conftest import DAMBREAK_ASYMMETRY, dambreak_scene, dambreak_simulation
+
+G = 9.81
+
+
+def assert_same_system(ppe_matrix, ppe_rhs, a, b):
+    """Bitwise: the same CSR arrays (rows sorted, same pattern) and the same values, to the last bit."""
+    a = scipy.sparse.csr_matrix(a)
+    a.sort_indices()
+    assert ppe_matrix.shape == a.shape
+    assert np.array_equal(ppe_matrix.indptr, a.indptr) and np.array_equal(ppe_matrix.indices, a.indices)
+    assert np.array_equal(ppe_matrix.data, a.data)
+    assert np.array_equal(ppe_rhs, b)
+
+
+def test_assembled_ppe_equals_the_dambreak_apps_first_step_bitwise(dambreak_run):
+    particles, _, config = dambreak_scene()
+    # The app's step 1 ran on its particles reordered by cell; one step of the same simulation tells that order
+    # (ids), and its dt. At step 1 the column is at rest and the body force is split off, so r* = r and u* = 0.
+    sim = dambreak_simulation()
+    sim.step()
+    order, dt = sim.particles.id, sim.last_step.dt
+    ppe = sparsemps.assemble_ppe(particles.x[order], particles.y[order], particles.u[order], particles.v[order],
+                                 particles.kind[order], dt=dt, config=config, asymmetry=DAMBREAK_ASYMMETRY)
+    a = scipy.io.mmread(dambreak_run / "ppe" / "step_000001.mtx")
+    b = np.asarray(scipy.io.mmread(dambreak_run / "ppe" / "step_000001_rhs.mtx")).ravel()
+    assert_same_system(ppe.matrix, ppe.rhs, a, b)
+    # In the particles' own order the same system with its unknowns renumbered, to round-off: the sums over
+    # neighbours run in another order.
+    unordered = sparsemps.assemble_ppe(particles, dt=dt, config=config, asymmetry=DAMBREAK_ASYMMETRY)
+    back = np.argsort(order)  # original index -> position in the step's order
+    perm = ppe.unknown[back][unordered.particle]  # unordered unknown -> step-order unknown
+    a_perm = ppe.matrix.toarray()[np.ix_(perm, perm)]
+    assert np.array_equal(unordered.matrix.toarray() != 0, a_perm != 0)
+    assert np.abs(unordered.matrix.toarray() - a_perm).max() < 1e-12 * np.abs(a_perm).max()
+    assert np.abs(unordered.rhs - ppe.rhs[perm]).max() < 1e-12 * np.abs(ppe.rhs).max()
+
+
+def swirl_tank():
+    """A tank of fluid with a swirling velocity field: the divergence part of the source is not zero."""
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.2, 0.2), 0.01).add_rectangle_walls((0, 0, 0.2, 0.3), 0.01)
+    fluid = p.kind == sparsemps.Kind.fluid.value
+    k = np.pi / 0.2
+    p.u = np.where(fluid, 0.1 * np.sin(k * p.x) * np.cos(k * p.y) + 0.02 * p.x, 0.0)
+    p.v = np.where(fluid, -0.1 * np.cos(k * p.x) * np.sin(k * p.y), 0.0)
+    return p
+
+
+@pytest.mark.parametrize("gamma", [0.01, 0.5, 0.99])
+def test_assembled_ppe_equals_the_step_of_a_simulation_for_moving_particles(gamma):
+    p = swirl_tank()
+    # Without viscosity and body force the predictor gives u* = u and r* = r + dt u, which NumPy computes alike.
+    config = dict(l0=0.01, nu=0.0, dt_max=1e-3, gamma=gamma, reorder_every=0)
+    sim = sparsemps.Simulation(p, (-0.1, 0.3, -0.1, 0.4), config)
+    sim.step()
+    dt = sim.last_step.dt
+    ppe = sparsemps.assemble_ppe(p.x + dt * p.u, p.y + dt * p.v, p.u, p.v, p.kind, dt=dt, config=config)
+    step = sim.last_ppe
+    assert_same_system(ppe.matrix, ppe.rhs, step.matrix, step.rhs)
+    for field in ["unknown", "particle", "free_surface", "number_density", "divergence", "source"]:
+        assert np.array_equal(getattr(ppe, field), getattr(step, field)), field
+    assert np.abs(ppe.divergence[p.kind == 0]).max() > 0.1  # the velocities did enter
+
+
+def test_assembled_ppe_equals_the_step_across_a_periodic_boundary():
+    # A channel periodic in x, walls below and above, the fluid carried across x = 0.2 within the step.
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.2, 0.1), 0.01)
+    p.add_rectangle_walls((0, 0, 0.2, 0.1), 0.01, sides="bottom|top")
+    fluid = p.kind == 0
+    p.u = np.where(fluid, 2.0 + np.sin(10 * np.pi * p.y), 0.0)
+    domain = sparsemps.Domain(0, 0.2, -0.06, 0.16, periodic_x=True)
+    config = dict(l0=0.01, nu=0.0, dt_max=2e-3, reorder_every=0, cfl=1.0, max_displacement=1.0)
+    sim = sparsemps.Simulation(p, domain, config)
+    sim.step()
+    dt = sim.last_step.dt
+    x_star = p.x + dt * p.u
+    assert x_star.max() > 0.2  # given unwrapped, wrapped as the predictor wraps
+    ppe = sparsemps.assemble_ppe(x_star, p.y, p.u, p.v, p.kind, dt=dt, domain=domain, config=config)
+    assert_same_system(ppe.matrix, ppe.rhs, sim.last_ppe.matrix, sim.last_ppe.rhs)
+    assert ppe.matrix.shape[0] == 240 and ppe.floating_groups == 1  # 200 fluid, 2 x 20 wall: sealed
+    assert np.abs(ppe.divergence[fluid]).max() > 1.0
+
+
+def test_assembled_ppe_is_symmetric_positive_definite_over_the_wet_particles():
+    particles, _, config = dambreak_scene()
+    ppe = sparsemps.assemble_ppe(particles, dt=1e-3, config=config)
+    a = ppe.matrix
+    assert (a != a.T).nnz == 0  # exactly symmetric
+    np.linalg.cholesky(a.toarray())  # raises LinAlgError unless positive definite
+    assert np.linalg.eigvalsh(a.toarray())[0] > 0
+    kind = particles.kind
+    # Unknowns: fluid and wall particles off the free surface, numbered in particle order; the rest -1.
+    wet = (kind <= 1) & ~ppe.free_surface
+    assert np.array_equal(ppe.unknown >= 0, wet)
+    assert np.array_equal(ppe.particle, np.flatnonzero(wet))
+    assert np.array_equal(ppe.unknown[ppe.particle], np.arange(a.shape[0]))
+    assert ppe.free_surface[kind == sparsemps.Kind.dummy.value].sum() == 0
+    assert ppe.free_surface[kind == 0].sum() > 0
+
+
+def test_pressures_of_a_tank_at_rest_are_hydrostatic():
+    l0, h = 0.01, 0.2
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.2, h), l0).add_rectangle_walls((0, 0, 0.2, 1.2 * h), l0)
+    ppe = sparsemps.assemble_ppe(p, dt=1e-3, l0=l0, fy=-G)
+    # The split solves for P - rho f.r, the surface held at rho g l0/2: P' is constant, P exactly rho g (H - y).
+    assert np.array_equal(ppe.offset, 1000.0 * (-G * p.y))
+    x, _ = sparsemps.solve(ppe.matrix, ppe.rhs, "cholmod")
+    pressure = ppe.pressures(x)
+    fluid = p.kind == 0
+    exact = 1000.0 * G * (h - p.y)
+    assert np.abs(pressure[fluid] - exact[fluid]).max() < 1e-6 * exact.max()  # measured: 3.4e-9 Pa of 1962
+    assert np.all(pressure[p.kind == sparsemps.Kind.dummy.value] == 0)  # dummies are the step's to set
+
+
+def test_closed_box_gets_the_gauge_and_zero_mean_pressure():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    p.add_rectangle_walls((0, 0, 0.1, 0.1), 0.01, sides="left|right|bottom|top")
+    p.u = np.where(p.kind == 0, 0.01 * p.y, 0.0)
+    ppe = sparsemps.assemble_ppe(p.x, p.y, p.u, p.v, p.kind, dt=1e-3, l0=0.01, fy=-G)
+    assert ppe.floating_groups == 1 and not ppe.free_surface.any()
+    x, _ = sparsemps.solve(ppe.matrix, ppe.rhs, "cholmod")
+    relative = ppe.pressures(x) - ppe.offset  # the unknown P - rho f.r, shifted to zero mean over the group
+    assert abs(relative[ppe.particle].mean()) < 1e-12
+    assert np.abs(relative[ppe.particle]).max() > 0.1  # measured: 0.35 Pa
+
+
+def test_bad_particles_raise_clear_errors():
+    with pytest.raises(ValueError, match=r"kind\[1\] = 7 is not 0-3"):
+        sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0], [0, 0], [0, 0], [0, 7], dt=1e-3, l0=0.01)
+    with pytest.raises(ValueError, match=r"y has length 3, expected 2"):
+        sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
+    with pytest.raises(ValueError, match=r"particle 1 at \(nan, 0\) starts outside the domain"):
+        sparsemps.assemble_ppe([0.0, np.nan], [0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
+    with pytest.raises(ValueError, match=r"dt must be positive"):
+        sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=0.0, l0=0.01)
+    with pytest.raises(ValueError, match=r"particle spacing l0 must be positive"):
+        sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3)
+    with pytest.raises(ValueError, match=r"no field 'gama'"):
+        sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, gama=0.5)

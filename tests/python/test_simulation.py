@@ -1,0 +1,146 @@
+"""The time loop from Python: the dam break stepped from Python gives the dambreak app's numbers bitwise; a tank stays
+hydrostatic; the guard's stop and bad configurations raise with the library's message."""
+import csv
+
+import numpy as np
+import pytest
+import scipy.io
+
+import sparsemps
+from conftest import DAMBREAK_END, dambreak_simulation, read_vtp
+
+
+def test_dambreak_from_python_matches_the_app_bitwise(dambreak_run):
+    sim = dambreak_simulation()
+    reports, ppe_100 = [], None
+    while sim.time < DAMBREAK_END - 1e-12:  # the app's loop (Scene::done)
+        info = sim.step()
+        reports.append(info.solve)
+        if info.step == 100:
+            ppe_100 = sim.last_ppe
+    # Every pressure solve as the app logged it (17 digits: a float's every bit).
+    with open(dambreak_run / "solves.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == len(reports) == sim.steps == 123
+    for row, report in zip(rows, reports):
+        assert (row["backend"], int(row["iterations"])) == (report.backend, report.iterations)
+        assert float(row["relative_residual"]) == report.relative_residual
+    assert sum(r.iterations for r in reports) > 2000  # real solves: the column is falling
+    # The last frame: every particle's position, velocity, pressure and id.
+    frame = read_vtp(dambreak_run / "frames" / "dambreak_0001.vtp")
+    state = sim.particles
+    active = state.kind != sparsemps.Kind.ghost.value
+    assert np.array_equal(frame["points"][:, 0], state.x[active])
+    assert np.array_equal(frame["points"][:, 1], state.y[active])
+    assert np.array_equal(frame["velocity"][:, 0], state.u[active])
+    assert np.array_equal(frame["velocity"][:, 1], state.v[active])
+    assert np.array_equal(frame["pressure"], state.p[active])
+    assert np.array_equal(frame["id"], state.id[active])
+    assert np.abs(state.v[state.kind == 0]).max() > 0.3  # it moved
+    # Step 100's PPE as the app exported it.
+    a = scipy.io.mmread(dambreak_run / "ppe" / "step_000100.mtx").tocsr()
+    a.sort_indices()
+    b = np.asarray(scipy.io.mmread(dambreak_run / "ppe" / "step_000100_rhs.mtx")).ravel()
+    m = ppe_100.matrix
+    assert np.array_equal(m.indptr, a.indptr) and np.array_equal(m.indices, a.indices)
+    assert np.array_equal(m.data, a.data) and np.array_equal(ppe_100.rhs, b)
+    assert (m != m.T).nnz == 0
+    np.linalg.cholesky(m.toarray())  # positive definite in the disordered, splashing state too
+
+
+def test_tank_in_a_few_lines_stays_at_rest_with_hydrostatic_pressure():
+    l0, width, height = 0.01, 0.2, 0.2
+    p = sparsemps.Particles().fill_rectangle((0, 0, width, height), l0)
+    p.add_rectangle_walls((0, 0, width, 1.2 * height), l0, sides="left|right|bottom")
+    sim = sparsemps.Simulation(p, (-0.06, 0.26, -0.06, 0.36), l0=l0, fy=-9.81, dt_max=1e-3)
+    info = sim.run(end_time=0.1)
+    assert info.step == sim.steps == 100 and sim.time == pytest.approx(0.1)
+    assert info.dt_limit == "dt_max" and info.unknowns == 440 and info.max_speed < 1e-6
+    state = sim.particles
+    fluid = state.kind == 0
+    deep = fluid & (state.y < height - 4 * l0)
+    exact = 1000 * 9.81 * (height - state.y)
+    assert np.abs(state.p[deep] / exact[deep] - 1).max() < 0.01
+    assert set(sim.phase_times) >= {"neighbors", "assemble", "solve", "total"}
+    assert sim.solver_spec.startswith("auto:")
+
+
+def test_guard_stop_raises_simulation_error_and_keeps_the_state():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    p.u = np.ones(len(p))
+    sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3, max_speed=0.5, reorder_every=0)
+    with pytest.raises(sparsemps.SimulationError,
+                       match=r"step 1 \(t = 0.001 s, dt = 0.001 s, dt limit dt_max\): particle 0 moves at 1 m/s, "
+                             r"above max_speed 0.5 m/s \(reduce dt_max\)"):
+        sim.step()
+    assert sim.steps == 0 and sim.time == 0.0
+    assert np.array_equal(sim.particles.x, p.x) and np.array_equal(sim.particles.u, p.u)
+
+
+def test_config_fields_round_trip_and_misspellings_are_refused():
+    fields = sparsemps.SimulationConfig().to_dict()
+    assert fields["solver"] == "auto" and fields["gamma"] == 0.99 and fields["weight"] == "bounded"
+    changed = dict(fields, l0=0.02, gamma=0.5, weight="classic", pressure_gradient="corrected", reorder_every=0,
+                   warm_start=False, solver="cholmod")
+    config = sparsemps.SimulationConfig(**changed)
+    assert config.to_dict() == changed
+    config.gamma = 0.25
+    assert config.gamma == 0.25
+    with pytest.raises(ValueError, match=r"SimulationConfig has no field 'gama'; valid fields: l0, "):
+        sparsemps.SimulationConfig(gama=0.5)
+    with pytest.raises(TypeError, match=r"SimulationConfig.warm_start takes True or False, got int"):
+        sparsemps.SimulationConfig(warm_start=1)
+    with pytest.raises(TypeError, match=r"SimulationConfig.gamma takes a number, got str"):
+        sparsemps.SimulationConfig(gamma="0.5")
+    with pytest.raises(ValueError, match=r"unknown weight 'gauss'; valid: bounded, classic"):
+        sparsemps.SimulationConfig(weight="gauss")
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    with pytest.raises(ValueError, match=r"simulation config: gamma must be in \[0, 1\], got 2"):
+        sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3, gamma=2.0)
+    with pytest.raises(ValueError, match=r"unknown solver 'fast'"):
+        sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3, solver="fast")
+    with pytest.raises(ValueError, match=r"particle 5 at \(0.055, 0.005\) starts outside the domain"):
+        sparsemps.Simulation(p, (0, 0.05, 0, 0.1), l0=0.01, dt_max=1e-3)
+    with pytest.raises(ValueError, match=r"give end_time, steps or both"):
+        sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3).run()
+
+
+def test_particles_from_arrays_and_geometry():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.4, 0.4), 0.01)
+    assert len(p) == p.count("fluid") == 1600
+    assert p.x.min() == pytest.approx(0.005) and p.y.max() == pytest.approx(0.395)
+    p.add_rectangle_walls((0, 0, 0.4, 0.5), 0.01, sides=["left", "right", "bottom"], wall_layers=1, dummy_layers=4)
+    assert p.count(sparsemps.Kind.wall) == 50 + 50 + 42 and np.array_equal(p.id, np.arange(len(p)))
+    q = sparsemps.Particles(p.x, p.y, p.kind, u=np.full(len(p), 0.5), group=np.full(len(p), 3))
+    assert np.array_equal(q.kind, p.kind) and np.all(q.u == 0.5) and np.all(q.group == 3) and np.all(q.v == 0)
+    assert len(sparsemps.Particles([0.0, 1.0], [0.0, 0.0], "wall")) == 2
+    with pytest.raises(ValueError, match=r"u has length 2, expected 2350"):
+        p.u = [1.0, 2.0]
+    with pytest.raises(ValueError, match=r"unknown particle kind 'water'"):
+        sparsemps.Particles([0.0], [0.0], "water")
+    with pytest.raises(ValueError, match=r"unknown side 'front'"):
+        p.add_rectangle_walls((0, 0, 1, 1), 0.01, sides="front")
+
+
+def test_frames_written_from_python_read_back_bitwise(tmp_path):
+    sim = dambreak_simulation()
+    sim.run(steps=5)
+    state = sim.particles
+    speed = np.hypot(state.u, state.v)
+    sparsemps.write_vtp(str(tmp_path / "frame.vtp"), state, {"speed": speed})
+    frame = read_vtp(tmp_path / "frame.vtp")
+    assert np.array_equal(frame["points"][:, 1], state.y) and np.array_equal(frame["pressure"], state.p)
+    assert np.array_equal(frame["speed"], speed) and np.array_equal(frame["kind"], state.kind)
+    with pytest.raises(ValueError, match=r"speed has length 3"):
+        sparsemps.write_vtp(str(tmp_path / "bad.vtp"), state, {"speed": [1.0, 2.0, 3.0]})
+
+
+def test_components_refuse_parameters_out_of_range():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3)
+    with pytest.raises(ValueError, match=r"collision distance must be in \(0, 1\) l0"):
+        sim.add_particle_collision(1.5)
+    with pytest.raises(ValueError, match=r"restitution must be in \[0, 1\]"):
+        sim.add_particle_collision(0.8, -0.1)
+    with pytest.raises(ValueError, match=r"asymmetry fraction must be in \(0, 10\]"):
+        sim.add_asymmetry_surface(0.0)

@@ -80,7 +80,7 @@ struct Frame {
   std::vector<T> values(const std::string& name) const {
     const auto& b = bytes.at(name);
     std::vector<T> out(b.size() / sizeof(T));
-    std::memcpy(out.data(), b.data(), b.size());
+    if (!b.empty()) std::memcpy(out.data(), b.data(), b.size());  // an empty vector's data() may be null
     return out;
   }
 };
@@ -104,7 +104,7 @@ Frame read_frame(const fs::path& path) {
     std::uint64_t h[3];
     std::memcpy(h, header, sizeof h);
     std::vector<std::uint64_t> sizes(h[0]);
-    std::memcpy(sizes.data(), header + sizeof h, sizes.size() * sizeof(std::uint64_t));
+    if (!sizes.empty()) std::memcpy(sizes.data(), header + sizeof h, sizes.size() * sizeof(std::uint64_t));
     const unsigned char* block = header + sizeof h + sizes.size() * sizeof(std::uint64_t);
     std::vector<unsigned char>& out = f.bytes[name];
     for (std::uint64_t b = 0; b < h[0]; ++b) {

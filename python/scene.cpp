@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <map>
@@ -678,19 +679,29 @@ void bind_scene(py::module_& m) {
 
   m.def(
       "write_vtp",
-      [](const std::string& path, const mps::Particles& particles, const py::dict& fields) {
-        std::vector<std::pair<std::string, std::vector<double>>> columns;
-        for (const auto& [name, values] : fields)
-          columns.emplace_back(py::str(name).cast<std::string>(),
-                               to_doubles(values, py::str(name).cast<std::string>(),
-                                          static_cast<py::ssize_t>(particles.size())));
-        std::map<std::string, std::span<const double>> extra;
-        for (const auto& [name, values] : columns) extra[name] = values;
-        mps::write_vtp(path, particles, extra);
+      [](const std::string& path, const mps::Particles& particles, const py::dict& fields, double time,
+         const py::dict& vectors) {
+        const auto n = static_cast<py::ssize_t>(particles.size());
+        std::deque<std::vector<double>> columns;  // the arrays the spans of `extra` view (a deque never moves them)
+        mps::PointFields extra;
+        for (const auto& [key, values] : fields) {
+          const std::string name = py::str(key).cast<std::string>();
+          extra.scalars[name] = columns.emplace_back(to_doubles(values, name, n));
+        }
+        for (const auto& [key, pair] : vectors) {
+          const std::string name = py::str(key).cast<std::string>();
+          const auto xy = pair.cast<py::sequence>();
+          if (xy.size() != 2) throw py::value_error("vector " + name + " must be a pair (x, y) of arrays");
+          extra.vectors[name] = {columns.emplace_back(to_doubles(xy[0], name + " x", n)),
+                                 columns.emplace_back(to_doubles(xy[1], name + " y", n))};
+        }
+        mps::write_vtp(path, particles, time, extra);
       },
-      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(),
-      "Writes a ParaView frame (VTK PolyData, as the apps' frames): position, velocity, pressure, kind, group, id\n"
-      "and any per-particle arrays of `fields` ({name: array}).");
+      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(), py::kw_only(), py::arg("time"),
+      py::arg("vectors") = py::dict(),
+      "Writes a ParaView frame (VTK PolyData, binary and zlib-compressed, as the apps' frames) at simulation time\n"
+      "`time` (its field array TIME): position, velocity, pressure, kind, group, id, the per-particle arrays of\n"
+      "`fields` ({name: array}) and the vectors of `vectors` ({name: (x, y)}), written with 3 components.");
 
   py::class_<Simulation>(m, "Simulation",
                          "The MPS time loop (mps::Simulation) on a copy of the particles. Steps run without the GIL.")

@@ -5,8 +5,12 @@
   scripts/compare_results.py check  BUILD_DIR RECORD.json   # after: exit 1 and list every difference
 
 Recorded per case: the exit status, summary.json without its timings and run record (wall-clock figures and the
-command line differ run to run), and the
-SHA-256 of every other file the run wrote (frames, CSVs). One OpenMP thread, so that reductions add in one order.
+command line differ run to run), each frame (.vtp) by what it holds, and the SHA-256 of every other file the run
+wrote (CSVs, .pvd). A frame is read with VTK's own reader (Debian's python3-vtk9) and recorded as its time and a
+SHA-256 of each array's values as float64 (points, vertex cells, every point-data array with its component count), so
+frames of any encoding compare equal when their numbers are: the ASCII frames written before 0.1.0's binary ones
+agree bitwise with them (ASCII had 17 significant digits). A frame's time is its TIME field; frames from before TIME
+existed take the time their .pvd lists. One OpenMP thread, so that reductions add in one order.
 """
 import hashlib
 import json
@@ -71,18 +75,62 @@ def comparable_bytes(path: Path) -> bytes:
     return path.read_bytes()
 
 
+def pvd_times(out: Path) -> dict:
+    """The time each .pvd in `out` lists for each of its frames, by the frame's resolved path."""
+    import xml.etree.ElementTree as ET
+    times = {}
+    for pvd in out.rglob("*.pvd"):
+        for ds in ET.parse(pvd).getroot().iter("DataSet"):
+            times[(pvd.parent / ds.get("file")).resolve()] = float(ds.get("timestep"))
+    return times
+
+
+def frame_record(path: Path, listed_time) -> dict:
+    """What a .vtp frame holds, read by VTK: its time and a hash of each array's values."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    if reader.GetErrorCode() or reader.GetOutput() is None:
+        return {"error": f"VTK could not read {path.name}"}
+    data = reader.GetOutput()
+
+    def digest(array) -> str:
+        values = np.ascontiguousarray(vtk_to_numpy(array), dtype=np.float64)
+        shape = f"{array.GetNumberOfTuples()}x{array.GetNumberOfComponents()}"
+        return f"{shape} {hashlib.sha256(values.tobytes()).hexdigest()}"
+
+    arrays = {"points": digest(data.GetPoints().GetData()) if data.GetPoints() else "none",
+              "verts.connectivity": digest(data.GetVerts().GetConnectivityArray()),
+              "verts.offsets": digest(data.GetVerts().GetOffsetsArray())}
+    point_data = data.GetPointData()
+    for k in range(point_data.GetNumberOfArrays()):
+        arrays[f"point_data.{point_data.GetArrayName(k)}"] = digest(point_data.GetArray(k))
+    time_array = data.GetFieldData().GetArray("TIME")
+    time = time_array.GetValue(0) if time_array is not None else listed_time
+    if time_array is not None and listed_time is not None and time != listed_time:
+        time = f"TIME {time!r} but the .pvd lists {listed_time!r}"
+    return {"time": time, "arrays": arrays}
+
+
 def run_case(build: Path, app: str, args: str) -> dict:
     with tempfile.TemporaryDirectory() as out:
         exe = build / "apps" / app / app
         env = dict(os.environ, OMP_NUM_THREADS="1")
         proc = subprocess.run([str(exe), *args.split(), "--out", out], env=env, capture_output=True, text=True)
         record = {"status": proc.returncode, "files": {}}
+        listed = pvd_times(Path(out))
         for f in sorted(Path(out).rglob("*")):
             if not f.is_file():
                 continue
             rel = str(f.relative_to(out))
             if f.name == "summary.json":
                 record["summary"] = without_timings(json.loads(f.read_text()))
+            elif f.suffix == ".vtp":
+                record["files"][rel] = frame_record(f, listed.get(f.resolve()))
             else:
                 record["files"][rel] = hashlib.sha256(comparable_bytes(f)).hexdigest()
         if "summary" not in record:

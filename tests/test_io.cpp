@@ -3,11 +3,17 @@
 #include <signal.h>
 #include <sys/resource.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
 #include <vector>
+
+#include <zlib.h>
 
 #include "mps/geometry.hpp"
 #include "mps/io.hpp"
@@ -62,36 +68,166 @@ bool balanced_xml(const std::string& xml, std::vector<std::pair<std::string, std
   return stack.empty();
 }
 
-std::size_t count_numbers(const std::string& text) {
-  std::istringstream in(text);
-  std::size_t n = 0;
-  for (double v; in >> v;) ++n;
-  return n;
+// A frame read back as VTK's reader does it: the XML part, then each appended array's zlib blocks after the
+// UInt64 header [blocks, block size, last block's size if partial, compressed sizes].
+struct Frame {
+  std::string xml;                                                // up to <AppendedData>
+  std::map<std::string, std::map<std::string, std::string>> tags;  // each DataArray's attributes, by Name
+  std::map<std::string, std::vector<unsigned char>> bytes;         // each DataArray's decoded bytes, by Name
+  std::map<std::string, std::uint64_t> blocks;                     // each DataArray's number of blocks
+
+  template <class T>
+  std::vector<T> values(const std::string& name) const {
+    const auto& b = bytes.at(name);
+    std::vector<T> out(b.size() / sizeof(T));
+    if (!b.empty()) std::memcpy(out.data(), b.data(), b.size());  // an empty vector's data() may be null
+    return out;
+  }
+};
+
+Frame read_frame(const fs::path& path) {
+  const std::string file = slurp(path);
+  const std::string marker = "<AppendedData encoding=\"raw\">\n_";
+  const std::size_t at = file.find(marker);
+  if (at == std::string::npos) throw std::runtime_error("no appended data");
+  Frame f;
+  f.xml = file.substr(0, at);
+  const auto* data = reinterpret_cast<const unsigned char*>(file.data() + at + marker.size());
+  const std::regex element("<DataArray ([^>]*)/>"), attribute("(\\w+)=\"([^\"]*)\"");
+  for (auto it = std::sregex_iterator(f.xml.begin(), f.xml.end(), element); it != std::sregex_iterator(); ++it) {
+    std::map<std::string, std::string> a;
+    const std::string attrs = (*it)[1];
+    for (auto m = std::sregex_iterator(attrs.begin(), attrs.end(), attribute); m != std::sregex_iterator(); ++m)
+      a[(*m)[1]] = (*m)[2];
+    const std::string name = a.count("Name") ? a["Name"] : "Points";
+    const unsigned char* header = data + std::stoul(a.at("offset"));
+    std::uint64_t h[3];
+    std::memcpy(h, header, sizeof h);
+    std::vector<std::uint64_t> sizes(h[0]);
+    if (!sizes.empty()) std::memcpy(sizes.data(), header + sizeof h, sizes.size() * sizeof(std::uint64_t));
+    const unsigned char* block = header + sizeof h + sizes.size() * sizeof(std::uint64_t);
+    std::vector<unsigned char>& out = f.bytes[name];
+    for (std::uint64_t b = 0; b < h[0]; ++b) {
+      uLongf length = b + 1 == h[0] && h[2] != 0 ? h[2] : h[1];
+      const std::size_t start = out.size();
+      out.resize(start + length);
+      if (uncompress(out.data() + start, &length, block, sizes[b]) != Z_OK) throw std::runtime_error("bad block");
+      block += sizes[b];
+    }
+    f.tags[name] = a;
+    f.blocks[name] = h[0];
+  }
+  return f;
 }
 
-TEST(Io, VtpIsWellFormedXmlWithOneEntryPerActiveParticle) {
+std::vector<std::uint64_t> bits(const std::vector<double>& v) {
+  std::vector<std::uint64_t> out;
+  for (double d : v) out.push_back(std::bit_cast<std::uint64_t>(d));
+  return out;
+}
+
+// Values that a text format or a careless cast would change: signed zero, subnormals, thirds, huge exponents.
+mps::Particles awkward_particles(std::size_t n) {
   mps::Particles p;
-  mps::fill_rectangle(p, {0, 0, 1, 0.5}, 0.1, mps::Kind::fluid);
-  mps::add_rectangle_walls(p, {0, 0, 1, 0.5}, 0.1, mps::left | mps::bottom, 1, 2);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = static_cast<double>(i);
+    p.add(std::sin(k) * 1e3, 1.0 / (k + 3.0), static_cast<mps::Kind>(i % 3), static_cast<int>(i % 7) - 3,
+          i == 0 ? -0.0 : k * 4.9e-324, std::ldexp(1.0 + k / 3.0, static_cast<int>(i % 2000) - 1000));
+    p.p.back() = -k / 7.0;
+    p.id.back() = static_cast<int>(n - i);  // not the index, so a dropped or shifted entry shows
+  }
+  return p;
+}
+
+TEST(Io, VtpArraysDecodeToTheWrittenValuesBitwiseWithTimeAndVectors) {
+  mps::Particles p = awkward_particles(5001);
   p.kind[3] = mps::Kind::ghost;  // ghosts are not written
-  const std::size_t active = p.size() - 1;
-  std::vector<double> extra(p.size(), 2.5);
+  std::vector<std::size_t> active;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (i != 3) active.push_back(i);
+  const std::size_t n = active.size();  // 5000: the 3-component arrays take 120,000 bytes, 3 full blocks and a part
+  std::vector<double> density(p.size()), fx(p.size()), fy(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    density[i] = 1.0 / (static_cast<double>(i) + 0.5);
+    fx[i] = -static_cast<double>(i);
+    fy[i] = 1e300 * static_cast<double>(i % 5);
+  }
+  const double time = 0.1 + 0.2;  // not 0.3: TIME must keep every bit
   const fs::path file = scratch("frame.vtp");
-  mps::write_vtp(file, p, {{"number_density", extra}});
-  const std::string xml = slurp(file);
-  std::vector<std::pair<std::string, std::string>> arrays;
-  ASSERT_TRUE(balanced_xml(xml, arrays)) << "unbalanced tags";
-  EXPECT_NE(xml.find("NumberOfPoints=\"" + std::to_string(active) + "\""), std::string::npos);
-  std::map<std::string, std::size_t> counts;
-  for (const auto& [name, body] : arrays) counts[name] = count_numbers(body);
-  EXPECT_EQ(counts["Points"], 3 * active);
-  EXPECT_EQ(counts["velocity"], 3 * active);
-  EXPECT_EQ(counts["pressure"], active);
-  EXPECT_EQ(counts["kind"], active);
-  EXPECT_EQ(counts["id"], active);
-  EXPECT_EQ(counts["number_density"], active);
-  EXPECT_EQ(counts["connectivity"], active);
+  mps::write_vtp(file, p, time, {.scalars = {{"number_density", density}}, .vectors = {{"force", {fx, fy}}}});
   EXPECT_FALSE(fs::exists(fs::path(file.string() + ".tmp")));  // written atomically
+  const Frame f = read_frame(file);
+  std::vector<std::pair<std::string, std::string>> ignored;
+  ASSERT_TRUE(balanced_xml(f.xml + "</VTKFile>", ignored)) << "unbalanced tags";
+  EXPECT_NE(f.xml.find("header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\""), std::string::npos);
+  EXPECT_NE(f.xml.find("NumberOfPoints=\"" + std::to_string(n) + "\""), std::string::npos);
+  EXPECT_NE(f.xml.find("<FieldData>\n<DataArray type=\"Float64\" Name=\"TIME\" NumberOfTuples=\"1\""), std::string::npos);
+
+  std::vector<double> points, velocity, force, pressure, extra;
+  std::vector<std::int32_t> kind, group, id;
+  std::vector<std::int64_t> connectivity, offsets;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = active[k];
+    points.insert(points.end(), {p.x[i], p.y[i], 0.0});
+    velocity.insert(velocity.end(), {p.u[i], p.v[i], 0.0});
+    force.insert(force.end(), {fx[i], fy[i], 0.0});
+    pressure.push_back(p.p[i]);
+    extra.push_back(density[i]);
+    kind.push_back(static_cast<std::int32_t>(p.kind[i]));
+    group.push_back(p.group[i]);
+    id.push_back(p.id[i]);
+    connectivity.push_back(static_cast<std::int64_t>(k));
+    offsets.push_back(static_cast<std::int64_t>(k + 1));
+  }
+  EXPECT_EQ(bits(f.values<double>("TIME")), bits({time}));
+  EXPECT_EQ(bits(f.values<double>("Points")), bits(points));
+  EXPECT_EQ(bits(f.values<double>("velocity")), bits(velocity));
+  EXPECT_EQ(bits(f.values<double>("force")), bits(force));
+  EXPECT_EQ(bits(f.values<double>("pressure")), bits(pressure));
+  EXPECT_EQ(bits(f.values<double>("number_density")), bits(extra));
+  EXPECT_EQ(f.values<std::int32_t>("kind"), kind);
+  EXPECT_EQ(f.values<std::int32_t>("group"), group);
+  EXPECT_EQ(f.values<std::int32_t>("id"), id);
+  EXPECT_EQ(f.values<std::int64_t>("connectivity"), connectivity);
+  EXPECT_EQ(f.values<std::int64_t>("offsets"), offsets);
+  for (const char* name : {"Points", "velocity", "force"}) {
+    EXPECT_EQ(f.tags.at(name).at("NumberOfComponents"), "3") << name;
+    EXPECT_EQ(f.blocks.at(name), 4u) << name;  // 120,000 bytes in 32 KiB blocks
+  }
+  EXPECT_EQ(f.tags.at("pressure").count("NumberOfComponents"), 0u);
+}
+
+// A frame whose arrays fill their last block exactly, and a frame with no particles, read back whole.
+TEST(Io, VtpBlocksEndingExactlyAndEmptyFramesDecode) {
+  const mps::Particles p = awkward_particles(4096);  // 8 x 4096 bytes: exactly one 32 KiB block
+  mps::write_vtp(scratch("exact.vtp"), p, 1.0);
+  const Frame f = read_frame(scratch("exact.vtp"));
+  EXPECT_EQ(f.blocks.at("pressure"), 1u);
+  EXPECT_EQ(bits(f.values<double>("pressure")), bits(p.p));
+  EXPECT_EQ(f.blocks.at("velocity"), 3u);
+  EXPECT_EQ(f.values<std::int32_t>("id"), std::vector<std::int32_t>(p.id.begin(), p.id.end()));
+
+  mps::Particles ghosts = awkward_particles(3);
+  ghosts.kind.assign(3, mps::Kind::ghost);
+  mps::write_vtp(scratch("empty.vtp"), ghosts, 2.0);
+  const Frame e = read_frame(scratch("empty.vtp"));
+  EXPECT_NE(e.xml.find("NumberOfPoints=\"0\""), std::string::npos);
+  EXPECT_TRUE(e.bytes.at("Points").empty());
+  EXPECT_EQ(e.blocks.at("velocity"), 0u);
+  EXPECT_EQ(bits(e.values<double>("TIME")), bits({2.0}));
+}
+
+TEST(Io, VtpRefusesFieldsOfTheWrongLengthOrNameAndATimeThatIsNotFinite) {
+  const mps::Particles p = awkward_particles(4);
+  const std::vector<double> short_field(3), ok(4);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"s", short_field}}}), std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.vectors = {{"v", {ok, short_field}}}}), std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"a\"b", ok}}}), std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"pressure", ok}}}), std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, 0.0, {.scalars = {{"f", ok}}, .vectors = {{"f", {ok, ok}}}}),
+               std::invalid_argument);
+  EXPECT_THROW(mps::write_vtp(scratch("bad.vtp"), p, std::nan("")), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(scratch("bad.vtp")));
 }
 
 TEST(Io, PvdIndexListsEveryFrameRelativeToItself) {
@@ -102,13 +238,14 @@ TEST(Io, PvdIndexListsEveryFrameRelativeToItself) {
   mps::PvdSeries series(dir / "run.pvd");
   for (int k = 0; k < 3; ++k) {
     const fs::path frame = dir / "frames" / ("f" + std::to_string(k) + ".vtp");
-    mps::write_vtp(frame, p);
+    mps::write_vtp(frame, p, 0.1 * k);
     series.add(0.1 * k, frame);
   }
   const std::string xml = slurp(dir / "run.pvd");
   std::vector<std::pair<std::string, std::string>> arrays;
   EXPECT_TRUE(balanced_xml(xml, arrays));
   for (int k = 0; k < 3; ++k) EXPECT_NE(xml.find("file=\"frames/f" + std::to_string(k) + ".vtp\""), std::string::npos);
+  EXPECT_NE(xml.find("timestep=\"0.20000000000000001\""), std::string::npos);  // 17 digits: the double itself
 }
 
 TEST(Io, MatrixMarketRoundTripsExactly) {
@@ -192,18 +329,18 @@ TEST(Io, MatrixMarketReaderNamesTheLineAndTheDefectOfEveryBrokenFile) {
 // temporary file, and says why; so does a target that is a directory.
 TEST(Io, AFailedWriteKeepsThePreviousFileRemovesItsTemporaryAndSaysWhy) {
   mps::Particles p;
-  mps::fill_rectangle(p, {0, 0, 1, 1}, 0.01, mps::Kind::fluid);  // 10,000 particles: about 1 MB of VTP
+  mps::fill_rectangle(p, {0, 0, 1, 1}, 0.01, mps::Kind::fluid);  // 10,000 particles: about 79 kB of VTP
   const fs::path file = scratch("limited.vtp");
   std::ofstream(file) << "previous";
   rlimit old{};
   ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
   const auto old_handler = signal(SIGXFSZ, SIG_IGN);  // a write past the limit fails with EFBIG instead
   rlimit small = old;
-  small.rlim_cur = 100000;
+  small.rlim_cur = 10000;
   ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
   std::string message;
   try {
-    mps::write_vtp(file, p);
+    mps::write_vtp(file, p, 0.0);
   } catch (const std::runtime_error& e) {
     message = e.what();
   }

@@ -255,7 +255,7 @@ int main(int argc, char** argv) {
       std::copy(exact_p.begin(), exact_p.end(), exact_all.begin());
       char name[48];
       std::snprintf(name, sizeof name, "frames/acoustic_%04d.vtp", frame++);
-      mps::write_vtp(dir / name, p, {{"exact_pressure", exact_all}});
+      mps::write_vtp(dir / name, p, solver.time(), {.scalars = {{"exact_pressure", exact_all}}});
       series.add(solver.time(), dir / name);
     };
     auto summarise = [&](const std::string& status, const std::string& error, double step_s) {
@@ -361,7 +361,7 @@ int main(int argc, char** argv) {
       p.p = solver.pressure();
       p.u = solver.velocity_x();
       p.v = solver.velocity_y();
-      mps::write_vtp(dir / "last_good.vtp", p);
+      mps::write_vtp(dir / "last_good.vtp", p, solver.time());
       mps::write_csv(dir / "energy.csv", {"time_s", "energy_fraction"}, {energy_t, energy_fraction});
       summarise("failed", e.what(), step_s);
       std::cerr << "error: " << e.what() << "\nlast good state (t = " << solver.time() << " s) written to "

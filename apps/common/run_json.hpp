@@ -28,7 +28,7 @@ class FrameSeries {
     if (count_ <= 0 || sim.time() < next_ * interval_ - 1e-12) return;
     char name[64];
     std::snprintf(name, sizeof name, "frames/%s_%04d.vtp", stem_.c_str(), next_++);
-    mps::write_vtp(dir_ / name, sim.particles());
+    mps::write_vtp(dir_ / name, sim.particles(), sim.time());
     series_.add(sim.time(), dir_ / name);
   }
   [[nodiscard]] const std::filesystem::path& path() const { return series_.path(); }
@@ -79,7 +79,7 @@ inline int report_guard_stop(const std::filesystem::path& dir, const mps::Simula
                              const nlohmann::json& params, const mps::Simulation& sim) {
   std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
   try {
-    mps::write_vtp(dir / "last_good.vtp", sim.particles());
+    mps::write_vtp(dir / "last_good.vtp", sim.particles(), sim.time());
     write_solves(dir, sim);
     write_summary(dir, {{"status", "failed"}, {"error", error.what()}, {"parameters", params}, {"time_s", sim.time()},
                         {"steps", sim.last_step().step}});

@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
     auto write_frame = [&](int k) {
       char name[32];
       std::snprintf(name, sizeof name, "frames/channel_%04d.vtp", k);
-      mps::write_vtp(dir / name, sim.particles());
+      mps::write_vtp(dir / name, sim.particles(), sim.time());
       series.add(sim.time(), dir / name);
     };
     int frame = 0, profile = 0;

@@ -79,7 +79,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
     char name[40];
     std::snprintf(name, sizeof name, "frames/frame_%04d.vtp", k);
     rotating::relative_velocity(p, sim.particles(), ur, vr);
-    mps::write_vtp(dir / name, sim.particles(), {{"u_relative", ur}, {"v_relative", vr}});
+    mps::write_vtp(dir / name, sim.particles(), sim.time(), {.vectors = {{"relative_velocity", {ur, vr}}}});
     series.add(sim.time(), dir / name);
   };
   const std::size_t fluid0 = sim.particles().count(mps::Kind::fluid);

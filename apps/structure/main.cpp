@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
     auto frame = [&] {
       char name[64];
       std::snprintf(name, sizeof name, "frames/structure_%04d.vtp", next_frame++);
-      mps::write_vtp(dir / name, as_particles(solid));
+      mps::write_vtp(dir / name, as_particles(solid), solid.time());
       series.add(solid.time(), dir / name);
     };
     const double frame_interval = frames > 0 ? end_time / frames : 2 * end_time;
@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
       }
     } catch (const mps::SimulationError& e) {
       std::cerr << "error: " << e.what() << "\n";
-      mps::write_vtp(dir / "last_good.vtp", as_particles(solid));
+      mps::write_vtp(dir / "last_good.vtp", as_particles(solid), solid.time());
       mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {t, ux, uy});
       write_summary(dir, {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
                                              {"time_s", solid.time()}, {"steps", solid.steps()}});

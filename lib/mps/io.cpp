@@ -1,6 +1,8 @@
 #include "mps/io.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -9,9 +11,12 @@
 #include <cstring>
 #include <fstream>
 #include <numeric>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
+
+#include <zlib.h>
 
 namespace mps {
 namespace {
@@ -37,7 +42,7 @@ void write_atomically(const fs::path& path, Body&& body) {
   };
   errno = 0;
   {
-    std::ofstream out(tmp);
+    std::ofstream out(tmp, std::ios::binary);
     if (!out) fail("cannot open " + tmp.string() + " for writing");
     out.precision(17);
     try {
@@ -62,50 +67,128 @@ void write_atomically(const fs::path& path, Body&& body) {
   throw std::runtime_error("Matrix Market file " + path.string() + ": " + what);
 }
 
-std::string xml_escape_free(const std::string& name) {
+void check_field_name(const std::string& name, std::set<std::string>& taken) {
   for (char ch : name)
     if (ch == '"' || ch == '<' || ch == '>' || ch == '&') throw std::invalid_argument("write_vtp: bad field name " + name);
-  return name;
+  if (name.empty() || !taken.insert(name).second)
+    throw std::invalid_argument("write_vtp: field name '" + name + "' is empty or used twice");
 }
+
+// The binary section of a frame: each array compressed the way vtkZLibDataCompressor does it, so VTK's own reader
+// reads it. Per array, with header_type UInt64: [number of blocks, block size, size of the last block if it is
+// partial (else 0), compressed size of each block], then the compressed blocks one after another.
+class AppendedData {
+ public:
+  explicit AppendedData(const fs::path& path) : path_(path) {}
+
+  // Compresses one array's values; returns its offset in the section, which the array's XML element names.
+  template <class T>
+  std::size_t add(const std::string& name, std::span<const T> values) {
+    const auto* raw = reinterpret_cast<const unsigned char*>(values.data());
+    const std::size_t bytes = values.size_bytes();
+    const std::size_t blocks = (bytes + kBlockBytes - 1) / kBlockBytes;
+    std::vector<std::uint64_t> header{blocks, kBlockBytes, bytes % kBlockBytes};
+    const std::size_t offset = data_.size();
+    data_.resize(offset + (3 + blocks) * sizeof(std::uint64_t));  // filled in once the sizes are known
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const std::size_t begin = b * kBlockBytes, length = std::min(kBlockBytes, bytes - begin);
+      uLongf compressed = compressBound(static_cast<uLong>(length));
+      const std::size_t at = data_.size();
+      data_.resize(at + compressed);
+      const int rc = compress2(data_.data() + at, &compressed, raw + begin, static_cast<uLong>(length), kLevel);
+      if (rc != Z_OK)
+        throw std::runtime_error("write_vtp: zlib could not compress array '" + (name.empty() ? "points" : name) +
+                                 "' of " + path_.string() +
+                                 ": " + zError(rc));
+      data_.resize(at + compressed);
+      header.push_back(compressed);
+    }
+    std::memcpy(data_.data() + offset, header.data(), header.size() * sizeof(std::uint64_t));
+    return offset;
+  }
+  [[nodiscard]] const std::vector<unsigned char>& bytes() const { return data_; }
+
+ private:
+  static constexpr std::size_t kBlockBytes = std::size_t{1} << 15;  // VTK's default: any reader's buffers suit it
+  // Fastest: level 6 wrote frames under 1 % smaller in three times the time (docs/library.md#frames).
+  static constexpr int kLevel = Z_BEST_SPEED;
+  fs::path path_;
+  std::vector<unsigned char> data_;
+};
 
 }  // namespace
 
-void write_vtp(const fs::path& path, const Particles& p, const std::map<std::string, std::span<const double>>& extra) {
+void write_vtp(const fs::path& path, const Particles& p, double time, const PointFields& extra) {
+  if (!std::isfinite(time)) throw std::invalid_argument("write_vtp: the time of " + path.string() + " is not finite");
+  std::set<std::string> names{"velocity", "pressure", "kind", "group", "id"};
+  for (const auto& [name, field] : extra.scalars) {
+    check_field_name(name, names);
+    if (field.size() != p.size()) throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
+  }
+  for (const auto& [name, field] : extra.vectors) {
+    check_field_name(name, names);
+    if (field[0].size() != p.size() || field[1].size() != p.size())
+      throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
+  }
   std::vector<std::size_t> active;
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] != Kind::ghost) active.push_back(i);
-  for (const auto& [name, field] : extra)
-    if (field.size() != p.size()) throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
-  write_atomically(path, [&](std::ofstream& out) {
-    const std::size_t n = active.size();
-    out << "<?xml version=\"1.0\"?>\n"
-        << "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\">\n<PolyData>\n"
-        << "<Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
-        << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n"
-        << "<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << p.x[i] << ' ' << p.y[i] << " 0\n";
-    out << "</DataArray></Points>\n<Verts>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-    for (std::size_t k = 0; k < n; ++k) out << k << '\n';
-    out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-    for (std::size_t k = 1; k <= n; ++k) out << k << '\n';
-    out << "</DataArray>\n</Verts>\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n"
-        << "<DataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << p.u[i] << ' ' << p.v[i] << " 0\n";
-    out << "</DataArray>\n<DataArray type=\"Float64\" Name=\"pressure\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << p.p[i] << '\n';
-    out << "</DataArray>\n<DataArray type=\"Int32\" Name=\"kind\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << static_cast<int>(p.kind[i]) << '\n';
-    out << "</DataArray>\n<DataArray type=\"Int32\" Name=\"group\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << p.group[i] << '\n';
-    out << "</DataArray>\n<DataArray type=\"Int32\" Name=\"id\" format=\"ascii\">\n";
-    for (std::size_t i : active) out << p.id[i] << '\n';
-    out << "</DataArray>\n";
-    for (const auto& [name, field] : extra) {
-      out << "<DataArray type=\"Float64\" Name=\"" << xml_escape_free(name) << "\" format=\"ascii\">\n";
-      for (std::size_t i : active) out << field[i] << '\n';
-      out << "</DataArray>\n";
+  const std::size_t n = active.size();
+
+  AppendedData data(path);
+  std::ostringstream xml;  // the XML part, written after the arrays, whose offsets it names
+  auto element = [&](const char* type, const std::string& name, int components, std::size_t offset) {
+    xml << "<DataArray type=\"" << type << '"' << (name.empty() ? "" : " Name=\"" + name + '"');
+    if (components > 1) xml << " NumberOfComponents=\"" << components << '"';
+    xml << " format=\"appended\" offset=\"" << offset << "\"/>\n";
+  };
+  auto scalar = [&](const std::string& name, std::span<const double> field) {
+    std::vector<double> out(n);
+    for (std::size_t k = 0; k < n; ++k) out[k] = field[active[k]];
+    element("Float64", name, 1, data.add<double>(name, out));
+  };
+  auto vector = [&](const std::string& name, std::span<const double> fx, std::span<const double> fy) {
+    std::vector<double> out(3 * n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+      out[3 * k] = fx[active[k]];
+      out[3 * k + 1] = fy[active[k]];
     }
-    out << "</PointData>\n</Piece>\n</PolyData>\n</VTKFile>\n";
+    element("Float64", name, 3, data.add<double>(name, out));
+  };
+  auto integers = [&](const std::string& name, auto value_of) {
+    std::vector<std::int32_t> out(n);
+    for (std::size_t k = 0; k < n; ++k) out[k] = static_cast<std::int32_t>(value_of(active[k]));
+    element("Int32", name, 1, data.add<std::int32_t>(name, out));
+  };
+
+  xml << "<PolyData>\n<FieldData>\n<DataArray type=\"Float64\" Name=\"TIME\" NumberOfTuples=\"1\" format=\"appended\" "
+      << "offset=\"" << data.add<double>("TIME", std::span<const double>(&time, 1)) << "\"/>\n</FieldData>\n"
+      << "<Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
+      << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n<Points>\n";
+  vector("", p.x, p.y);
+  xml << "</Points>\n<Verts>\n";  // one vertex cell per point, so that ParaView draws the points
+  std::vector<std::int64_t> connectivity(n), offsets(n);
+  std::iota(connectivity.begin(), connectivity.end(), 0);
+  std::iota(offsets.begin(), offsets.end(), 1);
+  element("Int64", "connectivity", 1, data.add<std::int64_t>("connectivity", connectivity));
+  element("Int64", "offsets", 1, data.add<std::int64_t>("offsets", offsets));
+  xml << "</Verts>\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n";
+  vector("velocity", p.u, p.v);
+  scalar("pressure", p.p);
+  integers("kind", [&](std::size_t i) { return static_cast<int>(p.kind[i]); });
+  integers("group", [&](std::size_t i) { return p.group[i]; });
+  integers("id", [&](std::size_t i) { return p.id[i]; });
+  for (const auto& [name, field] : extra.vectors) vector(name, field[0], field[1]);
+  for (const auto& [name, field] : extra.scalars) scalar(name, field);
+  xml << "</PointData>\n</Piece>\n</PolyData>\n";
+
+  write_atomically(path, [&](std::ofstream& out) {
+    out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\""
+        << (std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian")
+        << "\" header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n"
+        << xml.str() << "<AppendedData encoding=\"raw\">\n_";
+    out.write(reinterpret_cast<const char*>(data.bytes().data()), static_cast<std::streamsize>(data.bytes().size()));
+    out << "\n</AppendedData>\n</VTKFile>\n";
   });
 }
 

@@ -1,8 +1,10 @@
 #pragma once
 /// \file
-/// Output: VTK XML PolyData frames (.vtp) and their series (.pvd) for ParaView, CSV tables, JSON summaries,
-/// and Matrix Market for exporting any PPE to other solvers. Every file is written to a temporary name and
-/// renamed into place, so a run that stops leaves its last complete outputs, never a half-written file.
+/// Output: VTK XML PolyData frames (.vtp, binary and zlib-compressed) and their series (.pvd) for ParaView, CSV
+/// tables, JSON summaries, and Matrix Market for exporting any PPE to other solvers. Every file is written to a
+/// temporary name and renamed into place, so a run that stops leaves its last complete outputs, never a half-written
+/// file.
+#include <array>
 #include <filesystem>
 #include <map>
 #include <span>
@@ -16,10 +18,18 @@
 
 namespace mps {
 
-/// Writes position, velocity, pressure, kind, group and id of every non-ghost particle, plus any extra
-/// per-particle scalar fields (each of length particles.size()).
-void write_vtp(const std::filesystem::path& path, const Particles& particles,
-               const std::map<std::string, std::span<const double>>& extra = {});
+/// Per-particle fields of a frame beyond the particles' own, each of length particles.size().
+struct PointFields {
+  std::map<std::string, std::span<const double>> scalars{};  ///< one value per particle, by name
+  /// (x, y) components per particle, by name: written as 3-component arrays (z = 0), so ParaView treats them as vectors
+  std::map<std::string, std::array<std::span<const double>, 2>> vectors{};
+};
+
+/// A frame at simulation time `time`: position, velocity, pressure, kind, group and id of every non-ghost particle,
+/// plus `extra`, as VTK XML PolyData with binary appended, zlib-compressed arrays (VTK's own block layout, UInt64
+/// headers), and `time` as the field-data array TIME. A failed compression throws, naming the array and the file.
+void write_vtp(const std::filesystem::path& path, const Particles& particles, double time,
+               const PointFields& extra = {});
 
 /// A time series of frames: each add() rewrites the .pvd index, so it is valid after every frame.
 class PvdSeries {

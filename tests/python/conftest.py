@@ -39,14 +39,20 @@ def app(name):
 
 
 def read_vtp(path):
-    """A frame of mps::write_vtp (ASCII, 17 digits) as {name: array}; 'points' holds x, y, z."""
-    text = Path(path).read_text()
-    arrays = {}
-    for m in re.finditer(r'<DataArray type="(\w+)"(?: Name="(\w+)")?[^>]*>\n(.*?)</DataArray>', text, re.S):
-        kind = float if m.group(1).startswith("Float") else int
-        arrays[m.group(2) or "points"] = np.array(m.group(3).split(), dtype=kind)
-    arrays["points"] = arrays["points"].reshape(-1, 3)
-    arrays["velocity"] = arrays["velocity"].reshape(-1, 3)
+    """A frame of mps::write_vtp, read by VTK's own reader, as {name: array}: 'points' and vectors with their 3 columns,
+    and 'TIME'."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    assert not reader.GetErrorCode(), f"VTK could not read {path}"
+    data = reader.GetOutput()
+    arrays = {"points": vtk_to_numpy(data.GetPoints().GetData()), "TIME": data.GetFieldData().GetArray("TIME").GetValue(0)}
+    point_data = data.GetPointData()
+    for k in range(point_data.GetNumberOfArrays()):
+        arrays[point_data.GetArrayName(k)] = vtk_to_numpy(point_data.GetArray(k))
     return arrays
 
 

@@ -36,6 +36,7 @@ def test_dambreak_from_python_matches_the_app_bitwise(dambreak_run):
     assert np.array_equal(frame["velocity"][:, 1], state.v[active])
     assert np.array_equal(frame["pressure"], state.p[active])
     assert np.array_equal(frame["id"], state.id[active])
+    assert frame["TIME"] == sim.time  # the app's frame carries the time it was written at
     assert np.abs(state.v[state.kind == 0]).max() > 0.3  # it moved
     # Step 100's PPE as the app exported it.
     a = scipy.io.mmread(dambreak_run / "ppe" / "step_000100.mtx").tocsr()
@@ -127,12 +128,18 @@ def test_frames_written_from_python_read_back_bitwise(tmp_path):
     sim.run(steps=5)
     state = sim.particles
     speed = np.hypot(state.u, state.v)
-    sparsemps.write_vtp(str(tmp_path / "frame.vtp"), state, {"speed": speed})
+    sparsemps.write_vtp(str(tmp_path / "frame.vtp"), state, {"speed": speed}, time=sim.time,
+                        vectors={"twice": (2 * state.u, 2 * state.v)})
     frame = read_vtp(tmp_path / "frame.vtp")
     assert np.array_equal(frame["points"][:, 1], state.y) and np.array_equal(frame["pressure"], state.p)
     assert np.array_equal(frame["speed"], speed) and np.array_equal(frame["kind"], state.kind)
+    assert frame["TIME"] == sim.time > 0
+    assert frame["twice"].shape == (len(state.u), 3) and np.array_equal(frame["twice"][:, 0], 2 * state.u)
+    assert np.array_equal(frame["twice"][:, 1], 2 * state.v) and not frame["twice"][:, 2].any()
     with pytest.raises(ValueError, match=r"speed has length 3"):
-        sparsemps.write_vtp(str(tmp_path / "bad.vtp"), state, {"speed": [1.0, 2.0, 3.0]})
+        sparsemps.write_vtp(str(tmp_path / "bad.vtp"), state, {"speed": [1.0, 2.0, 3.0]}, time=0.0)
+    with pytest.raises(TypeError):  # the time is not optional: every frame carries it
+        sparsemps.write_vtp(str(tmp_path / "bad.vtp"), state)
 
 
 def test_components_refuse_parameters_out_of_range():

@@ -59,8 +59,8 @@ SolverEntry hypre_pcg_entry();       // hypre.cpp
 SolverEntry auto_entry();            // auto.cpp
 /// @}
 
-// Every registered backend in listing order, with its keys, defaults and help (what describe_solvers prints, as data
-// for bindings and tools that present the choices themselves).
+/// Every registered backend in listing order, with its keys, defaults and help (what describe_solvers prints, as data
+/// for bindings and tools that present the choices themselves).
 const std::vector<SolverEntry>& solver_registry();
 
 }  // namespace mps

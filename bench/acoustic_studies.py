@@ -46,9 +46,9 @@ def row_of(summary, study_keys):
     p = summary["parameters"]
     row = dict(study_keys)
     row.update({"gradient": p["gradient"], "boundary": p["boundary"], "l0_m": p["l0_m"], "cfl": p["cfl"],
-                "half_width_m": p["pulse"]["half_width_m"], "status": "stable" if summary["status"] == "completed" else "unstable",
+                "half_width_m": p["pulse"]["b_m"], "status": "stable" if summary["status"] == "completed" else "unstable",
                 "steps": summary["steps"], "time_s": summary["time_s"],
-                "stable_cfl_estimate": summary["stable_cfl_estimate"],
+                "stable_cfl_estimate": summary["stable_cfl"],
                 "per_step_spmv_equivalents": summary["timings"]["per_step_spmv_equivalents"],
                 "per_step_s": summary["timings"]["per_step_median_s"]})
     errors = {round(s["time_s"], 6): s["relative_rms_error"] for s in summary["samples"]}

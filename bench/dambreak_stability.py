@@ -41,7 +41,7 @@ def main():
                                    env=dict(os.environ, OMP_NUM_THREADS="1"))
                     s = json.loads((Path(out) / "summary.json").read_text())
                 c = s.get("checks", {})
-                errors = [c[k] for k in ("front_max_error_martin_moyce_1", "front_max_error_martin_moyce_2") if k in c]
+                errors = [c[k] for k in ("martin_moyce_1_front_max_error", "martin_moyce_2_front_max_error") if k in c]
                 error = min(errors) if errors else ""
                 if s["status"] == "failed":
                     verdict = "blown up"

@@ -81,18 +81,20 @@ def main():
         out, s, rc = run(args.build, runs, column, dx)
         outs[(column, dx)] = out
         c, t = s.get("checks", {}), s.get("timings", {})
-        impact = c.get("impact_0.2H", {})
+        impact = c.get("impact", {})
         rows.append({"column": column, "dx_m": dx, "fluid": s.get("particles", {}).get("fluid"),
                      "status": s["status"], "steps": s["steps"], "time_s": s["time_s"],
-                     "front_err_mm1": c.get("front_max_error_martin_moyce_1", ""),
-                     "front_err_mm2": c.get("front_max_error_martin_moyce_2", ""),
-                     "front_err_ko": c.get("front_max_error_koshizuka_oka", ""),
-                     "arrival": impact.get("arrival", ""), "arrival_buchner": impact.get("arrival_buchner", ""),
-                     "first_peak": impact.get("first_peak", ""), "first_peak_buchner": impact.get("first_peak_buchner", ""),
-                     "noise": impact.get("noise", ""), "spray_removed": c.get("fluid_removed_as_spray", ""),
-                     "most_inside_walls": c.get("most_fluid_inside_walls", ""),
+                     "front_err_mm1": c.get("martin_moyce_1_front_max_error", ""),
+                     "front_err_mm2": c.get("martin_moyce_2_front_max_error", ""),
+                     "front_err_ko": c.get("koshizuka_oka_front_max_error", ""),
+                     "arrival": impact.get("arrival_t_sqrt_g_over_H", ""),
+                     "arrival_buchner": impact.get("arrival_buchner_t_sqrt_g_over_H", ""),
+                     "first_peak": impact.get("first_peak_over_rho_g_H", ""),
+                     "first_peak_buchner": impact.get("first_peak_buchner_over_rho_g_H", ""),
+                     "noise": impact.get("noise_over_range", ""), "spray_removed": c.get("fluid_removed_as_spray_count", ""),
+                     "most_inside_walls": c.get("most_fluid_inside_walls_count", ""),
                      "deepest_past_wall_line_l0": c.get("deepest_past_wall_line_l0", ""),
-                     "particle_steps_per_s": t.get("particle_steps_per_second", "")})
+                     "particle_steps_per_s": t.get("particle_steps_per_s", "")})
         print(rows[-1], flush=True)
     if rows:
         with open(results / "dambreak_study.csv", "w", newline="") as f:

@@ -41,7 +41,7 @@ def run(build, out, app, args, solver):
     s = json.loads((out / "summary.json").read_text())
     t = s.get("timings", {})
     return {"status": s.get("status"), "exit": proc.returncode, "steps": s.get("steps"), "wall_s": t.get("total_s"),
-            "particle_steps_per_s": t.get("particle_steps_per_second"), "solve_s": t.get("solve_s"),
+            "particle_steps_per_s": t.get("particle_steps_per_s"), "solve_s": t.get("solve_s"),
             "setup_s": t.get("solver_setup_s"), "command": " ".join(cmd[1:])}
 
 

@@ -85,7 +85,7 @@ def main():
     for n, s in summaries.items():
         c, t = s.get("checks", {}), s.get("timings", {})
         rows.append({"case": n, "status": s["status"], "time_s": s["time_s"], "steps": s["steps"],
-                     "largest_probe_ux_m": c.get("largest_probe_ux_m"), "at_s": c.get("at_s"),
+                     "largest_probe_ux_m": c.get("largest_probe_ux_m"), "at_s": c.get("largest_probe_ux_at_s"),
                      "pressure_work_j_per_m": c.get("pressure_work_on_body_j_per_m"),
                      "body_energy_j_per_m": c.get("body_energy_j_per_m"), "fluid_s": t.get("fluid_s"),
                      "coupling_s": t.get("coupling_s"), "solid_s": t.get("solid_s"), "wall_s": t.get("wall_s"),

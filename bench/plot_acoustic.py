@@ -132,7 +132,7 @@ def maps_panel(runs, out):
         sm = plt.cm.ScalarMappable(cmap=PALETTE, norm=plt.Normalize(-rng, rng))
         fig.colorbar(sm, ax=ax, fraction=0.046, pad=0.02).ax.tick_params(labelsize=6)
     p = s["parameters"]
-    fig.suptitle(f"MPS-WP pressure maps: l0 = {p['l0_m']} m, CFL = {p['cfl']}, b = {p['pulse']['half_width_m']} m, "
+    fig.suptitle(f"MPS-WP pressure maps: l0 = {p['l0_m']} m, CFL = {p['cfl']}, b = {p['pulse']['b_m']} m, "
                  f"{p['gradient']} gradient (x, y in m)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=72)
@@ -159,7 +159,7 @@ def centreline_panel(runs, out):
     with open(os.path.join(runs, "free", "summary.json")) as f:
         p = json.load(f)["parameters"]
     fig.suptitle(f"dp along y = 0 against the exact solution: l0 = {p['l0_m']} m, CFL = {p['cfl']}, "
-                 f"b = {p['pulse']['half_width_m']} m, {p['gradient']} gradient (seed 001 Fig. 5, 7, 9, 11, 14)", fontsize=10)
+                 f"b = {p['pulse']['b_m']} m, {p['gradient']} gradient (seed 001 Fig. 5, 7, 9, 11, 14)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=80)
 

@@ -47,7 +47,7 @@ def run(app, out, re, across, viscosity, dt_factor, end_time, solver, threads, r
             with open(os.path.join(out, "summary.json")) as f:
                 summary = json.load(f)
             p = summary["parameters"]
-            if (p["Re"], p["particles_across"], p.get("viscosity", "explicit"), p["dt_factor"], p["end_time_D_over_U"],
+            if (p["re"], p["across"], p.get("viscosity", "explicit"), p["dt_factor"], p["end_time_D_over_U"],
                     p["solver"].split(":")[0], p.get("outlet_buffer_l0", 0.0), p.get("compression", 0.0),
                     p.get("shifting", 0.0)) == (re, across, viscosity, dt_factor, end_time, solver.split(":")[0],
                                                 outlet_buffer, compression, shifting):
@@ -147,7 +147,7 @@ def main():
         stopped = acc.get("status") == "failed"
         nan = float("nan")
         row = {"case": name, "Re": re, "dx_m": D / across, "particles_across": across,
-               "end_time_D_over_U": acc["time_s"] * acc["parameters"]["U_m_per_s"] / D, "steps": acc["steps"],
+               "end_time_D_over_U": acc["time_s"] * acc["parameters"]["velocity_scale_m_per_s"] / D, "steps": acc["steps"],
                "outcome": "guard stop" if stopped else "ran to the end",
                "peak_velocity_error_pct": nan if stopped else 100 * acc["peak_velocity_error"],
                "paper_peak_velocity_error_pct": paper,
@@ -162,7 +162,7 @@ def main():
             speed = run(args.app, os.path.join(args.runs, f"{name}-speed-{solver}"), re, across, viscosity,
                         dt_factor, args.speed_time, solver, args.threads, args.reuse, args.outlet_buffer,
                         args.compression, shifting)
-            row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_second", float("nan"))
+            row[f"{solver}_particle_steps_per_s"] = speed.get("particle_steps_per_s", float("nan"))
         rows.append(row)
         write(rows, args, solvers)  # after every case: a long table keeps what it has if stopped
 

@@ -82,7 +82,7 @@ def main():
                 m, data = measures(os.path.join(run, "barrel_pressure.csv"))
                 row.update(status="ran", **m)
                 row["odd_defect"] = summary["checks"]["barrel_pressure_odd_defect_over_range"]
-                row["arc2_odd_defect"] = summary["checks"]["arc2_odd_defect"]
+                row["arc2_odd_defect"] = summary["checks"]["arc2_odd_defect_over_omega_R2"]
                 row["seconds"] = summary["timings"]["total_s"]
                 curves[(grad, shift, g)] = data
             print("  ", {k: row[k] for k in row if k not in ("gradient", "shifting", "model")}, flush=True)

@@ -94,14 +94,14 @@ COLOURS = ["#4daf4a", "#ffb000", "#e41a1c", "#999999"]
 def error_of(scene, summary):
     if scene == "inlet":
         return summary["flow_rate_error"]
-    return summary["checks"]["arc2_odd_defect"]
+    return summary["checks"]["arc2_odd_defect_over_omega_R2"]
 
 
 def time_unit(scene, summary):
     """Time reached in the scene's unit: D/U for the inlet channel, s for the screw channel."""
     if scene == "inlet":
         p = summary["parameters"]
-        return summary["time_s"] * p["U_m_per_s"] / p["D_m"]
+        return summary["time_s"] * p["velocity_scale_m_per_s"] / p["width_m"]
     return summary["time_s"]
 
 
@@ -121,7 +121,7 @@ def run_one(build, scene, gamma, factor, runs_dir):
         row["error"] = error_of(scene, summary)
         bad = row["error"] > s["bound"]
         if scene == "channel":
-            row["escaped"] = summary["checks"]["escaped_fluid_particles_max"]
+            row["escaped"] = summary["checks"]["max_escaped_fluid_particles"]
             row["barrel_odd_defect"] = round(summary["checks"]["barrel_pressure_odd_defect_over_range"], 6)
             if row["escaped"] != 0 or not summary["checks"]["fluid_count_kept"]:
                 bad = True

@@ -87,10 +87,10 @@ def main():
             continue
         c, p = s.get("checks", {}), s["parameters"]
         rows.append({"case": name, "dx_m": p["dx_m"], "particles_across": round(H / p["dx_m"]), "model": p["model"],
-                     "hourglass": p["hourglass"], "cfl": p["cfl"], "stable_cfl": p.get("stable_cfl_estimate"),
+                     "hourglass": p["hourglass"], "cfl": p["cfl"], "stable_cfl": p.get("stable_cfl"),
                      "status": s["status"], "period_s": c.get("period_s"), "period_error": c.get("period_error"),
                      "amplitude_m": c.get("amplitude_m"), "amplitude_error": c.get("amplitude_error"),
-                     "energy_drift": c.get("energy_drift"), "steps": s.get("steps")})
+                     "energy_drift": c.get("energy_drift_fraction"), "steps": s.get("steps")})
     if rows:
         with open(results / "structure_plate.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -139,7 +139,7 @@ def main():
         if s and s.get("checks", {}).get("period_error") is not None:
             alphas.append(max(alpha, 0.1))
             errs.append(100 * s["checks"]["period_error"])
-            stable.append(s["parameters"]["stable_cfl_estimate"])
+            stable.append(s["parameters"]["stable_cfl"])
     if alphas:
         fig, ax = plt.subplots(figsize=(6, 4))
         ax.loglog(alphas, errs, "o-", label="period error [%]")
@@ -177,7 +177,7 @@ def main():
                          "uy_frequency_ref_hz": c["uy_reference"]["frequency_hz"],
                          "uy_mean_error": c["uy_mean_error"], "uy_amplitude_error": c["uy_amplitude_error"],
                          "uy_frequency_error": c["uy_frequency_error"], "ux_mean_error": c["ux_mean_error"],
-                         "energy_drift": c["energy_drift"], "steps": s["steps"]})
+                         "energy_drift": c["energy_drift_fraction"], "steps": s["steps"]})
     if crow:
         with open(results / "structure_csm3.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(crow[0]))
@@ -207,9 +207,9 @@ def speed(build, runs, results):
             s = run(build, runs / name, ["--scene", "plate", "--dx", repr(dx), "--end-time", repr(end)], threads)
             t = s["timings"]
             srows.append({"particles": s["particles"]["moving"] + s["particles"]["clamped"], "threads": threads,
-                          "steps": s["steps"], "steps_per_s": t["steps_per_second"],
-                          "particle_steps_per_s": t["particle_steps_per_second"],
-                          "spmv_equivalents_per_step": t["spmv_equivalents_per_step"],
+                          "steps": s["steps"], "steps_per_s": t["steps_per_s"],
+                          "particle_steps_per_s": t["particle_steps_per_s"],
+                          "spmv_equivalents_per_step": t["per_step_spmv_equivalents"],
                           "gradient_nonzeros": t["gradient_nonzeros"]})
             print(srows[-1], flush=True)
     with open(results / "structure_speed.csv", "w", newline="") as f:

@@ -54,7 +54,7 @@ def main():
         for r in table:
             if float(r["relative_residual"]) > 1e-8 or int(r["unknowns"]) <= 0:
                 failures.append(f"solves.csv row {r}")
-        l0 = summary["parameters"]["l0_m"]
+        l0 = summary["parameters"]["dx_m"]
         for step in (1, 3):
             header, a, entries = read_symmetric(first / "ppe" / f"step_{step:06d}.mtx")
             b = np.loadtxt(first / "ppe" / f"step_{step:06d}_rhs.mtx", comments="%", skiprows=3)

@@ -44,7 +44,7 @@ OPTIONS = {
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
           "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
           "csm3", "linear", "0.002", "gate", "conservative", "true", "false"]
-NULL_ALLOWED = {"repetition_hz"}  # acoustic: null when the case repeats no pulse
+NULL_ALLOWED = {"frequency_hz"}  # acoustic: null when the case repeats no pulse
 
 
 def numbers(value, key=""):

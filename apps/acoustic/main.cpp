@@ -177,16 +177,16 @@ int main(int argc, char** argv) {
 
     const nlohmann::json params = {
         {"case", case_name}, {"description", scene.description}, {"box_m", {config.box.x0, config.box.y0, config.box.x1, config.box.y1}},
-        {"l0_m", config.l0}, {"cfl", config.cfl}, {"dt_s", config.dt()}, {"c0_m_s", config.c0}, {"rho0_kg_m3", config.rho0},
-        {"u0_m_s", {config.u0x, config.u0y}}, {"pulse", {{"amplitude_pa", amplitude}, {"half_width_m", half_width},
+        {"l0_m", config.l0}, {"cfl", config.cfl}, {"dt_s", config.dt()}, {"c0_m_per_s", config.c0}, {"rho0_kg_per_m3", config.rho0},
+        {"u0_m_per_s", {config.u0x, config.u0y}}, {"pulse", {{"amplitude_pa", amplitude}, {"b_m", half_width},
                                                          {"centres_m", [&] { nlohmann::json c = nlohmann::json::array();
                                                                              for (auto& s : sources) c.push_back({s.x, s.y});
                                                                              return c; }()}}},
-        {"repetition_hz", repeated ? nlohmann::json(frequency) : nlohmann::json(nullptr)},
+        {"frequency_hz", repeated ? nlohmann::json(frequency) : nlohmann::json(nullptr)},
         {"boundary", mps::to_string(config.boundary)}, {"gradient", mps::to_string(config.gradient)},
         {"weight", mps::to_string(config.weight)}, {"radius_l0", config.radius}, {"end_time_s", t_end},
-        {"samples_s", samples}, {"maps_s", maps}, {"quadrature_tolerance_eps", tolerance},
-        {"guard_energy_factor", config.guard_energy_factor},
+        {"samples_s", samples}, {"maps_s", maps}, {"tolerance_over_eps", tolerance},
+        {"guard_factor", config.guard_energy_factor},
         {"physics_on", [&] { nlohmann::json on = {"linearised Euler (RK4)",
                                                    hard ? "hard walls (mirrored particles)"
                                                         : config.boundary == mps::AcousticBoundary::mur
@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
       const double per_step = steps > 0 ? step_s / steps : 0.0;
       nlohmann::json s = {{"status", status}, {"parameters", params}, {"time_s", solver.time()}, {"steps", steps},
                           {"particles", {{"interior", n_in}, {"virtual", solver.particles().size() - n_in}}},
-                          {"gradient_nnz", solver.gradient().x.nnz()}, {"stable_cfl_estimate", cfl_limit},
+                          {"gradient_nonzeros", solver.gradient().x.nnz()}, {"stable_cfl", cfl_limit},
                           {"samples", sample_log}, {"maps", map_log},
                           {"energy", {{"injected_j_per_m", solver.injected_energy()},
                                       {"final_fraction", solver.injected_energy() > 0 ? solver.energy() / solver.injected_energy() : 0.0}}}};
@@ -274,8 +274,8 @@ int main(int argc, char** argv) {
       s["timings"] = {{"setup_s", setup_s}, {"stepping_s", step_s}, {"per_step_s", per_step},
                       {"per_step_median_s", step_median}, {"spmv_median_s", spmv_median},
                       {"per_step_spmv_equivalents", spmv_median > 0 ? step_median / spmv_median : 0.0},
-                      {"spmv_samples", spmv_times.size()}, {"exact_solution_s", exact_s},
-                      {"particle_steps_per_second", step_s > 0 ? static_cast<double>(n_in) * steps / step_s : 0.0}};
+                      {"spmv_sample_count", spmv_times.size()}, {"exact_solution_s", exact_s},
+                      {"particle_steps_per_s", step_s > 0 ? static_cast<double>(n_in) * steps / step_s : 0.0}};
       write_summary(dir, s);
       return s;
     };
@@ -309,7 +309,7 @@ int main(int argc, char** argv) {
             double peak = 0.0;
             for (double v : le) peak = std::max(peak, std::abs(v));
             sample_log.push_back({{"time_s", t}, {"relative_rms_error", error}, {"centreline_relative_rms_error", line_error},
-                                  {"energy_fraction", e / injected}, {"exact_energy_fraction_in_box", exact_energy / injected},
+                                  {"energy_fraction", e / injected}, {"exact_in_box_energy_fraction", exact_energy / injected},
                                   {"centreline_peak_exact_dp_pa", peak}});
             std::printf("t = %.4f s  step %5d  rel. RMS error %.3f %% (centreline %.3f %%)  energy %.3f %% of injected "
                         "(exact field in box %.3f %%)\n",

@@ -70,7 +70,7 @@ inline void write_summary(const std::filesystem::path& dir, nlohmann::json summa
 inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::size_t particles) {
   return {{"neighbors_s", t.neighbors}, {"predict_s", t.predict}, {"assemble_s", t.assemble},
           {"solver_setup_s", t.solver_setup}, {"solve_s", t.solve}, {"correct_s", t.correct}, {"total_s", t.total()},
-          {"particle_steps_per_second", t.total() > 0 ? static_cast<double>(particles) * steps / t.total() : 0.0}};
+          {"particle_steps_per_s", t.total() > 0 ? static_cast<double>(particles) * steps / t.total() : 0.0}};
 }
 
 // The simulation holds the last good state: keep it beside the frames, say what went wrong in summary.json

@@ -24,26 +24,32 @@ namespace {
 
 nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& sim, double end_time) {
   const auto& c = sim.config();
-  nlohmann::json length = p.periodic() ? nlohmann::json{{"periodic_length_l0", p.length_l0}}
-                                       : nlohmann::json{{"length_D", p.length_D}, {"station_D", p.station_D}};
   const char* drive = p.mode == poiseuille::Mode::inlet        ? "pushing-plate inlet, open outlet"
                       : p.mode == poiseuille::Mode::body_force ? "body force, periodic x"
                                                                : "sliding top wall, periodic x";
-  return {{"scene", p.periodic() ? "periodic channel" : "inlet channel"}, {"mode", poiseuille::to_string(p.mode)},
-          {"D_m", p.D}, {"Re", p.re}, {"U_m_per_s", p.U()}, {"l0_m", p.l0()}, {"particles_across", p.across},
-          {"length", length}, {"rho", p.rho}, {"nu", p.nu}, {"gamma", p.gamma},
-          {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
-          {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
-          {"viscosity", c.implicit_viscosity ? "implicit" : "explicit"},
-          {"outlet_buffer_l0", p.outlet_buffer_l0}, {"compression", p.compression},
-          {"sound_speed_m_per_s", c.sound_speed}, {"shifting", c.shifting},
-          {"radii_l0", {{"density", c.radius_density}, {"gradient", c.radius_gradient},
-                        {"laplacian", c.radius_laplacian}}},
-          {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
-          {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
-          {"physics_on", {drive, c.implicit_viscosity ? "viscosity (implicit)" : "viscosity (explicit)", "mirror no-slip walls",
-                          p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
-          {"wall_layers", 1}, {"dummy_layers", 4}};
+  nlohmann::json j = {
+      {"scene", p.periodic() ? "periodic channel" : "inlet channel"}, {"mode", poiseuille::to_string(p.mode)},
+      {"width_m", p.D}, {"re", p.re}, {"velocity_scale_m_per_s", p.U()}, {"dx_m", p.l0()}, {"across", p.across},
+      {"rho_kg_per_m3", p.rho}, {"nu_m2_per_s", p.nu}, {"gamma", p.gamma},
+      {"body_force_m_per_s2", c.fx}, {"end_time_D_over_U", end_time},
+      {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor},
+      {"viscosity", c.implicit_viscosity ? "implicit" : "explicit"},
+      {"outlet_buffer_l0", p.outlet_buffer_l0}, {"compression", p.compression},
+      {"sound_speed_m_per_s", c.sound_speed}, {"shifting", c.shifting},
+      {"radii", {{"density_l0", c.radius_density}, {"gradient_l0", c.radius_gradient},
+                 {"laplacian_l0", c.radius_laplacian}}},
+      {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+      {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
+      {"physics_on", {drive, c.implicit_viscosity ? "viscosity (implicit)" : "viscosity (explicit)", "mirror no-slip walls",
+                      p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
+      {"wall_layers", 1}, {"dummy_layers", 4}};
+  if (p.periodic()) {
+    j["length_l0"] = p.length_l0;
+  } else {
+    j["channel_length_D"] = p.length_D;
+    j["station_D"] = p.station_D;
+  }
+  return j;
 }
 
 }  // namespace
@@ -106,7 +112,7 @@ int main(int argc, char** argv) {
                    "use fewer --across or a shorter channel", "shorten --end-time or raise --dt-factor");
     mps::Simulation sim = poiseuille::make_simulation(p);
     nlohmann::json params = params_json(p, sim, end_time);
-    if (!p.periodic()) params["profile_average_D_over_U"] = average;
+    if (!p.periodic()) params["average_D_over_U"] = average;
     std::cout << "channel: " << params.dump() << "\n";
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
@@ -187,7 +193,7 @@ int main(int argc, char** argv) {
                      {"peak_velocity_error", last.peak_error}, {"profile_l2_error", last.l2_error},
                      {"flow_rate_error", last.flow_rate_error}, {"max_transverse_speed_over_U", last.max_abs_v / p.U()},
                      {"tolerance", tolerance},
-                     {"particle_steps_per_second", timings["particle_steps_per_second"]}, {"timings", timings}});
+                     {"particle_steps_per_s", timings["particle_steps_per_s"]}, {"timings", timings}});
     if (p.periodic())
       std::printf("\ncheck: %s channel at t = %.3f D/U: profile L2 error %.3f %% (limit %.1f %%): %s\n"
                   "       peak velocity error %.3f %%, flow rate error %.3f %%, max |v| %.2e U\n",

@@ -10,7 +10,8 @@ wrote (CSVs, .pvd). A frame is read with VTK's own reader (Debian's python3-vtk9
 SHA-256 of each array's values as float64 (points, vertex cells, every point-data array with its component count), so
 frames of any encoding compare equal when their numbers are: the ASCII frames written before 0.1.0's binary ones
 agree bitwise with them (ASCII had 17 significant digits). A frame's time is its TIME field; frames from before TIME
-existed take the time their .pvd lists. One OpenMP thread, so that reductions add in one order.
+existed take the time their .pvd lists. One OpenMP thread, so that reductions add in one order. Every summary is
+also checked against docs/summary.schema.json (Debian's python3-jsonschema): a break is listed and fails a check.
 """
 import hashlib
 import json
@@ -52,7 +53,10 @@ CASES = {
 }
 # Wall-clock figures differ run to run; "run" records the command line (its --out) and the commit, which a refactor
 # changes by definition.
-TIMING_KEYS = {"timings", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s", "run"}
+TIMING_KEYS = {"timings", "particle_steps_per_s", "particle_steps_per_second", "wall_s", "wall_seconds", "elapsed_s",
+               "run"}
+SCHEMA = Path(__file__).resolve().parent.parent / "docs" / "summary.schema.json"
+SCHEMA_ERRORS = []  # every summary written, checked against the schema; not part of the record
 
 
 def without_timings(value):
@@ -65,9 +69,10 @@ def without_timings(value):
 
 def comparable_bytes(path: Path) -> bytes:
     """A file's bytes less what differs between identical runs: config.toml's temporary out= line, solves.csv's
-    wall-clock columns."""
+    wall-clock columns. config.toml's lines are sorted: TOML gives the order of keys no meaning, and --help's option
+    groups set it."""
     if path.name == "config.toml":
-        return "\n".join(l for l in path.read_text().splitlines() if not l.startswith("out=")).encode()
+        return "\n".join(sorted(l for l in path.read_text().splitlines() if not l.startswith("out="))).encode()
     if path.name == "solves.csv":
         rows = [line.split(",") for line in path.read_text().splitlines()]
         keep = [k for k, name in enumerate(rows[0]) if name not in ("setup_s", "solve_s")]
@@ -116,6 +121,27 @@ def frame_record(path: Path, listed_time) -> dict:
     return {"time": time, "arrays": arrays}
 
 
+def schema_errors(summary: dict) -> list[str]:
+    """Where a summary breaks docs/summary.schema.json (Debian's python3-jsonschema), as messages."""
+    import jsonschema
+    validator = jsonschema.Draft202012Validator(json.loads(SCHEMA.read_text()))
+
+    def leaves(e):
+        """For "not valid under any of the given schemas", the errors of the branch that got deepest into the value
+        (an object's bad keys rather than "not a string"); else the error itself."""
+        if not e.context:
+            return [e]
+        branches = {}
+        for c in e.context:
+            branches.setdefault(c.schema_path[0], []).append(c)
+        nearest = max(branches.values(), key=lambda b: (max(len(c.absolute_path) for c in b),
+                                                       any(c.validator != "type" for c in b)))
+        return [leaf for c in nearest for leaf in leaves(c)]
+
+    return [f"/{'/'.join(map(str, e.absolute_path))}: {e.message}"
+            for error in validator.iter_errors(summary) for e in leaves(error)]
+
+
 def run_case(build: Path, app: str, args: str) -> dict:
     with tempfile.TemporaryDirectory() as out:
         exe = build / "apps" / app / app
@@ -128,7 +154,13 @@ def run_case(build: Path, app: str, args: str) -> dict:
                 continue
             rel = str(f.relative_to(out))
             if f.name == "summary.json":
-                record["summary"] = without_timings(json.loads(f.read_text()))
+                summary = json.loads(f.read_text())
+                # A run of several models (rotating --model both) has a summary in each model's folder.
+                if rel == "summary.json":
+                    record["summary"] = without_timings(summary)
+                else:
+                    record["files"][rel] = without_timings(summary)
+                SCHEMA_ERRORS.extend(f"{app} {args}: {rel}{error}" for error in schema_errors(summary))
             elif f.suffix == ".vtp":
                 record["files"][rel] = frame_record(f, listed.get(f.resolve()))
             else:
@@ -161,16 +193,19 @@ def main() -> int:
     for name, (app, args) in CASES.items():
         results[name] = run_case(build, app, args)
         print(f"{name}: status {results[name]['status']}, {len(results[name]['files'])} files", flush=True)
+    for e in SCHEMA_ERRORS:
+        print("SCHEMA", e)
+    schema = f"; {len(SCHEMA_ERRORS)} breaks of docs/summary.schema.json" if SCHEMA_ERRORS else ""
     if mode == "record":
         record_file.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
-        print(f"recorded {len(results)} cases in {record_file}")
+        print(f"recorded {len(results)} cases in {record_file}{schema}")
         return 0
     recorded = json.loads(record_file.read_text())
     diffs = differences("", recorded, results)
     for d in diffs:
         print("DIFF", d)
-    print(f"{len(results)} cases: " + ("all bitwise the same" if not diffs else f"{len(diffs)} differences"))
-    return 1 if diffs else 0
+    print(f"{len(results)} cases: " + ("all bitwise the same" if not diffs else f"{len(diffs)} differences") + schema)
+    return 1 if diffs or SCHEMA_ERRORS else 0
 
 
 if __name__ == "__main__":

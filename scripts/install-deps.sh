@@ -15,6 +15,7 @@ packages=(
   zlib1g-dev             # the .vtp frames' compression
   libpng-dev             # the acoustic app's pressure maps
   python3-vtk9           # VTK's own reader in the frame tests and scripts/compare_results.py
+  python3-jsonschema     # summary.json against docs/summary.schema.json (ReplayFromConfig, scripts/compare_results.py)
   doxygen                # the API reference (make docs) and the test that every public member is documented
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
   pybind11-dev python3-dev python3-scipy python3-pytest   # the Python module sparsemps and its tests (python/)

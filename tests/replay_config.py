@@ -2,11 +2,13 @@
 """Every app writes config.toml beside its summary; `app --config that-file --out elsewhere` must repeat the run
 bitwise: the same exit status, the same summary (timings aside) and the same bytes in every other file it wrote.
 Each case sets options away from their defaults, flags included, so that a setting the file lost would show.
-Every summary follows the one schema of apps/common/run_json.hpp: a status from one vocabulary, `pass` true exactly
-when the exit status is 0, and the run record (app, version, commit, command line, config file).
+Every summary must validate against docs/summary.schema.json (the shared keys and the naming rule of every key,
+docs/config-files.md), with its status matching the exit status and the run record naming this run; and the schema
+must reject summaries that break the rule (a dotted key, a number without its unit, a status outside the vocabulary).
 
   tests/replay_config.py BUILD_DIR
 """
+import copy
 import hashlib
 import json
 import os
@@ -16,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from compare_results import comparable_bytes, without_timings  # noqa: E402
+from compare_results import comparable_bytes, schema_errors as breaks_of_schema, without_timings  # noqa: E402
 
 CASES = {
     "poiseuille": "--mode body-force --across 10 --end-time 1 --frames 2 --gamma 0.05 --cold-start --tolerance 0.5",
@@ -44,7 +46,7 @@ VOCABULARY = {"passed": 0, "check failed": 2, "completed": 0, "failed": 1}
 def schema_errors(app, args, out, status):
     """What in out/summary.json breaks the schema, as messages."""
     summary = json.loads((Path(out) / "summary.json").read_text())
-    errors = []
+    errors = breaks_of_schema(summary)
     if VOCABULARY.get(summary.get("status")) != status:
         errors.append(f"status {summary.get('status')!r} with exit status {status}")
     if summary.get("pass") is not (status == 0):
@@ -63,6 +65,42 @@ def schema_errors(app, args, out, status):
     if not run.get("version"):
         errors.append("no run.version")
     return [f"{app} {' '.join(args)}: {e}" for e in errors]
+
+
+# Summaries that break the rule, each made from a real one: the schema must reject every one. (path, key, value):
+# the key set to the value (or to value(old value) if callable) in the object at path; None deletes the key.
+PLANTED = [
+    (["checks"], "impact_0.2H", {"arrived": False}),               # a dot in a key
+    (["parameters"], "width", 0.2),                                # a length without its unit
+    (["parameters"], "rho", 1000.0),
+    (["parameters", "radii"], "density", 4.1),                      # the same, nested
+    (["parameters"], "c0_m_s", 340.0),                             # the other spelling of m/s
+    (["timings"], "particle_steps_per_second", 1e6),
+    (["checks"], "peak_error_percent", 1.5),                       # per cent instead of a fraction
+    (["parameters"], "Re", 40.0),                                  # not snake_case
+    (["parameters"], "sample_times_s", ["0.1"]),                   # a unit on text
+    ([], "status", "ran"),                                         # outside the vocabulary
+    ([], "pass", lambda old: not old),                             # pass that contradicts the status
+    ([], "run", None),                                             # no run record
+    (["run"], "commit", "HEAD"),
+]
+
+
+def planted_accepted(summary):
+    """The planted breaks the schema let through (it must let none)."""
+    accepted = []
+    for path, key, value in PLANTED:
+        bad = copy.deepcopy(summary)
+        at = bad
+        for step in path:
+            at = at.setdefault(step, {})
+        if value is None:
+            at.pop(key, None)
+        else:
+            at[key] = value(at.get(key)) if callable(value) else value
+        if not breaks_of_schema(bad):
+            accepted.append(f"/{'/'.join(path + [key])} = {at.get(key)!r}")
+    return accepted
 
 
 def outputs(out):
@@ -107,6 +145,11 @@ def main():
                     [l for l in replayed.splitlines() if not l.startswith("out=")]:
                 failures.append(f"{app}: the replay's config.toml differs from the first run's")
             print(f"{app}: exit {status}, {len(files)} files and the summary the same on replay")
+        # The schema itself: it rejects each planted break of a summary that passes it.
+        dambreak = json.loads((Path(tmp) / "dambreak" / "first" / "summary.json").read_text())
+        if breaks_of_schema(dambreak):
+            failures.append("the dambreak summary the planted breaks start from fails the schema already")
+        failures += [f"the schema accepted a planted break: {b}" for b in planted_accepted(dambreak)]
         # A run the guard stops: status "failed", pass false, exit 1.
         args = "--mode inlet --re 400 --across 10 --end-time 0.5 --frames 0 --dt-factor 20".split()
         stopped = Path(tmp) / "stopped"

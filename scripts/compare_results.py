@@ -13,6 +13,7 @@ agree bitwise with them (ASCII had 17 significant digits). A frame's time is its
 existed take the time their .pvd lists. One OpenMP thread, so that reductions add in one order. Every summary is
 also checked against docs/summary.schema.json (Debian's python3-jsonschema): a break is listed and fails a check.
 """
+import functools
 import hashlib
 import json
 import os
@@ -121,10 +122,15 @@ def frame_record(path: Path, listed_time) -> dict:
     return {"time": time, "arrays": arrays}
 
 
+@functools.cache
+def schema_validator(path: Path):
+    import jsonschema
+    return jsonschema.Draft202012Validator(json.loads(path.read_text()))
+
+
 def schema_errors(summary: dict) -> list[str]:
     """Where a summary breaks docs/summary.schema.json (Debian's python3-jsonschema), as messages."""
-    import jsonschema
-    validator = jsonschema.Draft202012Validator(json.loads(SCHEMA.read_text()))
+    validator = schema_validator(SCHEMA)
 
     def leaves(e):
         """For "not valid under any of the given schemas", the errors of the branch that got deepest into the value
@@ -138,7 +144,12 @@ def schema_errors(summary: dict) -> list[str]:
                                                        any(c.validator != "type" for c in b)))
         return [leaf for c in nearest for leaf in leaves(c)]
 
-    return [f"/{'/'.join(map(str, e.absolute_path))}: {e.message}"
+    def message(e):
+        if e.validator == "type" and "string" in e.validator_value and isinstance(e.instance, (int, float)):
+            return f"{e.instance!r} is a number under a key that ends in no unit (docs/config-files.md#the-naming-rule)"
+        return e.message
+
+    return [f"/{'/'.join(map(str, e.absolute_path))}: {message(e)}"
             for error in validator.iter_errors(summary) for e in leaves(error)]
 
 

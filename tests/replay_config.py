@@ -5,6 +5,7 @@ Each case sets options away from their defaults, flags included, so that a setti
 Every summary must validate against docs/summary.schema.json (the shared keys and the naming rule of every key,
 docs/config-files.md), with its status matching the exit status and the run record naming this run; and the schema
 must reject summaries that break the rule (a dotted key, a number without its unit, a status outside the vocabulary).
+Every app's --help shows its options in groups.
 
   tests/replay_config.py BUILD_DIR
 """
@@ -145,6 +146,11 @@ def main():
                     [l for l in replayed.splitlines() if not l.startswith("out=")]:
                 failures.append(f"{app}: the replay's config.toml differs from the first run's")
             print(f"{app}: exit {status}, {len(files)} files and the summary the same on replay")
+        # --help in groups: no option of any app left in CLI11's catch-all "Options" (apps/common/help.hpp).
+        for app in CASES:
+            shown = subprocess.run([str(Path(build) / "apps" / app / app), "--help"], capture_output=True, text=True)
+            if "\nGeneral:\n" not in shown.stdout or "\nOptions:\n" in shown.stdout:
+                failures.append(f"{app} --help is not grouped: {shown.stdout[:300]}")
         # The schema itself: it rejects each planted break of a summary that passes it.
         dambreak = json.loads((Path(tmp) / "dambreak" / "first" / "summary.json").read_text())
         if breaks_of_schema(dambreak):

@@ -15,10 +15,11 @@
 #include <vector>
 
 #include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
 #include "mps/acoustic.hpp"
 #include "mps/io.hpp"
 #include "mps/step.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "png.hpp"
 #include "run_config.hpp"
@@ -88,37 +89,50 @@ int main(int argc, char** argv) {
   bool no_maps = false;
   mps::AcousticConfig config;
   CLI::App app{"SparseMPS acoustics (MPS-WP, seed 001): Gaussian pulses against the exact solution"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
-  app.add_option("--case", case_name, "free | hard | mur | two-pulse | flow")->capture_default_str();
-  app.add_option("--size", size, "side of the square box [m]")->capture_default_str()->check(positive_up_to(1e5));
-  app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str()->check(positive_up_to(1e3));
-  app.add_option("--cfl", config.cfl, "CFL number c0 dt / l0")->capture_default_str()->check(positive_up_to(100));
-  app.add_option("--b", half_width, "pulse half-width b [m]: dp = eps exp(-ln2 r^2/b^2), at most a quarter of the box")->capture_default_str()->check(positive_up_to(1e5));
-  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str()->check(number_in(1e-100, 1e100));
-  app.add_option("--c0", config.c0, "speed of sound [m/s]")->capture_default_str()->check(positive_up_to(1e5));
-  app.add_option("--rho0", config.rho0, "density [kg/m^3]")->capture_default_str()->check(positive_up_to(1e5));
-  app.add_option("--u0", u0, "mean flow along x [m/s], below c0 (default: 100 for flow, else 0)")->check(number_in(-1e5, 1e5));
-  app.add_option("--frequency", frequency, "pulse repetition rate of the flow case [Hz]")->capture_default_str()->check(positive_up_to(1e6));
+  add_general_options(app);
+  app.add_option("--case", case_name, "free | hard | mur | two-pulse | flow")->capture_default_str()->group("Scene");
+  app.add_option("--size", size, "side of the square box [m]")->capture_default_str()->check(positive_up_to(1e5))
+      ->group("Scene");
+  app.add_option("--b", half_width, "pulse half-width b: dp = eps exp(-ln2 r^2/b^2), at most a quarter of the box [m]")
+      ->capture_default_str()->check(positive_up_to(1e5))->group("Scene");
+  app.add_option("--amplitude", amplitude, "pulse amplitude eps [Pa]")->capture_default_str()
+      ->check(number_in(1e-100, 1e100))->group("Scene");
+  app.add_option("--c0", config.c0, "speed of sound [m/s]")->capture_default_str()->check(positive_up_to(1e5))
+      ->group("Scene");
+  app.add_option("--rho0", config.rho0, "density [kg/m^3]")->capture_default_str()->check(positive_up_to(1e5))
+      ->group("Scene");
+  app.add_option("--u0", u0, "mean flow along x, below c0 (default: 100 for flow, else 0) [m/s]")
+      ->check(number_in(-1e5, 1e5))->group("Scene");
+  app.add_option("--frequency", frequency, "pulse repetition rate of the flow case [Hz]")->capture_default_str()
+      ->check(positive_up_to(1e6))->group("Scene");
   app.add_option("--boundary", boundary_name,
-                 "hard | mur (Mur at every RK4 stage) | mur-step (Mur once per step, as published) (default: the case's)");
-  app.add_option("--gradient", gradient_name, "mps (seed 001) | ls3 (least squares, cubic)")->capture_default_str();
-  app.add_option("--weight", weight_name, "classic (re/r - 1, seed 001) | bounded")->capture_default_str();
-  app.add_option("--radius", config.radius, "kernel radius re / l0")->capture_default_str()->check(number_in(1.5, 10.0));
-  app.add_option("--end-time", end_time, "simulated time [s] (default: the case's)")->check(positive_up_to(1e4));
-  app.add_option("--samples", samples, "times at which error and energy are measured [s] (default: the case's)")
-      ->delimiter(',')->check(number_in(0.0, 1e4));
-  app.add_option("--maps", maps, "times of the pressure-map PNGs [s] (default: the paper's figure times)")->delimiter(',')
-      ->check(number_in(0.0, 1e4));
-  app.add_flag("--no-maps", no_maps, "write no pressure maps (studies)");
-  app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)")
-      ->check(whole_in(0, 100000));
-  app.add_option("--tolerance", tolerance, "absolute quadrature tolerance of the exact solution, in eps")->capture_default_str()
-      ->check(number_in(1e-15, 1e-2));
+                 "hard | mur (Mur at every RK4 stage) | mur-step (Mur once per step, as published) (default: the "
+                 "case's)")->group("Scene");
+  app.add_option("--l0", config.l0, "particle spacing [m]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Numerics");
+  app.add_option("--cfl", config.cfl, "CFL number c0 dt / l0")->capture_default_str()->check(positive_up_to(100))
+      ->group("Numerics");
+  app.add_option("--gradient", gradient_name, "mps (seed 001) | ls3 (least squares, cubic)")->capture_default_str()
+      ->group("Numerics");
+  app.add_option("--weight", weight_name, "classic (re/r - 1, seed 001) | bounded")->capture_default_str()
+      ->group("Numerics");
+  app.add_option("--radius", config.radius, "kernel radius re [l0]")->capture_default_str()->check(number_in(1.5, 10.0))
+      ->group("Numerics");
   app.add_option("--guard-factor", config.guard_energy_factor,
-                 "stop when the energy exceeds this factor x the largest energy the pulses can carry")->capture_default_str()
-      ->check(number_in(1.0, 1e6));
-  app.add_option("--out", out, "output directory (default: runs/acoustic/<case>)");
+                 "stop when the energy exceeds this factor x the largest energy the pulses can carry")
+      ->capture_default_str()->check(number_in(1.0, 1e6))->group("Numerics");
+  app.add_option("--end-time", end_time, "simulated time (default: the case's) [s]")->check(positive_up_to(1e4))
+      ->group("Run");
+  app.add_option("--samples", samples, "times at which error and energy are measured (default: the case's) [s]")
+      ->delimiter(',')->check(number_in(0.0, 1e4))->group("Run");
+  app.add_option("--tolerance", tolerance, "absolute quadrature tolerance of the exact solution [eps]")
+      ->capture_default_str()->check(number_in(1e-15, 1e-2))->group("Run");
+  app.add_option("--out", out, "output directory (default: runs/acoustic/<case>)")->group("Output");
+  app.add_option("--maps", maps, "times of the pressure-map PNGs (default: the paper's figure times) [s]")
+      ->delimiter(',')->check(number_in(0.0, 1e4))->group("Output");
+  app.add_flag("--no-maps", no_maps, "write no pressure maps (studies)")->group("Output");
+  app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)")
+      ->check(whole_in(0, 100000))->group("Output");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -202,7 +216,11 @@ int main(int argc, char** argv) {
                                     "energy_fraction = E / sum of the injected pulses' energies"},
                          {"exact", hard ? "free-field Hankel integral summed over wall images"
                                         : "free-field Hankel integral (boundaries ignored), centre moved by u0 t"}}}};
-    std::cout << "acoustic: " << params.dump() << "\n";
+    std::cout << parameter_table("acoustic, case " + case_name + ": " + scene.description, params,
+                                 {{"scene", {"boundary", "box_m", "pulse/amplitude_pa", "pulse/b_m", "c0_m_per_s",
+                                             "rho0_kg_per_m3", "u0_m_per_s", "frequency_hz"}},
+                                  {"numerics", {"l0_m", "cfl", "dt_s", "gradient", "weight", "radius_l0", "guard_factor"}},
+                                  {"run", {"end_time_s", "samples_s", "maps_s", "tolerance_over_eps"}}});
     std::printf("particles: %zu interior + %zu virtual; gradient nnz %zu; dt = %.4g s; RK4 stable up to CFL %.3f "
                 "(von Neumann estimate), running at %.3f\n",
                 solver.interior(), solver.particles().size() - solver.interior(), solver.gradient().x.nnz(), config.dt(),
@@ -285,6 +303,7 @@ int main(int argc, char** argv) {
     const double frame_dt = frames > 0 ? t_end / std::max(1, frames - 1) : 2 * t_end;
     double step_s = 0.0;
     const double half_step = 0.5 * solver.dt();
+    Progress progress(t_end, "s");
     try {
       while (true) {
         const double t = solver.time();
@@ -311,6 +330,7 @@ int main(int argc, char** argv) {
             sample_log.push_back({{"time_s", t}, {"relative_rms_error", error}, {"centreline_relative_rms_error", line_error},
                                   {"energy_fraction", e / injected}, {"exact_in_box_energy_fraction", exact_energy / injected},
                                   {"centreline_peak_exact_dp_pa", peak}});
+            progress.clear();
             std::printf("t = %.4f s  step %5d  rel. RMS error %.3f %% (centreline %.3f %%)  energy %.3f %% of injected "
                         "(exact field in box %.3f %%)\n",
                         t, solver.steps(), 100 * error, 100 * line_error, 100 * e / injected, 100 * exact_energy / injected);
@@ -346,6 +366,7 @@ int main(int argc, char** argv) {
         solver.step();
         step_times.push_back(seconds_since(t0));
         step_s += step_times.back();
+        progress.update(solver.time(), solver.steps());  // after the step's timing: printing is not the step's cost
         if (solver.steps() % 20 == 1) {
           const auto t1 = Clock::now();
           solver.gradient().x.multiply(spmv_in, spmv_out);
@@ -357,6 +378,7 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(solver.time(), solver.steps());
       mps::Particles p = solver.particles();
       p.p = solver.pressure();
       p.u = solver.velocity_x();
@@ -368,6 +390,7 @@ int main(int argc, char** argv) {
                 << (dir / "last_good.vtp").string() << "\n";
       return 1;
     }
+    progress.finish(solver.time(), solver.steps());
     mps::write_csv(dir / "energy.csv", {"time_s", "energy_fraction"}, {energy_t, energy_fraction});
     const nlohmann::json s = summarise("completed", "", step_s);
     const auto& tm = s["timings"];

@@ -13,7 +13,8 @@
 inline void add_config_option(CLI::App& app) {
   app.set_config("--config", "",
                  "read the options from a TOML file, such as the config.toml every run writes beside its summary "
-                 "(options given on the command line override the file's)");
+                 "(options given on the command line override the file's)")
+      ->group("General");
   app.allow_config_extras(CLI::config_extras_mode::error);  // a misspelt key is an error, not a silent default
 }
 

@@ -87,5 +87,6 @@ inline CLI::Option* add_export_ppe_option(CLI::App& app, std::vector<int>& steps
                         "write the PPE (A and b, Matrix Market, with the scene, step, l0, radius and gamma in its "
                         "header) of these steps to OUT/ppe/")
       ->delimiter(',')
-      ->check(CLI::Range(1, 100000000));
+      ->check(CLI::Range(1, 100000000))
+      ->group("Output");
 }

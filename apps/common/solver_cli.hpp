@@ -16,7 +16,8 @@ inline void add_list_solvers_flag(CLI::App& app) {
         throw CLI::Success();
       },
       "print the available solvers with their keys and defaults, and exit")
-      ->configurable(false);
+      ->configurable(false)
+      ->group("Solver");
 }
 
 // --cold-start: every pressure solve from a zero guess instead of the previous step's pressure
@@ -25,17 +26,19 @@ inline void add_list_solvers_flag(CLI::App& app) {
 inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
   return app.add_flag_callback(
       "--cold-start", [&warm_start] { warm_start = false; },
-      "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)");
+      "start each pressure solve from zeros instead of the previous step's pressure (the classic baseline)")
+      ->group("Solver");
 }
 
 inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {
   return app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the particle "
                         "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
-      ->capture_default_str()->check(number_in(0.0, 10.0));
+      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
 }
 
 inline CLI::Option* add_solver_options(CLI::App& app, std::string& spec) {
   add_list_solvers_flag(app);
   return app.add_option("--solver", spec, "linear solver spec name[:key=value,...] (see --list-solvers)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group("Solver");
 }

@@ -9,9 +9,10 @@
 
 #include "checks.hpp"
 #include "column.hpp"
+#include "console.hpp"
 #include "data_dir.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -62,44 +63,46 @@ int main(int argc, char** argv) {
   dambreak::Params p;
   CLI::App app{"SparseMPS dam break: a water column collapses in an open tank (seed 003 §2.1); the surge front against "
                "Martin & Moyce, the downstream-wall pressure against Buchner"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
+  add_general_options(app);
   app.add_option("--column", column_name,
                  "classic: a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, H = 1 m high, "
                  "tank 5.366 m x 3 m (Buchner's wall pressure)")
-      ->capture_default_str()->check(CLI::IsMember({"classic", "seed"}));
-  app.add_option("--dx", dx, "particle spacing [m] (default: a/20 for classic, H/25 for seed; the seed's own is 0.02)")
-      ->check(positive_up_to(1.0));
+      ->capture_default_str()->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
+  app.add_option("--data", data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
+                 "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
+  app.add_option("--dx", dx, "particle spacing (default: a/20 for classic, H/25 for seed; the seed's own is 0.02) [m]")
+      ->check(positive_up_to(1.0))->group("Numerics");
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(number_in(0.0, 1.0));
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--gradient", gradient, "pressure gradient: min-reference (Koshizuka's, repulsive) | plain | corrected "
                  "(the corrective matrix) | corrected-min-reference")
-      ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}));
-  app.add_option("--cfl", p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--end-time", end_time, "simulated time [s] (default: T = 2.5 for classic, t sqrt(g/H) = 6 for seed)")
-      ->check(positive_up_to(1e4));
-  app.add_option("--collision", p.collision, "close pairs collide: two particles nearer than this (in l0) that approach "
-                 "each other keep only --restitution of their approach speed (0: off)")
-      ->capture_default_str()->check(number_in(0.0, 0.99));
+      ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}))
+      ->group("Numerics");
+  app.add_option("--cfl", p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10))
+      ->group("Numerics");
+  app.add_option("--collision", p.collision, "close pairs collide: two particles nearer than this that approach each "
+                 "other keep only --restitution of their approach speed (0: off) [l0]")
+      ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
   app.add_option("--restitution", p.restitution, "restitution of a collision, in [0, 1]")
-      ->capture_default_str()->check(number_in(0.0, 1.0));
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--asymmetry", p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
                  "fraction of a flat surface's asymmetry (0: the density test alone)")
-      ->capture_default_str()->check(number_in(0.0, 10.0));
+      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
   app.add_flag("--wet-walls", p.wet_walls, "wall particles next to fluid that is not free surface carry pressure even "
-               "where their number density calls them dry (mps::WetWalls)");
+               "where their number density calls them dry (mps::WetWalls)")->group("Numerics");
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
-  std::vector<int> export_ppe;
-  add_export_ppe_option(app, export_ppe);
   add_cold_start_flag(app, p.warm_start);
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
+  app.add_option("--end-time", end_time, "simulated time (default: T = 2.5 for classic, t sqrt(g/H) = 6 for seed) [s]")
+      ->check(positive_up_to(1e4))->group("Run");
   app.add_option("--front-tolerance", front_tolerance,
                  "classic: pass if the front is within this relative error of either Martin & Moyce series for T <= 2.5")
-      ->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--data", data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
-                 "buchner_exp_data.txt)")->capture_default_str();
-  app.add_option("--out", out, "output directory")->capture_default_str();
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
+  std::vector<int> export_ppe;
+  add_export_ppe_option(app, export_ppe);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -128,8 +131,16 @@ int main(int argc, char** argv) {
     dambreak::Scene scene(p);
     const mps::Simulation& sim = scene.sim();
     const nlohmann::json params = params_json(p, sim, data);
-    std::cout << "dam break, " << column_name << " column: " << scene.initial_fluid() << " fluid particles, dx "
-              << p.l0 << " m, to t = " << p.end_time << " s, solver " << sim.solver().spec() << "\n";
+    std::cout << parameter_table(
+        "dam break, " + column_name + " column: " + std::to_string(sim.particles().size()) + " particles (" +
+            std::to_string(scene.initial_fluid()) + " fluid)",
+        params,
+        {{"scene", {"column_width_m", "column_height_m", "tank_length_m", "tank_height_m", "g_m_per_s2",
+                    "rho_kg_per_m3", "nu_m2_per_s"}},
+         {"numerics", {"dx_m", "gamma", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution", "asymmetry",
+                       "shifting", "wet_walls"}},
+         {"solver", {"solver", "warm_start"}},
+         {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
                         "last_good.vtp",
@@ -141,12 +152,15 @@ int main(int argc, char** argv) {
     FrameSeries series(dir, "dambreak", frames, p.end_time);
     series.write_if_due(sim);
     double next_report = p.end_time / 10;
+    Progress progress(p.end_time, "s");
     try {
       while (!scene.done()) {
         scene.step();
+        progress.update(sim.time(), sim.last_step().step);
         series.write_if_due(sim);
         if (sim.time() >= next_report - 1e-12) {
           const auto& s = sim.last_step();
+          progress.clear();
           std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "
                       "|u|max %.2f m/s  front %.3f a\n",
                       s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.free_surface, s.solve.backend.c_str(),
@@ -155,8 +169,10 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(sim.time(), sim.last_step().step);
       return report_guard_stop(dir, e, params, sim);
     }
+    progress.finish(sim.time(), sim.last_step().step);
 
     // The series in the experiments' units: T = t sqrt(2g/a) for the front, t sqrt(g/H) and rho g H for the rest.
     const auto& samples = scene.samples();

@@ -9,8 +9,9 @@
 #include <iostream>
 
 #include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -29,41 +30,44 @@ int main(int argc, char** argv) {
   int frames = 20;
   CLI::App app{"SparseMPS fluid-structure interaction (seed 003): a dam-break column hits an elastic plate (§2.4), "
                "water opens a rubber gate (§2.3)"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
+  add_general_options(app);
   app.add_option("--scene", scene_name, "plate: dam break on a plate 0.08 m high, 0.012 m thick; gate: water 0.14 m "
                  "deep held by a rubber gate 0.079 m long, 0.005 m thick")
-      ->capture_default_str()->check(CLI::IsMember({"plate", "gate"}));
-  app.add_option("--dx", dx, "spacing of fluid and body [m]; must divide the body's thickness (default: plate 0.004, "
-                 "the seed's 0.002; gate 0.00125, the seed's 0.001)")->check(positive_up_to(0.005));
-  app.add_option("--modulus", modulus, "the body's Young's modulus [Pa] (default: plate 6e6, the seed also 1.2e7 and "
-                 "2.38e7; gate 1.0e7 from the seed's K = 1.67e7, G = 3.57e6)")->check(number_in(1e4, 1e10));
+      ->capture_default_str()->check(CLI::IsMember({"plate", "gate"}))->group("Scene");
+  app.add_option("--modulus", modulus, "the body's Young's modulus (default: plate 6e6, the seed also 1.2e7 and "
+                 "2.38e7; gate 1.0e7 from the seed's K = 1.67e7, G = 3.57e6) [Pa]")->check(number_in(1e4, 1e10))
+      ->group("Scene");
   app.add_option("--poisson", poisson, "the body's Poisson ratio (default: plate 0.4, not given by the seed; gate "
-                 "0.40 from K and G)")->check(number_in(0.0, 0.49));
-  app.add_flag("--rigid", p.rigid, "the body as fixed wall particles");
-  app.add_option("--density", p.density, "the body's density [kg/m^3] (the seed: 1100; water is 1000)")
-      ->capture_default_str()->check(number_in(10.0, 1e5));
+                 "0.40 from K and G)")->check(number_in(0.0, 0.49))->group("Scene");
+  app.add_flag("--rigid", p.rigid, "the body as fixed wall particles")->group("Scene");
+  app.add_option("--density", p.density, "the body's density (the seed: 1100; water is 1000) [kg/m^3]")
+      ->capture_default_str()->check(number_in(10.0, 1e5))->group("Scene");
+  app.add_option("--dx", dx, "spacing of fluid and body; must divide the body's thickness (default: plate 0.004, "
+                 "the seed's 0.002; gate 0.00125, the seed's 0.001) [m]")->check(positive_up_to(0.005))
+      ->group("Numerics");
   app.add_option("--cfl", p.cfl, "the fluid's time step: dt <= CFL l0 / |u|max")->capture_default_str()
-      ->check(positive_up_to(2.0));
+      ->check(positive_up_to(2.0))->group("Numerics");
   app.add_option("--solid-cfl", p.solid_cfl, "the plate's own time step: CFL of its p-wave speed")
-      ->capture_default_str()->check(positive_up_to(2.0));
+      ->capture_default_str()->check(positive_up_to(2.0))->group("Numerics");
   app.add_option("--relaxation", p.relaxation, "fraction of the way the body's load moves to each new pressure force "
                  "(1: none; filters MPS's step-to-step wall-pressure noise)")->capture_default_str()
-      ->check(number_in(0.01, 1.0));
+      ->check(number_in(0.01, 1.0))->group("Numerics");
   app.add_option("--wet-walls", p.wet_walls, "walls next to the liquid's interior carry pressure even where the "
-                 "density test calls them dry (mps::WetWalls): true | false")->capture_default_str();
+                 "density test calls them dry (mps::WetWalls): true | false")->capture_default_str()
+      ->group("Numerics");
   std::string gradient;
   app.add_option("--pressure-gradient", gradient, "conservative: every pressure pair equal and opposite, the body gets "
                  "exactly the fluid's push back (still water does not stay at rest with it); min-reference: the "
                  "body's load is -V grad P, corrected (default: plate conservative, gate min-reference; docs/fsi.md)")
-      ->check(CLI::IsMember({"min-reference", "conservative"}));
-  app.add_option("--end-time", end_time, "simulated time [s] (default: plate 0.3, gate 0.4)")
-      ->check(positive_up_to(100));
-  app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str();
+      ->check(CLI::IsMember({"min-reference", "conservative"}))->group("Numerics");
+  app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str()->group("Solver");
+  app.add_option("--end-time", end_time, "simulated time (default: plate 0.3, gate 0.4) [s]")
+      ->check(positive_up_to(100))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
-  app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     const fsi::Params base = fsi::defaults(fsi::case_from_name(scene_name));
@@ -86,9 +90,16 @@ int main(int argc, char** argv) {
         {"pressure_gradient", mps::to_string(p.pressure_gradient)}, {"cfl", p.cfl},
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()}, {"hydrostatic_split", false},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"}};
-    std::cout << scene_name << (p.rigid ? " (rigid): " : " (elastic): ") << sim.particles().count(mps::Kind::fluid)
-              << " fluid particles, " << scene.body_particles() << " body particles, dx " << p.l0 << " m, to t = "
-              << p.end_time << " s\n";
+    std::cout << parameter_table(
+        "fsi, " + scene_name + (p.rigid ? " (rigid): " : " (elastic): ") +
+            std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid particles, " +
+            std::to_string(scene.body_particles()) + " body particles",
+        params,
+        {{"scene", {"water_width_m", "water_height_m", "body_x_m", "body_width_m", "body_height_m", "rigid",
+                    "modulus_pa", "poisson", "density_kg_per_m3"}},
+         {"numerics", {"dx_m", "cfl", "solid_cfl", "relaxation", "wet_walls", "pressure_gradient"}},
+         {"solver", {"solver"}},
+         {"run", {"end_time_s"}}});
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp",
                         "config.toml", "solves.csv", "ppe"});
@@ -99,12 +110,15 @@ int main(int argc, char** argv) {
     series.write_if_due(sim);
     double next_report = p.end_time / 10;
     const auto start = std::chrono::steady_clock::now();
+    Progress progress(p.end_time, "s");
     try {
       while (!scene.done()) {
         scene.step();
+        progress.update(sim.time(), sim.last_step().step);
         series.write_if_due(sim);
         if (sim.time() >= next_report - 1e-12) {
           const auto& s = scene.samples().back();
+          progress.clear();
           std::printf("t = %.3f s  step %d  probe (%.5f, %.5f) m  load %.2f N/m  solid sub-steps %d\n",
                       s.time, sim.last_step().step, s.tip_x, s.tip_y, s.force_x,
                       scene.structure() ? scene.structure()->substeps() : 0);
@@ -112,6 +126,7 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(sim.time(), sim.last_step().step);
       // The guard's own advice names the fluid's step; in a coupled run the coupling is the likelier cause.
       const bool exact = p.pressure_gradient == mps::GradientVariant::conservative;
       const std::string coupling =
@@ -123,6 +138,7 @@ int main(int argc, char** argv) {
                                          (p.rigid ? std::string() : coupling + " (docs/fsi.md)"));
       return report_guard_stop(dir, coupled, params, sim);
     }
+    progress.finish(sim.time(), sim.last_step().step);
     std::vector<double> t, ux, uy, fx, level;
     double most = 0, at = 0;
     for (const auto& s : scene.samples()) {

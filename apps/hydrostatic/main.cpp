@@ -7,8 +7,9 @@
 #include <iostream>
 
 #include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -44,22 +45,31 @@ int main(int argc, char** argv) {
   int frames = 20;
   double tolerance = 0.05;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
-  app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(positive_up_to(1e3));
-  app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()->check(positive_up_to(1e3));
-  app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(positive_up_to(1e3));
-  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")->capture_default_str()->check(number_in(0.0, 1.0));
-  app.add_option("--dt", p.dt, "time step dt_max [s]")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(positive_up_to(1e6));
-  app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds")->capture_default_str()->check(positive_up_to(1e6));
-  app.add_option("--band", p.band, "height of averaging bands, in l0 (at most H / l0)")->capture_default_str()->check(number_in(1.0, 1e6));
+  add_general_options(app);
+  app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Scene");
+  app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()
+      ->check(positive_up_to(1e3))->group("Scene");
+  app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Numerics");
+  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")->capture_default_str()
+      ->check(number_in(0.0, 1.0))->group("Numerics");
+  app.add_option("--dt", p.dt, "time step dt_max [s]")->capture_default_str()->check(positive_up_to(10))
+      ->group("Numerics");
   add_solver_options(app, p.solver);
+  app.add_option("--end-time", p.end_time, "simulated time [s]")->capture_default_str()->check(positive_up_to(1e6))
+      ->group("Run");
+  app.add_option("--window", p.window, "pressures averaged over the last WINDOW seconds [s]")->capture_default_str()
+      ->check(positive_up_to(1e6))->group("Run");
+  app.add_option("--band", p.band, "height of averaging bands (at most H / l0) [l0]")->capture_default_str()
+      ->check(number_in(1.0, 1e6))->group("Run");
+  app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
-  app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -68,7 +78,14 @@ int main(int argc, char** argv) {
     tank::Tank scene(p);
     const mps::Simulation& sim = scene.sim();
     const nlohmann::json params = params_json(p, sim);
-    std::cout << "hydrostatic tank: " << params.dump() << "\n";
+    std::cout << parameter_table(
+        "hydrostatic tank: " + std::to_string(sim.particles().size()) + " particles (" +
+            std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
+        params,
+        {{"scene", {"width_m", "height_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
+         {"numerics", {"dx_m", "gamma", "beta", "dt_s"}},
+         {"solver", {"solver"}},
+         {"run", {"end_time_s", "window_s", "band_l0"}}});
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
                         "config.toml", "solves.csv", "ppe"});
@@ -78,12 +95,15 @@ int main(int argc, char** argv) {
     FrameSeries series(dir, "tank", frames, p.end_time);
     series.write_if_due(sim);
     double next_report = 0.1;
+    Progress progress(p.end_time, "s");
     try {
       while (!scene.done()) {
         scene.step();
+        progress.update(sim.time(), sim.last_step().step);
         series.write_if_due(sim);
         if (sim.time() >= next_report - 1e-12) {
           const auto& s = sim.last_step();
+          progress.clear();
           std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",
                       s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.solve.backend.c_str(), s.solve.iterations,
                       s.max_speed);
@@ -91,8 +111,10 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(sim.time(), sim.last_step().step);
       return report_guard_stop(dir, e, params, sim);
     }
+    progress.finish(sim.time(), sim.last_step().step);
 
     const tank::Result r = scene.result();
     std::vector<double> y, measured, exact, error;

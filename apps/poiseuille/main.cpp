@@ -10,8 +10,9 @@
 
 #include "channel.hpp"
 #include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -66,43 +67,51 @@ int main(int argc, char** argv) {
   double tolerance = 0.02;
   CLI::App app{"SparseMPS plane channel: the pushing-plate inlet channel against the developed parabola, or the "
                "periodic body-force Poiseuille / Couette start-up against the exact series"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
-  app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str();
+  add_general_options(app);
+  app.add_option("--mode", mode, "inlet | body-force | couette")->capture_default_str()->group("Scene");
   app.add_option("--re", p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
-      ->capture_default_str()->check(positive_up_to(1e6));
-  app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(positive_up_to(1e3));
+      ->capture_default_str()->check(positive_up_to(1e6))->group("Scene");
+  app.add_option("--width", p.D, "channel width D [m]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Scene");
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Scene");
+  app.add_option("--length", p.length_l0, "periodic modes: periodic length (>= 13) [l0]")->capture_default_str()
+      ->check(whole_in(13, 10000000))->group("Scene");
+  app.add_option("--channel-length", p.length_D, "inlet: channel length [D]")->capture_default_str()
+      ->check(positive_up_to(1e4))->group("Scene");
+  app.add_option("--station", p.station_D, "inlet: measuring station x [D]")->capture_default_str()
+      ->check(positive_up_to(1e4))->group("Scene");
+  app.add_option("--outlet-buffer", p.outlet_buffer_l0, "inlet: the outlet as an outflow buffer this thick, held at "
+                 "P = 0, leaving at the upstream velocity (0: an open end of free-surface particles) [l0]")
+      ->capture_default_str()->check(number_in(0.0, 1e4))->group("Scene");
   app.add_option("--across", p.across, "particles across the channel (l0 = D / across; 50: dx = 0.004 m)")
-      ->capture_default_str()->check(whole_in(4, 100000));
-  app.add_option("--length", p.length_l0, "periodic modes: periodic length in l0 (>= 13)")->capture_default_str()->check(whole_in(13, 10000000));
-  app.add_option("--channel-length", p.length_D, "inlet: channel length in D")->capture_default_str()->check(positive_up_to(1e4));
-  app.add_option("--station", p.station_D, "inlet: measuring station x in D")->capture_default_str()->check(positive_up_to(1e4));
+      ->capture_default_str()->check(whole_in(4, 100000))->group("Numerics");
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(number_in(0.0, 1.0));
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
-      ->capture_default_str()->check(positive_up_to(100));
+      ->capture_default_str()->check(positive_up_to(100))->group("Numerics");
   app.add_flag("--implicit-viscosity", p.implicit_viscosity,
-               "solve the viscous term implicitly (no viscous time-step limit; for low Re)");
-  app.add_option("--outlet-buffer", p.outlet_buffer_l0, "inlet: the outlet as an outflow buffer this many l0 thick, "
-                 "held at P = 0, leaving at the upstream velocity (0: an open end of free-surface particles)")
-      ->capture_default_str()->check(number_in(0.0, 1e4));
+               "solve the viscous term implicitly (no viscous time-step limit; for low Re)")->group("Numerics");
   app.add_option("--compression", p.compression, "density variation allowed to an artificial compressibility, "
                  "whose sound speed follows Morris et al. (1997) from 1.5 U and the Poiseuille drop (0: incompressible)")
-      ->capture_default_str()->check(number_in(0.0, 0.5));
+      ->capture_default_str()->check(number_in(0.0, 0.5))->group("Numerics");
   add_shifting_option(app, p.shifting);
-  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e3));
   add_solver_options(app, p.solver);
+  add_cold_start_flag(app, p.warm_start);
+  app.add_option("--end-time", end_time, "simulated time [D/U]")->capture_default_str()->check(positive_up_to(1e6))
+      ->group("Run");
+  app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
+                 "compare snapshots with the transient series) [D/U]")->capture_default_str()
+      ->check(number_in(0.0, 1e6))->group("Run");
+  app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error (inlet: peak velocity "
+                 "error) is below this")->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()
+      ->check(whole_in(1, 1000))->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  add_cold_start_flag(app, p.warm_start);
-  app.add_option("--end-time", end_time, "simulated time in units of D/U")->capture_default_str()->check(positive_up_to(1e6));
-  app.add_option("--average", average, "inlet: average each profile over the last AVERAGE D/U (periodic modes "
-                 "compare snapshots with the transient series)")->capture_default_str()->check(number_in(0.0, 1e6));
-  app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()->check(whole_in(1, 1000));
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
-  app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error (inlet: peak velocity "
-                 "error) is below this")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -113,7 +122,17 @@ int main(int argc, char** argv) {
     mps::Simulation sim = poiseuille::make_simulation(p);
     nlohmann::json params = params_json(p, sim, end_time);
     if (!p.periodic()) params["average_D_over_U"] = average;
-    std::cout << "channel: " << params.dump() << "\n";
+    const mps::Particles& start = sim.particles();
+    std::cout << parameter_table(
+        "poiseuille, " + params["scene"].get<std::string>() + ": " + std::to_string(start.size()) + " particles (" +
+            std::to_string(start.count(mps::Kind::fluid)) + " fluid)",
+        params,
+        {{"scene", {"mode", "width_m", "re", "velocity_scale_m_per_s", "nu_m2_per_s", "rho_kg_per_m3", "length_l0",
+                    "channel_length_D", "station_D", "outlet_buffer_l0", "body_force_m_per_s2"}},
+         {"numerics", {"across", "dx_m", "gamma", "cfl", "viscous_number", "dt_factor", "viscosity", "compression",
+                       "sound_speed_m_per_s", "shifting"}},
+         {"solver", {"solver", "initial_guess"}},
+         {"run", {"end_time_D_over_U", "average_D_over_U"}}});
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
                         "config.toml", "solves.csv", "ppe"});
@@ -135,12 +154,14 @@ int main(int argc, char** argv) {
     poiseuille::Profile last;
     poiseuille::ProfileSampler sampler(p);
     const double window = p.periodic() ? 0.0 : average * p.convective_time();
+    Progress progress(end_time, "D/U");
     try {
       while (profile < profiles) {
         const double t_profile = t_end * (profile + 1) / profiles;
         sampler.clear();
         while (sim.time() < t_profile - 1e-9 * t_end) {
           sim.step();
+          progress.update(sim.time() / p.convective_time(), sim.last_step().step);
           if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
           if (sim.time() > t_profile - window) sampler.add(sim);
         }
@@ -160,14 +181,17 @@ int main(int argc, char** argv) {
           columns[columns.size() - 2].push_back(last.u[k] / p.U());
           columns.back().push_back(last.exact[k] / p.U());
         }
+        progress.clear();
         std::printf("t = %7.3f D/U  step %6d  dt %.2e s (%s)  profile L2 error %.3f %%  peak %.3f %%  flow rate %.3f %%\n",
                     tu, sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(), 100 * last.l2_error,
                     100 * last.peak_error, 100 * last.flow_rate_error);
         ++profile;
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
       return report_guard_stop(dir, e, params, sim);
     }
+    progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
     write_solves(dir, sim);
     mps::write_csv(dir / "profile.csv", header, columns);
     // The axis: u of the fluid nearest y = D/2, against x (uniform in a periodic channel at steady state).

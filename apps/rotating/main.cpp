@@ -12,8 +12,9 @@
 #include <numbers>
 
 #include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "rotor.hpp"
 #include "run_config.hpp"
@@ -71,7 +72,17 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   mps::Simulation sim = rotating::make_simulation(p);
   sim.add<SolveLog>(dir, export_ppe, couette ? "rotating, Taylor-Couette" : "rotating, screw channel");
   const nlohmann::json params = params_json(p, sim, times, average);
-  std::cout << "rotating: " << params.dump() << "\n";
+  std::cout << parameter_table(
+      "rotating, " + rotating::to_string(p.scene) + (couette ? "" : " (" + params["model"].get<std::string>() + ")") +
+          ": " + std::to_string(sim.particles().size()) + " particles (" +
+          std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
+      params,
+      {{"scene", {"inner_radius_m", "outer_radius_m", "span_rad", "omega_rad_per_s", "nu_m2_per_s", "rho_kg_per_m3",
+                  "re", "walls"}},
+       {"numerics", {"across", "dx_m", "gamma", "gradient", "cfl", "viscous_number", "dt_factor", "shifting",
+                     "reference_number_density"}},
+       {"solver", {"solver", "initial_guess"}},
+       {"run", {"times_s", "average_fraction"}}});
   fs::create_directories(dir / "frames");
   mps::PvdSeries series(dir / (rotating::to_string(p.scene) + ".pvd"));
   const double t_end = times.back();
@@ -93,11 +104,13 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   int frame = 0;
   const auto start = std::chrono::steady_clock::now();
   if (frames > 0) write_frame(frame++);
+  Progress progress(t_end, "s");
   try {
     for (double t_sample : times) {
       for (auto* s : samplers) s->clear();
       while (sim.time() < t_sample - 1e-9 * t_end) {
         sim.step();
+        progress.update(sim.time(), sim.last_step().step);
         escaped_max = std::max(escaped_max, rotating::escaped_particles(p, sim));
         if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
         if (sim.time() > t_sample * (1.0 - average))
@@ -107,6 +120,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
         for (auto* s : samplers) s->add(sim);
       Curves c{sim.time(), s_couette.result(), s_line1.result(), s_arc2.result(), s_barrel.result()};
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      progress.clear();
       if (couette)
         std::printf("t = %6.3f s  step %6d  dt %.2e s (%s)  max |u_theta - exact| = %.3f %% of omega R1  [%.0f s]\n",
                     sim.time(), sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(),
@@ -120,9 +134,11 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
       out.at.push_back(std::move(c));
     }
   } catch (const mps::SimulationError& e) {
+    progress.finish(sim.time(), sim.last_step().step);
     out.status = report_guard_stop(dir, e, params, sim);
     return out;
   }
+  progress.finish(sim.time(), sim.last_step().step);
   // The curves: one column per sample time, beside the axis.
   auto write = [&](const std::string& file, const std::string& axis, const std::string& name,
                    Curve Curves::*member) {
@@ -210,44 +226,50 @@ int main(int argc, char** argv) {
   p.across = 0;
   CLI::App app{"SparseMPS rotating boundaries (seed 000): Taylor-Couette flow against the exact profile, and the "
                "screw channel in the moving- and fixed-boundary models"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
-  app.add_option("--scene", scene, "couette | channel")->capture_default_str();
+  add_general_options(app);
+  app.add_option("--scene", scene, "couette | channel")->capture_default_str()->group("Scene");
   app.add_option("--model", model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
-                 "compares them)")->capture_default_str();
-  app.add_option("--across", p.across, "particles across the gap R2 - R1 (0: the scene's default, channel 49 = seed "
-                 "000's 3,626 fluid particles, couette 20)")->capture_default_str()->check(whole_in(0, 100000));
-  app.add_option("--omega", p.omega, "angular speed [rad/s] (couette: inner cylinder ccw; channel: channel cw)")
-      ->capture_default_str()->check(positive_up_to(1e4));
-  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e4));
-  app.add_option("--span", p.span, "channel opening angle [rad]")->capture_default_str()->check(positive_up_to(6.3));
-  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(number_in(0.0, 1.0));
+                 "compares them)")->capture_default_str()->group("Scene");
+  app.add_option("--omega", p.omega, "angular speed (couette: inner cylinder ccw; channel: channel cw) [rad/s]")
+      ->capture_default_str()->check(positive_up_to(1e4))->group("Scene");
+  app.add_option("--nu", p.nu, "kinematic viscosity [m^2/s]")->capture_default_str()->check(positive_up_to(1e4))
+      ->group("Scene");
+  app.add_option("--span", p.span, "channel opening angle [rad]")->capture_default_str()->check(positive_up_to(6.3))
+      ->group("Scene");
   app.add_option("--walls", walls, "circular walls: mirror (mirror velocities across the circle) | plain (wall "
-                 "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str();
+                 "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str()
+      ->group("Scene");
+  app.add_option("--across", p.across, "particles across the gap R2 - R1 (0: the scene's default, channel 49 = seed "
+                 "000's 3,626 fluid particles, couette 20)")->capture_default_str()->check(whole_in(0, 100000))
+      ->group("Numerics");
+  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--gradient", gradient, "pressure gradient: min-reference | corrected-min-reference (with the "
-                 "corrective matrix)")->capture_default_str();
+                 "corrective matrix)")->capture_default_str()->group("Numerics");
   app.add_flag_callback("--lattice-reference", [&p] { p.initial_reference = false; },
                         "density source against the square lattice's n0 instead of the initial packing (each wall "
-                        "particle's own, the fluid's mean)");
+                        "particle's own, the fluid's mean)")->group("Numerics");
   app.add_option("--dt-factor", p.dt_factor, "multiplies the CFL and viscous time-step limits (> 1 probes stability)")
-      ->capture_default_str()->check(positive_up_to(100));
+      ->capture_default_str()->check(positive_up_to(100))->group("Numerics");
   add_shifting_option(app, p.shifting);
   add_solver_options(app, p.solver);
+  add_cold_start_flag(app, p.warm_start);
+  app.add_option("--times", times_list, "increasing sample times (default: channel 0.05,0.5; couette 0.1,1) [s]")
+      ->capture_default_str()->group("Run");
+  app.add_option("--average", average, "each curve is averaged over the last AVERAGE fraction of its time")
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Run");
+  app.add_option("--tolerance", tolerance, "couette: pass if max |u - exact| <= TOLERANCE omega R1")
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--agreement", agreement, "channel: pass if arc 2 is odd (and, with --model both, the models agree "
+                 "on line 1 and arc 2) within AGREEMENT omega R2")->capture_default_str()->check(positive_up_to(10))
+      ->group("Run");
+  app.add_option("--symmetry", symmetry, "channel: pass if the barrel pressure is odd in phi within SYMMETRY of its "
+                 "range over |phi| <= 0.4")->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  add_cold_start_flag(app, p.warm_start);
-  app.add_option("--times", times_list, "increasing sample times [s] (default: channel 0.05,0.5; couette 0.1,1)")
-      ->capture_default_str();
-  app.add_option("--average", average, "each curve is averaged over the last AVERAGE fraction of its time")
-      ->capture_default_str()->check(number_in(0.0, 1.0));
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
-  app.add_option("--tolerance", tolerance, "couette: pass if max |u - exact| <= TOLERANCE omega R1")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--agreement", agreement, "channel: pass if arc 2 is odd (and, with --model both, the models agree "
-                 "on line 1 and arc 2) within AGREEMENT omega R2")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--symmetry", symmetry, "channel: pass if the barrel pressure is odd in phi within SYMMETRY of its "
-                 "range over |phi| <= 0.4")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--out", out, "output directory")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -10,10 +10,11 @@
 #include <omp.h>
 
 #include "checks.hpp"
+#include "console.hpp"
 #include "data_dir.hpp"
+#include "help.hpp"
 #include "mps/io.hpp"
 #include "mps/particles.hpp"
-#include "mps/version.hpp"
 #include "openmp_wait.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -51,34 +52,38 @@ int main(int argc, char** argv) {
   mps::ElasticConfig config;
   CLI::App app{"SparseMPS elastic structures (seed 003 §2.2): total-Lagrangian particle solid; the oscillating plate "
                "against its plane-strain elastic solution, Turek & Hron's CSM3 flag against its reference"};
-  app.set_version_flag("--version", std::string("SparseMPS ") + mps::version);
-  add_config_option(app);
+  add_general_options(app);
   app.add_option("--scene", scene_name, "plate: Gray, Monaghan & Swift's clamped plate (L = 0.2 m, H = 0.02 m) set "
                  "swinging by its first mode; csm3: Turek & Hron's flag on a cylinder bending under gravity")
-      ->capture_default_str()->check(CLI::IsMember({"plate", "csm3"}));
-  app.add_option("--dx", dx, "particle spacing [m]; must divide the thickness 0.02 m (and the plate's 0.2 m) (default: "
-                 "0.002 = H/10 for the plate, 0.004 = H/5 for csm3)")->check(positive_up_to(0.02));
+      ->capture_default_str()->check(CLI::IsMember({"plate", "csm3"}))->group("Scene");
   app.add_option("--model", model_name, "plate's material law: svk (St. Venant-Kirchhoff) | linear (small strain); "
-                 "csm3 is svk by definition")->capture_default_str()->check(CLI::IsMember({"svk", "linear"}));
-  app.add_option("--radius", config.radius, "kernel support (Wendland C2) in spacings")
-      ->capture_default_str()->check(number_in(2.0, 5.0));
+                 "csm3 is svk by definition")->capture_default_str()->check(CLI::IsMember({"svk", "linear"}))
+      ->group("Scene");
+  app.add_option("--data", data, "folder holding turek_hron_csm3_tip_displacement.csv")->capture_default_str()
+      ->group("Scene");
+  app.add_option("--dx", dx, "particle spacing; must divide the thickness 0.02 m (and the plate's 0.2 m) (default: "
+                 "0.002 = H/10 for the plate, 0.004 = H/5 for csm3) [m]")->check(positive_up_to(0.02))
+      ->group("Numerics");
+  app.add_option("--radius", config.radius, "kernel support (Wendland C2) [l0]")
+      ->capture_default_str()->check(number_in(2.0, 5.0))->group("Numerics");
   app.add_option("--hourglass", config.hourglass, "alpha of the hourglass energy that holds zero-energy (zigzag) modes "
-                 "(0: off)")->capture_default_str()->check(number_in(0.0, 100.0));
+                 "(0: off)")->capture_default_str()->check(number_in(0.0, 100.0))->group("Numerics");
   app.add_option("--cfl", config.cfl, "time step: dt = CFL dx / c_p, c_p the p-wave speed")
-      ->capture_default_str()->check(positive_up_to(2.0));
-  app.add_option("--end-time", end_time, "simulated time [s] (default: 5 reference periods, 1.276 s, for the plate; 4 s "
-                 "for csm3)")->check(positive_up_to(100.0));
-  app.add_option("--sample-interval", sample_interval, "time between tip samples [s] (default: 0.5 ms plate, 5 ms csm3, "
-                 "the reference's own step)")->check(positive_up_to(1.0));
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()->check(whole_in(0, 100000));
+      ->capture_default_str()->check(positive_up_to(2.0))->group("Numerics");
+  app.add_option("--end-time", end_time, "simulated time (default: 5 reference periods, 1.276 s, for the plate; 4 s "
+                 "for csm3) [s]")->check(positive_up_to(100.0))->group("Run");
+  app.add_option("--sample-interval", sample_interval, "time between tip samples (default: 0.5 ms plate, 5 ms csm3, "
+                 "the reference's own step) [s]")->check(positive_up_to(1.0))->group("Run");
   app.add_option("--period-tolerance", period_tolerance, "plate: pass if the period is within this of the reference")
-      ->capture_default_str()->check(positive_up_to(10));
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
   app.add_option("--amplitude-tolerance", amplitude_tolerance, "plate: pass if the amplitude is within this")
-      ->capture_default_str()->check(positive_up_to(10));
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
   app.add_option("--csm3-tolerance", csm3_tolerance, "csm3: pass if the tip's u_y mean, amplitude and frequency are "
-                 "each within this of the reference over the same time")->capture_default_str()->check(positive_up_to(10));
-  app.add_option("--data", data, "folder holding turek_hron_csm3_tip_displacement.csv")->capture_default_str();
-  app.add_option("--out", out, "output directory")->capture_default_str();
+                 "each within this of the reference over the same time")->capture_default_str()
+      ->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -127,8 +132,14 @@ int main(int argc, char** argv) {
                               : "lattice continued into the cylinder along the flag's thickness, kernel radius deep, held"},
         {"velocity_factor", plate_scene ? plate.velocity_factor : 0.0},
         {"guard_energy_fraction", config.guard_energy_fraction}, {"data", data}};
-    std::cout << scene_name << ": " << solid.moving() << " moving and " << solid.size() - solid.moving()
-              << " clamped particles, dx " << dx << " m, dt " << solid.dt() << " s (CFL " << config.cfl << ", stable up to ~" << solid.stable_cfl() << "), to t = " << end_time << " s\n";
+    std::cout << parameter_table(
+        "structure, " + scene_name + ": " + std::to_string(solid.moving()) + " moving and " +
+            std::to_string(solid.size() - solid.moving()) + " clamped particles",
+        params,
+        {{"scene", {"model", "density_kg_per_m3", "modulus_pa", "poisson", "p_wave_speed_m_per_s", "gravity_m_per_s2",
+                    "probe_m"}},
+         {"numerics", {"dx_m", "radius_l0", "hourglass", "cfl", "stable_cfl", "dt_s"}},
+         {"run", {"end_time_s", "sample_interval_s"}}});
 
     const fs::path dir(out);
     clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp",
@@ -160,16 +171,19 @@ int main(int argc, char** argv) {
     ++next_sample;
     if (frames > 0) frame();
     const auto start = std::chrono::steady_clock::now();
+    Progress progress(end_time, "s");
     try {
       double next_report = end_time / 10;
       while (solid.time() < end_time - 0.5 * solid.dt()) {
         solid.step();
+        progress.update(solid.time(), solid.steps());
         if (solid.time() >= next_sample * sample_interval - 0.5 * solid.dt()) {
           sample();
           ++next_sample;
         }
         if (frames > 0 && solid.time() >= next_frame * frame_interval - 0.5 * solid.dt()) frame();
         if (solid.time() >= next_report) {
+          progress.clear();
           std::printf("t = %.3f s  step %d  tip (%.5f, %.5f) m  energy: kinetic %.4g strain %.4g gravity %.4g total "
                       "%.6g J/m\n", solid.time(), solid.steps(), ux.back(), uy.back(), ek.back(), es.back(), eg.back(),
                       et.back());
@@ -177,6 +191,7 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      progress.finish(solid.time(), solid.steps());
       std::cerr << "error: " << e.what() << "\n";
       mps::write_vtp(dir / "last_good.vtp", as_particles(solid), solid.time());
       mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {t, ux, uy});
@@ -186,6 +201,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    progress.finish(solid.time(), solid.steps());
     mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {t, ux, uy});
     mps::write_csv(dir / "energy.csv", {"t", "kinetic", "strain", "gravity", "total"}, {t, ek, es, eg, et});
 

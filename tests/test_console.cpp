@@ -1,0 +1,175 @@
+// What the apps print (apps/common/console.hpp, help.hpp): progress lines paced by a clock the test sets, the start
+// table's names and units from the summary keys' suffixes, and --help's groups, defaults, units and ranges.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "checks.hpp"
+#include "console.hpp"
+#include "help.hpp"
+
+namespace {
+
+// A FILE* whose text the test reads back.
+class Captured {
+ public:
+  Captured() : file_(open_memstream(&data_, &size_)) {}
+  ~Captured() {
+    if (file_ != nullptr) std::fclose(file_);
+    std::free(data_);
+  }
+  Captured(const Captured&) = delete;
+  Captured& operator=(const Captured&) = delete;
+  std::FILE* file() { return file_; }
+  std::string text() {
+    std::fflush(file_);
+    return std::string(data_, size_);
+  }
+
+ private:
+  char* data_ = nullptr;
+  std::size_t size_ = 0;
+  std::FILE* file_;
+};
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> lines;
+  std::size_t at = 0;
+  for (std::size_t end; (end = text.find('\n', at)) != std::string::npos; at = end + 1)
+    lines.push_back(text.substr(at, end - at));
+  return lines;
+}
+
+}  // namespace
+
+TEST(Progress, PlainLineEveryIntervalOfWallTimeAndALastOneWhenNotATerminal) {
+  Captured out;
+  double now = 0;
+  Progress progress(100, "s", 10, false, out.file(), [&] { return now; });
+  for (int step = 1; step <= 35; ++step) {  // one second of wall time and two of simulated time a step
+    now = step;
+    progress.update(2.0 * step, step);
+  }
+  progress.finish(70, 35);
+  const auto lines = lines_of(out.text());
+  // At 10, 20 and 30 s of wall time, then the last. The pace since the first step (t = 2 at 1 s) is 2 s a second:
+  // 80 s of simulated time left at 10 s is 40 s of wall time.
+  ASSERT_EQ(lines.size(), 4u) << out.text();
+  EXPECT_EQ(lines[0], "progress: t = 20 / 100 s   20.0 %  step 10  wall 0:10  ETA 0:40");
+  EXPECT_EQ(lines[1], "progress: t = 40 / 100 s   40.0 %  step 20  wall 0:20  ETA 0:30");
+  EXPECT_EQ(lines[2], "progress: t = 60 / 100 s   60.0 %  step 30  wall 0:30  ETA 0:20");
+  EXPECT_EQ(lines[3], "progress: t = 70 / 100 s   70.0 %  step 35  done in 0:35");
+  EXPECT_EQ(out.text().find('\r'), std::string::npos);
+}
+
+TEST(Progress, AStallPrintsOneLineAndTheNextComesAtTheNextInterval) {
+  Captured out;
+  double now = 0;
+  Progress progress(10, "D/U", 10, false, out.file(), [&] { return now; });
+  now = 1;
+  progress.update(1, 1);
+  now = 25;  // a step that took 24 s
+  progress.update(2, 2);
+  now = 29;
+  progress.update(3, 3);
+  now = 30;
+  progress.update(4, 4);
+  const auto lines = lines_of(out.text());
+  ASSERT_EQ(lines.size(), 2u) << out.text();
+  EXPECT_NE(lines[0].find("t = 2 / 10 D/U"), std::string::npos);
+  EXPECT_NE(lines[1].find("t = 4 / 10 D/U"), std::string::npos);
+}
+
+TEST(Progress, OnATerminalOneLineIsRedrawnInPlaceAndClearedForOtherOutput) {
+  Captured out;
+  double now = 0;
+  Progress progress(1, "s", 10, true, out.file(), [&] { return now; });
+  for (int step = 1; step <= 20; ++step) {  // 0.1 s apart: drawn at the first step, then every 0.25 s at most
+    now = 0.1 * step;
+    progress.update(0.05 * step, step);
+  }
+  const std::string drawn = out.text();
+  EXPECT_EQ(drawn.find('\n'), std::string::npos) << "a terminal line ends only with the run";
+  EXPECT_EQ(static_cast<long>(std::count(drawn.begin(), drawn.end(), '\r')), 7) << drawn;  // steps 1, 4, 7, ... 19
+  EXPECT_NE(drawn.find("\rt = 0.95 / 1 s   95.0 %  step 19  wall 0:02  ETA 0:00\033[K"), std::string::npos) << drawn;
+  progress.clear();
+  EXPECT_EQ(out.text().substr(drawn.size()), "\r\033[K");
+  now = 2.05;
+  progress.update(1.0, 20);  // redrawn at once after a clear
+  progress.finish(1.0, 20);
+  const std::string all = out.text();
+  EXPECT_NE(all.find("\r\033[K\rt = 1 / 1 s  100.0 %  step 20  wall 0:02"), std::string::npos) << all;
+  const std::string last = "\rt = 1 / 1 s  100.0 %  step 20  done in 0:02\033[K\n";
+  ASSERT_GE(all.size(), last.size());
+  EXPECT_EQ(all.substr(all.size() - last.size()), last);
+}
+
+TEST(Progress, DurationsAsMinutesAndSecondsOrHours) {
+  EXPECT_EQ(Progress::duration(0), "0:00");
+  EXPECT_EQ(Progress::duration(65.4), "1:05");
+  EXPECT_EQ(Progress::duration(3725), "1:02:05");
+}
+
+TEST(ParameterTable, NamesAndUnitsComeFromTheSummaryKeysSuffixes) {
+  EXPECT_EQ(name_and_unit("nu_m2_per_s"), std::make_pair(std::string("nu"), std::string("m^2/s")));
+  EXPECT_EQ(name_and_unit("body_force_m_per_s2"), std::make_pair(std::string("body force"), std::string("m/s^2")));
+  EXPECT_EQ(name_and_unit("rho_kg_per_m3"), std::make_pair(std::string("rho"), std::string("kg/m^3")));
+  EXPECT_EQ(name_and_unit("end_time_D_over_U"), std::make_pair(std::string("end time"), std::string("D/U")));
+  EXPECT_EQ(name_and_unit("tolerance_over_eps"), std::make_pair(std::string("tolerance"), std::string("eps")));
+  EXPECT_EQ(name_and_unit("station_D"), std::make_pair(std::string("station"), std::string("D")));
+  EXPECT_EQ(name_and_unit("radius_l0"), std::make_pair(std::string("radius"), std::string("l0")));
+  EXPECT_EQ(name_and_unit("omega_rad_per_s"), std::make_pair(std::string("omega"), std::string("rad/s")));
+  EXPECT_EQ(name_and_unit("dt_max_s"), std::make_pair(std::string("dt max"), std::string("s")));
+  EXPECT_EQ(name_and_unit("average_fraction"), std::make_pair(std::string("average fraction"), std::string()));
+  EXPECT_EQ(name_and_unit("gamma"), std::make_pair(std::string("gamma"), std::string()));
+}
+
+TEST(ParameterTable, GroupsAlignInCellsAndSkipWhatTheRunDoesNotHave) {
+  const nlohmann::json params = {{"width_m", 0.2}, {"nu_m2_per_s", 1e-6}, {"mode", "inlet"},
+                                 {"radii", {{"density_l0", 4.1}}}, {"end_time_D_over_U", 10.0},
+                                 {"times_s", {0.05, 0.5}}, {"maps_s", nlohmann::json::array()},
+                                 {"frequency_hz", nullptr}, {"wet_walls", true}};
+  const std::string table =
+      parameter_table("poiseuille: a title", params,
+                      {{"scene", {"mode", "width_m", "nu_m2_per_s", "absent_m", "frequency_hz"}},
+                       {"run", {"end_time_D_over_U", "times_s", "maps_s", "radii/density_l0", "wet_walls"}},
+                       {"empty", {"absent_m"}}});
+  EXPECT_EQ(table,
+            "poiseuille: a title\n"
+            "  scene      mode = inlet          width = 0.2 m         nu = 1e-06 m^2/s\n"
+            "  run        end time = 10 D/U     times = 0.05, 0.5 s   density = 4.1 l0      wet walls = yes\n");
+}
+
+TEST(GroupedHelp, OptionsInGroupsWithDefaultUnitAndRange) {
+  CLI::App app{"a scene"};
+  add_general_options(app);
+  double width = 0.2, dx = 0, gamma = 0.5;
+  bool cold = false;
+  app.add_option("--width", width, "channel width D [m]")->capture_default_str()->check(positive_up_to(1e3))
+      ->group("Scene");
+  app.add_option("--dx", dx, "particle spacing (default: the scene's) [m]")->check(positive_up_to(1))
+      ->group("Numerics");
+  app.add_option("--gamma", gamma, "mixed source weight in [0,1]")->capture_default_str()->group("Numerics");
+  app.add_flag("--cold", cold, "start from zeros")->group("Solver");
+  const std::string help = app.help();
+  EXPECT_EQ(help.find("Options:"), std::string::npos) << help;
+  const std::size_t general = help.find("\nGeneral:\n"), scene = help.find("\nScene:\n"),
+                    numerics = help.find("\nNumerics:\n"), solver = help.find("\nSolver:\n");
+  ASSERT_NE(general, std::string::npos) << help;
+  EXPECT_LT(general, scene);
+  EXPECT_LT(scene, numerics);
+  EXPECT_LT(numerics, solver);
+  EXPECT_NE(help.find("  --width=0.2 [m]                   channel width D; in (0, 1000]\n"), std::string::npos) << help;
+  EXPECT_NE(help.find("  --dx FLOAT [m]                    particle spacing (default: the scene's); in (0, 1]\n"),
+            std::string::npos)
+      << help;
+  EXPECT_NE(help.find("  --gamma=0.5                       mixed source weight in [0,1]\n"), std::string::npos)
+      << help;  // "[0,1]" is no unit
+  EXPECT_NE(help.find("  --cold                            start from zeros\n"), std::string::npos) << help;
+  EXPECT_NE(help.find("  --version "), std::string::npos);
+  EXPECT_NE(help.find("  --config "), std::string::npos);
+}

@@ -262,15 +262,24 @@ void write_matrix_market(const fs::path& path, std::span<const double> vector) {
 }
 
 namespace {
-// Returns the banner's words (lower case) and leaves `in` after the comment lines.
 // The data lines of a Matrix Market file after its banner and comments, with line numbers for messages, and
 // strict numbers: every token must be a whole number or a finite value ("nan", "inf" and "1e999" are errors).
+// Read through zlib, which reads a gzip file decompressed and any other file as it is.
 class MatrixMarketLines {
  public:
-  explicit MatrixMarketLines(const fs::path& path) : path_(path), in_(path) {
-    if (!in_) read_error(path, std::string("cannot open") + system_reason());
-    size_ = fs::file_size(path);
+  explicit MatrixMarketLines(const fs::path& path) : path_(path) {
+    errno = 0;
+    in_ = gzopen(path.c_str(), "rb");
+    if (in_ == nullptr) read_error(path, std::string("cannot open") + system_reason());
+    gzbuffer(in_, 1u << 17);
+    std::error_code ec;
+    const std::uintmax_t bytes = fs::file_size(path, ec);
+    // deflate expands at most 1032-fold: the bound on what a compressed file can hold
+    size_ = ec ? 0 : gzdirect(in_) != 0 ? bytes : bytes * 1032;
   }
+  MatrixMarketLines(const MatrixMarketLines&) = delete;
+  MatrixMarketLines& operator=(const MatrixMarketLines&) = delete;
+  ~MatrixMarketLines() { gzclose(in_); }
   [[nodiscard]] std::uintmax_t file_size() const { return size_; }
   [[noreturn]] void fail(const std::string& what) const {
     read_error(path_, (line_ > 0 ? "line " + std::to_string(line_) + ": " : std::string()) + what);
@@ -279,7 +288,7 @@ class MatrixMarketLines {
   std::vector<std::string> banner() {
     std::string line;
     ++line_;
-    if (!std::getline(in_, line) || line.rfind("%%MatrixMarket", 0) != 0) fail("missing %%MatrixMarket banner");
+    if (!getline(line) || line.rfind("%%MatrixMarket", 0) != 0) fail("missing %%MatrixMarket banner");
     std::istringstream words(line);
     std::vector<std::string> out;
     for (std::string w; words >> w;) {
@@ -290,7 +299,7 @@ class MatrixMarketLines {
   }
   // The next line that is neither a comment nor blank, split into words; false at the end of the file.
   bool next(std::vector<std::string>& words) {
-    for (std::string line; std::getline(in_, line);) {
+    for (std::string line; getline(line);) {
       ++line_;
       if (line.empty() || line[0] == '%') continue;
       std::istringstream split(line);
@@ -318,8 +327,25 @@ class MatrixMarketLines {
   }
 
  private:
+  // One line without its '\n'; false at the end of the file. A read error (a damaged gzip stream) is an error.
+  bool getline(std::string& line) {
+    line.clear();
+    char chunk[4096];
+    while (gzgets(in_, chunk, sizeof chunk) != nullptr) {
+      line += chunk;
+      if (!line.empty() && line.back() == '\n') {
+        line.pop_back();
+        return true;
+      }
+    }
+    int code = Z_OK;
+    const char* message = gzerror(in_, &code);
+    if (code != Z_OK && code != Z_BUF_ERROR) fail(std::string("cannot read on: ") + message);
+    return !line.empty();
+  }
+
   fs::path path_;
-  std::ifstream in_;
+  gzFile in_ = nullptr;
   std::uintmax_t size_ = 0;
   long line_ = 0;
 };
@@ -341,7 +367,8 @@ CsrMatrix read_matrix_market(const fs::path& path) {
   // Each entry takes at least 6 bytes ("1 1 1\n"): a count beyond that is a broken header, not a big matrix.
   const long entries = in.whole(w[2], 0, static_cast<long>(in.file_size() / 6), "entry count (bounded by the file size)");
   std::vector<std::tuple<int, int, double>> triplets;
-  triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
+  // Capped: a compressed file's bound above is loose, and a broken header must not allocate gigabytes.
+  triplets.reserve(static_cast<std::size_t>(std::min(symmetric ? 2 * entries : entries, 1L << 24)));
   for (long e = 0; e < entries; ++e) {
     if (!in.next(w)) in.fail("expected " + std::to_string(entries) + " entries, found " + std::to_string(e));
     if (w.size() != 3) in.fail("expected 'row column value'");
@@ -377,13 +404,247 @@ std::vector<double> read_matrix_market_vector(const fs::path& path) {
   if (!in.next(w) || w.size() != 2) in.fail("expected the size line 'rows 1'");
   const long rows = in.whole(w[0], 0, static_cast<long>(in.file_size() / 2), "row count (bounded by the file size)");
   in.whole(w[1], 1, 1, "column count");
-  std::vector<double> v(static_cast<std::size_t>(rows));
-  for (auto& x : v) {
+  std::vector<double> v;
+  v.reserve(static_cast<std::size_t>(std::min(rows, 1L << 24)));  // capped, as for the matrix
+  for (long r = 0; r < rows; ++r) {
     if (!in.next(w) || w.size() != 1) in.fail("expected " + std::to_string(rows) + " values, one per line");
-    x = in.finite(w[0]);
+    v.push_back(in.finite(w[0]));
   }
   if (in.next(w)) in.fail("more values than the " + std::to_string(rows) + " the size line announces");
   return v;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Particle files
+
+namespace {
+
+// Each non-ghost particle's nearest other particle (index, distance), by a grid of cells about as wide as the mean
+// spacing: a ring of cells k away holds nothing nearer than (k - 1) cells, so the search stops early.
+struct Nearest {
+  std::vector<std::size_t> index;
+  std::vector<double> distance;  // infinity where a particle is alone
+};
+
+Nearest nearest_particles(const Particles& p) {
+  std::vector<std::size_t> active;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] != Kind::ghost) active.push_back(i);
+  Nearest out{std::vector<std::size_t>(p.size(), 0),
+              std::vector<double>(p.size(), std::numeric_limits<double>::infinity())};
+  if (active.size() < 2) return out;
+  double x0 = p.x[active[0]], x1 = x0, y0 = p.y[active[0]], y1 = y0;
+  for (std::size_t i : active) {
+    x0 = std::min(x0, p.x[i]);
+    x1 = std::max(x1, p.x[i]);
+    y0 = std::min(y0, p.y[i]);
+    y1 = std::max(y1, p.y[i]);
+  }
+  const auto n = static_cast<double>(active.size());
+  const double w = x1 - x0, h = y1 - y0, extent = std::max(w, h);
+  // At least extent / n, so a row of particles (h = 0) gets no more cells than particles; all in one point: one cell.
+  double cell = std::max(std::sqrt(w * h / n), extent / n);
+  if (!(cell > 0.0)) cell = 1.0;
+  const auto nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
+  auto cell_of = [&](std::size_t i) {
+    const long cx = std::min(nx - 1, static_cast<long>((p.x[i] - x0) / cell));
+    const long cy = std::min(ny - 1, static_cast<long>((p.y[i] - y0) / cell));
+    return std::pair{cx, cy};
+  };
+  std::vector<std::size_t> start(static_cast<std::size_t>(nx * ny) + 1, 0), sorted(active.size());
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    ++start[static_cast<std::size_t>(cy * nx + cx) + 1];
+  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    sorted[fill[static_cast<std::size_t>(cy * nx + cx)]++] = i;
+  }
+  const long rings = std::max(nx, ny);
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t best_j = i;
+    auto scan = [&](long gx, long gy) {
+      const auto c = static_cast<std::size_t>(gy * nx + gx);
+      for (std::size_t s = start[c]; s < start[c + 1]; ++s) {
+        const std::size_t j = sorted[s];
+        const double d = j == i ? best : std::hypot(p.x[j] - p.x[i], p.y[j] - p.y[i]);
+        if (d < best || (d == best && j != i && j < best_j)) {
+          best = d;
+          best_j = j;
+        }
+      }
+    };
+    for (long k = 0; k <= rings; ++k) {  // the ring of cells k away: two full rows, and two cells of each row between
+      for (long gy = std::max(0L, cy - k); gy <= std::min(ny - 1, cy + k); ++gy) {
+        if (gy == cy - k || gy == cy + k) {
+          for (long gx = std::max(0L, cx - k); gx <= std::min(nx - 1, cx + k); ++gx) scan(gx, gy);
+        } else {
+          if (cx - k >= 0) scan(cx - k, gy);
+          if (cx + k < nx) scan(cx + k, gy);
+        }
+      }
+      if (best <= static_cast<double>(k) * cell) break;
+    }
+    out.index[i] = best_j;
+    out.distance[i] = best;
+  }
+  return out;
+}
+
+double median_of(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::infinity();
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+std::string trimmed(const std::string& text) {
+  const auto begin = text.find_first_not_of(" \t\r");
+  if (begin == std::string::npos) return {};
+  return text.substr(begin, text.find_last_not_of(" \t\r") - begin + 1);
+}
+
+std::vector<std::string> split_fields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::size_t from = 0;
+  for (std::size_t comma; (comma = line.find(',', from)) != std::string::npos; from = comma + 1)
+    fields.push_back(trimmed(line.substr(from, comma - from)));
+  fields.push_back(trimmed(line.substr(from)));
+  return fields;
+}
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return text;
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+Particles read_particles_csv(const fs::path& path) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path))
+    throw std::runtime_error("cannot read the particle file " + path.string() + system_reason());
+  long line_number = 0;
+  auto fail = [&](const std::string& what) -> void {
+    throw std::runtime_error("particle file " + path.string() + ":" + std::to_string(line_number) + ": " + what);
+  };
+  enum Column { x, y, kind, u, v, p, group, columns };
+  static const std::array<const char*, columns> names{"x", "y", "kind", "u", "v", "p", "group"};
+  const std::string valid = "the columns are x, y, kind (required) and u, v, p, group (optional)";
+  std::vector<int> field_column;  // the column each field of a row holds
+  std::array<int, columns> field_of{};
+  field_of.fill(-1);
+  Particles out;
+  std::vector<long> lines;  // each particle's line, for the messages of the spacing check
+  for (std::string line; std::getline(in, line);) {
+    ++line_number;
+    const std::string text = trimmed(line);
+    if (text.empty() || text[0] == '#') continue;
+    const std::vector<std::string> fields = split_fields(text);
+    if (field_column.empty()) {  // the header
+      for (const std::string& field : fields) {
+        const std::string name = lower(field);
+        const auto at = std::find(names.begin(), names.end(), name);
+        if (at == names.end())
+          fail("unknown column '" + field + "' in the header (the first line that is not a comment names the " +
+               "columns, comma-separated: " + valid.substr(16) + ")");
+        const auto column = static_cast<int>(at - names.begin());
+        if (field_of[static_cast<std::size_t>(column)] >= 0) fail("column '" + name + "' named twice in the header");
+        field_of[static_cast<std::size_t>(column)] = static_cast<int>(field_column.size());
+        field_column.push_back(column);
+      }
+      for (int c : {Column::x, Column::y, Column::kind})
+        if (field_of[static_cast<std::size_t>(c)] < 0)
+          fail(std::string("the header has no column '") + names[static_cast<std::size_t>(c)] + "' (" + valid + ")");
+      continue;
+    }
+    if (fields.size() != field_column.size())
+      fail("expected " + std::to_string(field_column.size()) + " comma-separated fields, as the header names, found " +
+           std::to_string(fields.size()));
+    std::array<double, columns> value{};
+    Kind particle_kind = Kind::fluid;
+    int particle_group = 0;
+    for (std::size_t f = 0; f < fields.size(); ++f) {
+      const std::string& word = fields[f];
+      const auto column = static_cast<std::size_t>(field_column[f]);
+      if (column == Column::kind) {
+        const std::string k = lower(word);
+        if (k == "fluid" || k == "0") particle_kind = Kind::fluid;
+        else if (k == "wall" || k == "1") particle_kind = Kind::wall;
+        else if (k == "dummy" || k == "2") particle_kind = Kind::dummy;
+        else if (k == "ghost" || k == "3") fail("kind '" + word + "': ghosts (inactive particles) cannot start a scene; leave the row out");
+        else fail("kind '" + word + "' is not fluid, wall or dummy (or 0, 1, 2)");
+        continue;
+      }
+      if (column == Column::group) {
+        long g = 0;
+        const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), g);
+        if (ec != std::errc() || end != word.data() + word.size() || g < std::numeric_limits<int>::min() ||
+            g > std::numeric_limits<int>::max())
+          fail("group '" + word + "' is not a whole number");
+        particle_group = static_cast<int>(g);
+        continue;
+      }
+      char* end = nullptr;
+      const double number = std::strtod(word.c_str(), &end);
+      if (word.empty() || end != word.c_str() + word.size() || !std::isfinite(number))
+        fail(std::string("column '") + names[column] + "': '" + word + "' is not a finite number");
+      value[column] = number;
+    }
+    out.add(value[Column::x], value[Column::y], particle_kind, particle_group, value[Column::u], value[Column::v]);
+    out.p.back() = value[Column::p];
+    lines.push_back(line_number);
+  }
+  if (in.bad()) fail("read error" + system_reason());
+  if (field_column.empty()) fail("no header line (" + valid + ")");
+  if (out.empty()) fail("no particles after the header");
+  const Nearest near = nearest_particles(out);
+  const double spacing = median_of(near.distance);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const std::size_t j = near.index[i];
+    const std::string pair = "particle file " + path.string() + ": lines " + std::to_string(lines[std::min(i, j)]) +
+                             " and " + std::to_string(lines[std::max(i, j)]) + ": ";
+    if (near.distance[i] == 0.0)
+      throw std::runtime_error(pair + "two particles at the same position (" + number_text(out.x[i]) + ", " +
+                               number_text(out.y[i]) + "); remove one");
+    if (near.distance[i] < 0.5 * spacing)
+      throw std::runtime_error(pair + "two particles " + number_text(near.distance[i]) +
+                               " m apart, less than half the file's spacing (" + number_text(spacing) +
+                               " m, the median distance to the nearest particle); remove or move one");
+  }
+  return out;
+}
+
+void write_particles_csv(const fs::path& path, const Particles& particles, const std::vector<std::string>& comments) {
+  write_atomically(path, [&](std::ofstream& out) {
+    for (const std::string& line : comments) out << "# " << line << '\n';
+    out << "x,y,kind,u,v,p,group\n";
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+      if (particles.kind[i] == Kind::ghost) continue;
+      out << particles.x[i] << ',' << particles.y[i] << ',' << to_string(particles.kind[i]) << ',' << particles.u[i]
+          << ',' << particles.v[i] << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
+    }
+  });
+}
+
+double median_spacing(const Particles& particles) {
+  Nearest near = nearest_particles(particles);
+  std::vector<double> distances;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.kind[i] != Kind::ghost) distances.push_back(near.distance[i]);
+  return median_of(std::move(distances));
 }
 
 }  // namespace mps

@@ -8,7 +8,9 @@
    its tank and water found from the file, no experiment compared, the block standing still, no fluid ever inside
    it, and the water's impact pressing on its upstream face. Without the block the surge is past its far side by the
    end of the run, so each of these would fail if the file's geometry were not read.
-3. A broken file, a file with no tank and a --dx that is not the file's spacing end with exit 1 and a message
+3. A frame made a particle file (scripts/frame_to_csv.py) holds the frame's values bit for bit, and a run starts
+   from it: the first frame as the classic column, a later one, moving, as a new scene.
+4. A broken file, a file with no tank and a --dx that is not the file's spacing end with exit 1 and a message
    naming the cause.
 
   tests/particle_files.py BUILD_DIR
@@ -139,6 +141,32 @@ def obstacle(build, tmp, failures):
         failures.append(f"obstacle: the surge front ended at {front[-1, 1]:.3f} a, short of the block at 2 a")
 
 
+def from_frames(build, tmp, failures):
+    for number, column in ((0, "classic"), (3, "file")):
+        frame = tmp / "built-in" / "frames" / f"dambreak_{number:04d}.vtp"
+        csv = tmp / f"frame{number}.csv"
+        subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "frame_to_csv.py"), str(frame), str(csv)],
+                       check=True, capture_output=True)
+        table = np.genfromtxt(csv, delimiter=",", skip_header=2, dtype=None, encoding=None)
+        reader = vtk.vtkXMLPolyDataReader()
+        reader.SetFileName(str(frame))
+        reader.Update()
+        data = reader.GetOutput()
+        xy = vtk_to_numpy(data.GetPoints().GetData())
+        uv = vtk_to_numpy(data.GetPointData().GetArray("velocity"))
+        p = vtk_to_numpy(data.GetPointData().GetArray("pressure"))
+        columns = [np.array([row[k] for row in table], dtype=float) for k in (0, 1, 3, 4, 5)]
+        if not all(np.array_equal(c, v) for c, v in zip(columns, (xy[:, 0], xy[:, 1], uv[:, 0], uv[:, 1], p))):
+            failures.append(f"{csv.name}: the values differ from the frame's")
+        out = tmp / f"from-frame{number}"
+        proc = run(build, ["--particles", str(csv), "--end-time", "0.01", "--frames", "0"], out)
+        found = json.loads((out / "summary.json").read_text())["parameters"]["column"] if proc.returncode in (0, 2) \
+            else f"exit {proc.returncode}: {proc.stderr[-300:]}"
+        if found != column:
+            failures.append(f"{csv.name}: ran as {found}, expected {column}")
+    print("frames: made particle files bit for bit, the first run as the classic column, a later one as a new scene")
+
+
 def refusals(build, tmp, failures):
     (tmp / "bad.csv").write_text("# a tank\nx,y,kind\n0.1,0.1,fluid\n0.2,0.1,water\n")
     (tmp / "no-tank.csv").write_text("x,y,kind\n" + "".join(f"{0.01 * i},{0.01 * j},fluid\n" for i in range(8)
@@ -161,6 +189,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         round_trip(build, Path(tmp), failures)
         obstacle(build, Path(tmp), failures)
+        from_frames(build, Path(tmp), failures)
         refusals(build, Path(tmp), failures)
     for f in failures:
         print("FAIL", f)

@@ -98,6 +98,14 @@ TEST(DamBreak, AParticleFileIsRecognisedAsItsColumnOrMeasuredAsANewTank) {
   EXPECT_EQ(same.params.pressure_probes, classic.pressure_probes);
   EXPECT_EQ(same.params.gamma, 0.2);
   EXPECT_EQ(dambreak::from_particles(built, classic.l0, options).params.l0, classic.l0);
+  mps::Particles reversed = built;  // a frame holds the particles in the step's order
+  std::vector<int> order(built.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(order.size() - 1 - i);
+  reversed.permute(order);
+  EXPECT_EQ(dambreak::from_particles(reversed, classic.l0, options).params.column, dambreak::Column::classic);
+  mps::Particles moving = built;
+  moving.u[7] = 1e-3;
+  EXPECT_EQ(dambreak::from_particles(moving, classic.l0, options).params.column, dambreak::Column::file);
 
   mps::Particles moved = built;
   for (std::size_t i = 0; i < moved.size(); ++i) {

@@ -178,8 +178,8 @@ double snapped(double length, double l0) {
   return std::abs(length - n * l0) <= 1e-6 * l0 ? n * l0 : length;
 }
 
-// The particles of the built-in column c at spacing l0, if `particles` are they (same order, kinds and groups,
-// positions to 1e-9 l0, at rest).
+// Whether `particles` are the built-in column c's at spacing l0, in any order (a frame holds them in the step's order):
+// the same kinds and groups at the same positions to 1e-9 l0, at rest.
 bool is_column(const mps::Particles& particles, Column c, double l0) {
   Params q = defaults(c);
   q.l0 = l0;
@@ -187,11 +187,25 @@ bool is_column(const mps::Particles& particles, Column c, double l0) {
   if (!(expected < 4.0 * static_cast<double>(particles.size()) + 1000)) return false;  // not built to find out
   const mps::Particles built = make_particles(q);
   if (built.size() != particles.size()) return false;
-  for (std::size_t i = 0; i < built.size(); ++i)
-    if (built.kind[i] != particles.kind[i] || built.group[i] != particles.group[i] ||
-        std::abs(built.x[i] - particles.x[i]) > 1e-9 * l0 || std::abs(built.y[i] - particles.y[i]) > 1e-9 * l0 ||
-        particles.u[i] != 0.0 || particles.v[i] != 0.0 || particles.p[i] != 0.0)
+  // Each set sorted by its lattice cell, so that the two orders need not agree.
+  auto by_cell = [&](const mps::Particles& s) {
+    std::vector<std::size_t> order(s.size());
+    std::vector<std::pair<double, double>> cell(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      order[i] = i;
+      cell[i] = {std::floor(s.y[i] / l0), std::floor(s.x[i] / l0)};  // centres sit mid-cell
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cell[a] < cell[b]; });
+    return order;
+  };
+  const std::vector<std::size_t> mine = by_cell(particles), theirs = by_cell(built);
+  for (std::size_t k = 0; k < built.size(); ++k) {
+    const std::size_t i = theirs[k], j = mine[k];
+    if (built.kind[i] != particles.kind[j] || built.group[i] != particles.group[j] ||
+        std::abs(built.x[i] - particles.x[j]) > 1e-9 * l0 || std::abs(built.y[i] - particles.y[j]) > 1e-9 * l0 ||
+        particles.u[j] != 0.0 || particles.v[j] != 0.0 || particles.p[j] != 0.0)
       return false;
+  }
   return true;
 }
 }  // namespace

@@ -68,6 +68,56 @@ TEST(Fuzz, MatrixMarketReaderParsesOrRefusesEveryMutatedFile) {
   EXPECT_GT(refused, 0);
 }
 
+// A mutated particle file reads as particles with every value finite and every array of one length, or is refused
+// with std::runtime_error.
+TEST(Fuzz, ParticleFileReaderParsesOrRefusesEveryMutatedFile) {
+  const std::vector<std::string> lines{"# a tank", "x,y,kind,u,v,p,group", "0.5,0.5,fluid,0,0,0,0",
+                                       "1.5,0.5,fluid,1,0,0,0",   "0.5,-0.5,wall,0,0,0,1", "1.5,-0.5,dummy,0,0,0,1",
+                                       "2.5,0.5,2,0,0,0,0"};
+  const std::vector<std::string> tokens{"0",  "1",    "2", "3",   "-1", "nan", "inf", "1e999", "1e-320", "fluid", "wall",
+                                        "", ",",  "x",   "kind", "#", "1.5", "0x10", "2147483648", " ", "y,x"};
+  std::mt19937 rng(26);
+  const fs::path file = fs::temp_directory_path() / "sparsemps_fuzz_particles.csv";
+  int parsed = 0, refused = 0;
+  for (int c = 0; c < 2000; ++c) {
+    std::vector<std::string> mutated = lines;
+    const int edits = std::uniform_int_distribution<int>(1, 3)(rng);
+    for (int e = 0; e < edits; ++e) {
+      auto& line = mutated[std::uniform_int_distribution<std::size_t>(0, mutated.size() - 1)(rng)];
+      switch (std::uniform_int_distribution<int>(0, 4)(rng)) {
+        case 0: {  // one field replaced
+          std::size_t at = line.find(',');
+          line = pick(rng, tokens) + (at == std::string::npos ? "" : line.substr(at));
+          break;
+        }
+        case 1: line.append(",").append(pick(rng, tokens)); break;
+        case 2: line = line.substr(0, line.size() / 2); break;
+        case 3: mutated.push_back(line); break;
+        default: line.clear();
+      }
+    }
+    {
+      std::ofstream out(file);
+      for (const auto& l : mutated) out << l << '\n';
+    }
+    try {
+      const mps::Particles p = mps::read_particles_csv(file);
+      ASSERT_FALSE(p.empty());
+      for (const auto* values : {&p.x, &p.y, &p.u, &p.v, &p.p}) {
+        ASSERT_EQ(values->size(), p.size());
+        for (double v : *values) ASSERT_TRUE(std::isfinite(v));
+      }
+      ASSERT_EQ(p.kind.size(), p.size());
+      for (mps::Kind k : p.kind) ASSERT_NE(k, mps::Kind::ghost);
+      ++parsed;
+    } catch (const std::runtime_error&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(parsed, 0);
+  EXPECT_GT(refused, 0);
+}
+
 // A spec is either a solver whose spec() rebuilds an equal solver, or std::invalid_argument.
 TEST(Fuzz, SolverSpecsBuildOrAreRefused) {
   const std::vector<std::string> names{"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg", "cg", ""};

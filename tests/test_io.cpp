@@ -508,4 +508,72 @@ TEST(Io, MedianSpacingIsTheLatticeSpacingAndMatchesBruteForce) {
   EXPECT_TRUE(std::isinf(mps::median_spacing(one)));
 }
 
+// read_vtp gives back every bit write_vtp wrote (arrays over several zlib blocks, ghosts left out) and the frame's
+// time; an empty frame reads as no particles.
+TEST(Io, VtpReadsBackWhatWriteVtpWrote) {
+  mps::Particles p;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int i = 0; i < 5000; ++i) {  // 120 kB of points: four 32 KiB blocks
+    p.add(normal(rng), normal(rng), static_cast<mps::Kind>(i % 4), i % 7 - 3, normal(rng), -0.0);
+    p.p.back() = i == 5 ? 4.9e-324 : normal(rng) * 1e5;
+  }
+  mps::write_vtp(scratch("r.vtp"), p, 0.125);
+  double time = 0;
+  const mps::Particles q = mps::read_vtp(scratch("r.vtp"), &time);
+  EXPECT_EQ(time, 0.125);
+  std::vector<double> x, y, u, v, pressure;
+  std::vector<mps::Kind> kind;
+  std::vector<int> group;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == mps::Kind::ghost) continue;
+    x.push_back(p.x[i]), y.push_back(p.y[i]), u.push_back(p.u[i]), v.push_back(p.v[i]), pressure.push_back(p.p[i]);
+    kind.push_back(p.kind[i]), group.push_back(p.group[i]);
+  }
+  EXPECT_EQ(q.x, x);
+  EXPECT_EQ(q.y, y);
+  EXPECT_EQ(q.u, u);
+  EXPECT_EQ(q.v, v);
+  EXPECT_EQ(q.p, pressure);
+  EXPECT_EQ(q.kind, kind);
+  EXPECT_EQ(q.group, group);
+  EXPECT_TRUE(std::signbit(q.v[0]));  // -0.0 kept
+  mps::write_vtp(scratch("empty.vtp"), mps::Particles{}, 0.0);
+  EXPECT_EQ(mps::read_vtp(scratch("empty.vtp")).size(), 0u);
+}
+
+// A file that is not such a frame is refused naming the file and the reason.
+TEST(Io, VtpReaderNamesWhatAFrameLacks) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 0.2, 0.2}, 0.01, mps::Kind::fluid);
+  mps::write_vtp(scratch("good.vtp"), p, 1.0);
+  const std::string good = slurp(scratch("good.vtp"));
+  auto edited = [&](const std::string& from, const std::string& to) {
+    std::string text = good;
+    text.replace(text.find(from), from.size(), to);
+    return text;
+  };
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"x,y,kind\n", "not a VTK XML PolyData file"},
+      {edited("Name=\"pressure\"", "Name=\"pressura\""), "no point array 'pressure'"},
+      {edited("compressor=\"vtkZLibDataCompressor\"", "compressor=\"vtkLZ4DataCompressor\""), "only zlib"},
+      {edited("encoding=\"raw\"", "encoding=\"base64\""), "only raw is read"},
+      {edited("Name=\"kind\" format=\"appended\"", "Name=\"kind\" format=\"ascii\""), "is not appended raw data"},
+      {good.substr(0, good.size() / 2), "runs past the end of the file"},
+      {edited("NumberOfPoints=\"400\"", "NumberOfPoints=\"401\""), "array 'points' holds 9600 bytes, not the 9624 its 1203 values need"},
+  };
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const fs::path file = scratch("broken" + std::to_string(k) + ".vtp");
+    std::ofstream(file, std::ios::binary) << cases[k].first;
+    try {
+      (void)mps::read_vtp(file);
+      ADD_FAILURE() << "accepted case " << k;
+    } catch (const std::runtime_error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(cases[k].second), std::string::npos) << msg;
+      EXPECT_NE(msg.find(file.string()), std::string::npos) << msg;
+    }
+  }
+}
+
 }  // namespace

@@ -65,9 +65,9 @@ int main(int argc, char** argv) {
   add_config_option(app);
   std::string particles_file, write_particles;
   app.add_option("--particles", particles_file,
-                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; "
-                 "docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing --dx or the "
-                 "file's")
+                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
+                 "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
+                 "--dx or the file's")
       ->check(CLI::ExistingFile)
       ->transform([](std::string name) { return fs::absolute(name).lexically_normal().string(); });  // replayable
   app.add_option("--write-particles", write_particles,
@@ -130,7 +130,9 @@ int main(int argc, char** argv) {
                      "shorten --end-time or raise --cfl");
       particles = dambreak::make_particles(p);
     } else {
-      dambreak::FileScene file = dambreak::from_particles(mps::read_particles_csv(particles_file), dx, p);
+      const bool frame = fs::path(particles_file).extension() == ".vtp";
+      dambreak::FileScene file = dambreak::from_particles(
+          frame ? mps::read_vtp(particles_file) : mps::read_particles_csv(particles_file), dx, p);
       std::cout << "particles from " << particles_file << ": " << file.description << "\n";
       p = file.params;
       p.end_time = end_time > 0 ? end_time : file.params.end_time;

@@ -7,6 +7,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <string_view>
+#include <map>
+#include <iterator>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -637,6 +640,219 @@ void write_particles_csv(const fs::path& path, const Particles& particles, const
           << ',' << particles.v[i] << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
     }
   });
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Frames read back
+
+namespace {
+
+// The value of attribute `name` in an XML start tag, or `fallback` when the tag has none.
+std::string attribute(const std::string& tag, const std::string& name, const std::string& fallback = "") {
+  const std::string key = " " + name + "=\"";
+  const std::size_t at = tag.find(key);
+  if (at == std::string::npos) return fallback;
+  const std::size_t begin = at + key.size(), end = tag.find('"', begin);
+  return end == std::string::npos ? fallback : tag.substr(begin, end - begin);
+}
+
+// The appended arrays of a frame, decoded to doubles.
+class AppendedReader {
+ public:
+  AppendedReader(const fs::path& path, std::string_view data, bool wide_header, bool zlib)
+      : path_(path), data_(data), wide_(wide_header), zlib_(zlib) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("frame " + path_.string() + ": " + what);
+  }
+
+  // The array of the DataArray tag `tag`, as doubles, expecting `count` values.
+  std::vector<double> values(const std::string& tag, std::size_t count) const {
+    const std::string name = attribute(tag, "Name", "points");
+    if (attribute(tag, "format") != "appended")
+      fail("array '" + name + "' is not appended raw data (format '" + attribute(tag, "format") +
+           "'); write it with write_vtp, or with VTK's writer in appended mode without encoding");
+    const std::string type = attribute(tag, "type");
+    static const std::map<std::string, std::size_t> sizes{{"Float32", 4}, {"Float64", 8}, {"Int8", 1}, {"UInt8", 1},
+                                                          {"Int16", 2},   {"UInt16", 2},  {"Int32", 4}, {"UInt32", 4},
+                                                          {"Int64", 8},   {"UInt64", 8}};
+    const auto size = sizes.find(type);
+    if (size == sizes.end()) fail("array '" + name + "' has type '" + type + "', which is not read");
+    char* end = nullptr;
+    const std::string offset_text = attribute(tag, "offset");
+    const unsigned long long offset = std::strtoull(offset_text.c_str(), &end, 10);
+    if (offset_text.empty() || *end != '\0') fail("array '" + name + "' has no offset");
+    const std::vector<unsigned char> bytes = decode(name, offset);
+    if (bytes.size() != count * size->second)
+      fail("array '" + name + "' holds " + std::to_string(bytes.size()) + " bytes, not the " +
+           std::to_string(count * size->second) + " its " + std::to_string(count) + " values need");
+    std::vector<double> out(count);
+    const unsigned char* raw = bytes.data();
+    for (std::size_t k = 0; k < count; ++k) out[k] = number(type, raw + k * size->second);
+    return out;
+  }
+
+ private:
+  static double number(const std::string& type, const unsigned char* at) {
+    auto as = [&](auto zero) {
+      decltype(zero) v;
+      std::memcpy(&v, at, sizeof v);
+      return static_cast<double>(v);
+    };
+    if (type == "Float64") return as(double{});
+    if (type == "Float32") return as(float{});
+    if (type == "Int8") return as(std::int8_t{});
+    if (type == "UInt8") return as(std::uint8_t{});
+    if (type == "Int16") return as(std::int16_t{});
+    if (type == "UInt16") return as(std::uint16_t{});
+    if (type == "Int32") return as(std::int32_t{});
+    if (type == "UInt32") return as(std::uint32_t{});
+    if (type == "Int64") return as(std::int64_t{});
+    return as(std::uint64_t{});
+  }
+
+  std::uint64_t header(const std::string& name, std::uint64_t at) const {
+    const std::size_t width = wide_ ? 8 : 4;
+    if (at + width > data_.size()) fail("array '" + name + "' runs past the end of the file");
+    if (wide_) {
+      std::uint64_t v;
+      std::memcpy(&v, data_.data() + at, 8);
+      return v;
+    }
+    std::uint32_t v;
+    std::memcpy(&v, data_.data() + at, 4);
+    return v;
+  }
+
+  // The bytes of the array at `offset`: [byte count, bytes] uncompressed; [blocks, block size, last block's size
+  // if partial, each block's compressed size, blocks] with zlib, the layout write_vtp writes.
+  std::vector<unsigned char> decode(const std::string& name, std::uint64_t offset) const {
+    const std::uint64_t width = wide_ ? 8 : 4;
+    auto span = [&](std::uint64_t at, std::uint64_t length) {
+      if (at > data_.size() || length > data_.size() - at) fail("array '" + name + "' runs past the end of the file");
+      return reinterpret_cast<const unsigned char*>(data_.data() + at);
+    };
+    if (!zlib_) {
+      const std::uint64_t length = header(name, offset);
+      const unsigned char* at = span(offset + width, length);
+      return {at, at + length};
+    }
+    const std::uint64_t blocks = header(name, offset), block = header(name, offset + width),
+                        last = header(name, offset + 2 * width);
+    if (blocks > data_.size() / width || (blocks > 0 && (block == 0 || last > block)))
+      fail("array '" + name + "' has a broken compression header");
+    const std::uint64_t total = blocks == 0 ? 0 : (blocks - 1) * block + (last > 0 ? last : block);
+    if (total > 1032 * static_cast<std::uint64_t>(data_.size()))  // deflate's largest ratio
+      fail("array '" + name + "' claims more data than its file can hold");
+    std::vector<unsigned char> out(static_cast<std::size_t>(total));
+    std::uint64_t from = offset + (3 + blocks) * width;
+    for (std::uint64_t b = 0; b < blocks; ++b) {
+      const std::uint64_t compressed = header(name, offset + (3 + b) * width);
+      const std::uint64_t expected = b + 1 == blocks && last > 0 ? last : block;
+      uLongf length = static_cast<uLongf>(expected);
+      const int rc = uncompress(out.data() + b * block, &length, span(from, compressed), static_cast<uLong>(compressed));
+      if (rc != Z_OK || length != expected)
+        fail("array '" + name + "' does not decompress (block " + std::to_string(b) + ": " + zError(rc) + ")");
+      from += compressed;
+    }
+    return out;
+  }
+
+  fs::path path_;
+  std::string_view data_;
+  bool wide_, zlib_;
+};
+
+}  // namespace
+
+Particles read_vtp(const fs::path& path, double* time) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) throw std::runtime_error("cannot read the frame " + path.string() + system_reason());
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto fail = [&](const std::string& what) -> void { throw std::runtime_error("frame " + path.string() + ": " + what); };
+  const std::size_t appended = text.find("<AppendedData");
+  const std::string xml = text.substr(0, appended);
+  auto tag = [&](const std::string& name, std::size_t from = 0, std::size_t to = std::string::npos) {
+    const std::size_t at = xml.find("<" + name, from);
+    if (at == std::string::npos || at >= to) return std::string();
+    return xml.substr(at, xml.find('>', at) - at);
+  };
+  const std::string file = tag("VTKFile");
+  if (file.empty() || attribute(file, "type") != "PolyData") fail("not a VTK XML PolyData file (.vtp)");
+  const bool little = std::endian::native == std::endian::little;
+  if (attribute(file, "byte_order", "LittleEndian") != (little ? "LittleEndian" : "BigEndian"))
+    fail("byte order " + attribute(file, "byte_order") + " is not this machine's");
+  const std::string header_type = attribute(file, "header_type", "UInt32"), compressor = attribute(file, "compressor");
+  if (header_type != "UInt32" && header_type != "UInt64") fail("header_type " + header_type + " is not read");
+  if (!compressor.empty() && compressor != "vtkZLibDataCompressor")
+    fail("compressed by " + compressor + "; only zlib (vtkZLibDataCompressor) or no compression is read");
+  if (xml.find("<Piece", xml.find("<Piece") + 1) != std::string::npos) fail("more than one piece");
+  const std::string piece = tag("Piece");
+  char* end = nullptr;
+  const std::string points_text = attribute(piece, "NumberOfPoints");
+  const unsigned long long n = std::strtoull(points_text.c_str(), &end, 10);
+  if (piece.empty() || points_text.empty() || *end != '\0') fail("no piece with NumberOfPoints");
+  if (appended == std::string::npos) fail("no appended data (write it with write_vtp)");
+  const std::string appended_tag = text.substr(appended, text.find('>', appended) - appended);
+  if (attribute(appended_tag, "encoding") != "raw")
+    fail("appended data encoded as '" + attribute(appended_tag, "encoding") + "'; only raw is read");
+  const std::size_t underscore = text.find('_', appended + appended_tag.size());
+  if (underscore == std::string::npos) fail("no '_' opening the appended data");
+  const AppendedReader data(path, std::string_view(text).substr(underscore + 1), header_type == "UInt64",
+                            compressor == "vtkZLibDataCompressor");
+  if (n > text.size()) fail("NumberOfPoints " + points_text + " exceeds what the file can hold");
+
+  const std::size_t points_at = xml.find("<Points"), point_data_at = xml.find("<PointData");
+  const std::string points = tag("DataArray", points_at, xml.find("</Points"));
+  if (points_at == std::string::npos || points.empty()) fail("no points");
+  if (attribute(points, "NumberOfComponents", "1") != "3") fail("points without 3 components");
+  auto named = [&](const std::string& name, const std::string& components) {
+    for (std::size_t at = point_data_at; at != std::string::npos && at < xml.size();) {
+      const std::string array = tag("DataArray", at, xml.find("</PointData"));
+      if (array.empty()) break;
+      if (attribute(array, "Name") == name) {
+        if (attribute(array, "NumberOfComponents", "1") != components)
+          fail("array '" + name + "' has " + attribute(array, "NumberOfComponents", "1") + " components, not " +
+               components);
+        return array;
+      }
+      at = xml.find("<DataArray", at) + 1;
+    }
+    fail("no point array '" + name + "' (frames of write_vtp have velocity, pressure, kind and group)");
+    return std::string();
+  };
+  const std::vector<double> xyz = data.values(points, 3 * n), uvw = data.values(named("velocity", "3"), 3 * n),
+                            p = data.values(named("pressure", "1"), n), kind = data.values(named("kind", "1"), n),
+                            group = data.values(named("group", "1"), n);
+  Particles out;
+  out.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double values[] = {xyz[3 * i], xyz[3 * i + 1], uvw[3 * i], uvw[3 * i + 1], p[i]};
+    for (double v : values)
+      if (!std::isfinite(v)) fail("point " + std::to_string(i) + " has a value that is not finite");
+    if (kind[i] != 0 && kind[i] != 1 && kind[i] != 2)
+      fail("point " + std::to_string(i) + " has kind " + number_text(kind[i]) + ", not fluid (0), wall (1) or dummy (2)");
+    if (group[i] != std::floor(group[i]) || std::abs(group[i]) > std::numeric_limits<int>::max())
+      fail("point " + std::to_string(i) + " has group " + number_text(group[i]) + ", not a whole number");
+    out.add(xyz[3 * i], xyz[3 * i + 1], static_cast<Kind>(static_cast<int>(kind[i])), static_cast<int>(group[i]),
+            uvw[3 * i], uvw[3 * i + 1]);
+    out.p.back() = p[i];
+  }
+  if (time != nullptr) {
+    *time = std::numeric_limits<double>::quiet_NaN();
+    const std::size_t field_at = xml.find("<FieldData");
+    for (std::size_t at = field_at; at != std::string::npos;) {
+      const std::string array = tag("DataArray", at, xml.find("</FieldData"));
+      if (array.empty()) break;
+      if (attribute(array, "Name") == "TIME") {
+        *time = data.values(array, 1)[0];
+        break;
+      }
+      at = xml.find("<DataArray", at) + 1;
+    }
+  }
+  return out;
 }
 
 double median_spacing(const Particles& particles) {

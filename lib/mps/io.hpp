@@ -76,6 +76,13 @@ Particles read_particles_csv(const std::filesystem::path& path);
 /// the header `x,y,kind,u,v,p,group` and one row per particle, 17 significant digits, so a read gives every bit back.
 void write_particles_csv(const std::filesystem::path& path, const Particles& particles,
                          const std::vector<std::string>& comments = {});
+/// A frame as write_vtp writes it, read back as particles: positions, velocity, pressure, kind and group, bit for bit,
+/// in the frame's order, each with the next id; `time`, if not null, receives the frame's TIME (NaN without one). Reads
+/// VTK XML PolyData with one piece and raw appended data, zlib-compressed or not, with UInt32 or UInt64 headers, in the
+/// machine's byte order, as VTK's own writer makes it too. Throws std::runtime_error naming the file and the reason:
+/// another encoding, a missing array, a value that is not finite, a kind that is not fluid, wall or dummy, data that
+/// run past the file's end or do not decompress.
+Particles read_vtp(const std::filesystem::path& path, double* time = nullptr);
 /// The median distance from a non-ghost particle to its nearest other one [m]: the spacing of a lattice, whatever its
 /// shape (a cell grid, O(N)). Infinity for fewer than two particles.
 double median_spacing(const Particles& particles);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -109,6 +110,55 @@ TEST(Fuzz, ParticleFileReaderParsesOrRefusesEveryMutatedFile) {
       }
       ASSERT_EQ(p.kind.size(), p.size());
       for (mps::Kind k : p.kind) ASSERT_NE(k, mps::Kind::ghost);
+      ++parsed;
+    } catch (const std::runtime_error&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(parsed, 0);
+  EXPECT_GT(refused, 0);
+}
+
+// A frame with bytes changed, cut short or with a header number rewritten reads as particles with finite values, or
+// is refused with std::runtime_error: never a read past the file's end (the sanitizer build checks that).
+TEST(Fuzz, FrameReaderReadsOrRefusesEveryDamagedFrame) {
+  mps::Particles p;
+  for (int i = 0; i < 300; ++i) p.add(0.01 * (i % 20), 0.01 * (i / 20), static_cast<mps::Kind>(i % 3), i % 2, 0.5, -0.5);
+  const fs::path good = fs::temp_directory_path() / "sparsemps_fuzz_good.vtp";
+  mps::write_vtp(good, p, 0.25);
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::mt19937 rng(31);
+  const fs::path file = fs::temp_directory_path() / "sparsemps_fuzz_frame.vtp";
+  int parsed = 0, refused = 0;
+  for (int c = 0; c < 1500; ++c) {
+    std::string damaged = bytes;
+    const std::size_t data = damaged.find("<AppendedData");
+    switch (c % 4) {
+      case 0:  // bytes of the appended data changed
+        for (int k = 0; k < 4; ++k)
+          damaged[std::uniform_int_distribution<std::size_t>(data, damaged.size() - 1)(rng)] =
+              static_cast<char>(rng() & 0xff);
+        break;
+      case 1:  // cut short
+        damaged.resize(std::uniform_int_distribution<std::size_t>(0, damaged.size() - 1)(rng));
+        break;
+      case 2: {  // a number in the XML rewritten
+        const std::size_t quote = damaged.find("=\"", std::uniform_int_distribution<std::size_t>(0, data)(rng));
+        if (quote < data) damaged.insert(quote + 2, pick(rng, odd_tokens()));
+        break;
+      }
+      default:  // an array's header word (block counts, sizes) set to a random value
+        for (int k = 0; k < 8; ++k)
+          damaged[data + 40 + std::uniform_int_distribution<std::size_t>(0, 200)(rng)] = static_cast<char>(rng() & 0xff);
+    }
+    std::ofstream(file, std::ios::binary) << damaged;
+    try {
+      const mps::Particles q = mps::read_vtp(file);
+      for (std::size_t i = 0; i < q.size(); ++i) ASSERT_TRUE(std::isfinite(q.x[i]) && std::isfinite(q.p[i]));
       ++parsed;
     } catch (const std::runtime_error&) {
       ++refused;

@@ -1,7 +1,10 @@
 #!/usr/bin/python3
 """One thread against two, with OpenMP's active (spinning) and passive wait policies, on an idle machine and with one
 other busy process (`yes > /dev/null`) on it: a small scene (the classic dam break, 800 fluid particles, its default
-run) and a large one (bench_scaling's body-force channel at 1e5 particles, 4 steps after 2).
+run: below the library's threshold for a second thread, mps/parallel.hpp), a middle one (the seed's column at its
+spacing H/50, 5,000 fluid, to t sqrt(g/H) = 1) and a large one (bench_scaling's body-force channel at 1e5 particles,
+4 steps after 2). The apps run passive unless told otherwise (apps/common/openmp_wait.hpp); bench_scaling takes the
+environment as it is.
 
   bench/thread_wait.py BUILD_DIR [--results bench/results] [--repeats 3] [--plot-only]
 
@@ -29,6 +32,9 @@ SETTINGS = {"1 thread": {"OMP_NUM_THREADS": "1"},
 def scenes(build, tmp):
     return {"dam break, 800 fluid": [str(Path(build) / "apps" / "dambreak" / "dambreak"), "--column", "classic",
                                      "--out", str(Path(tmp) / "dambreak")],
+            "dam break, seed column H/50": [str(Path(build) / "apps" / "dambreak" / "dambreak"), "--column", "seed",
+                                            "--dx", "0.02", "--end-time", "0.32", "--frames", "0",
+                                            "--out", str(Path(tmp) / "seed")],
             "channel, 1e5 particles": [str(Path(build) / "bench" / "bench_scaling"), "--sizes", "1e5", "--solvers",
                                        "auto", "--cold", "", "--warmup", "2", "--steps", "4", "--out",
                                        str(Path(tmp) / "scaling.csv")]}

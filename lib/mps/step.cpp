@@ -198,7 +198,7 @@ void Simulation::find_neighbors_now() {
     p.permute(grid_.cell_order());
   }
   grid_.bin(p);
-  grid_.neighbors(p, k_laplacian_.re, near_now_);  // viscosity only
+  grid_.neighbors(p, k_laplacian_.re, near_star_);  // viscosity only (neighbors_now())
   fields_.prescribed.assign(p.size(), 0);
 }
 
@@ -215,7 +215,7 @@ void Simulation::explicit_viscous_predictor() {
   const double dt = f.dt;
   f.lu.assign(p.size(), 0.0);
   f.lv.assign(p.size(), 0.0);
-  laplacian({p, domain_, near_now_, k_laplacian_}, p.u, p.v, f.lu, f.lv);
+  laplacian({p, domain_, neighbors_now(), k_laplacian_}, p.u, p.v, f.lu, f.lv);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
@@ -236,7 +236,7 @@ void Simulation::implicit_viscous_predictor() {
   Particles& p = particles_;
   const StepFields& f = fields_;
   const double dt = f.dt, fx = config_.fx - f.balanced_fx, fy = config_.fy - f.balanced_fy;
-  const CsrMatrix lap = laplacian_matrix({p, domain_, near_now_, k_laplacian_});
+  const CsrMatrix lap = laplacian_matrix({p, domain_, neighbors_now(), k_laplacian_});
   // Kept between steps for their memory: the system over the fluid, its right-hand sides and solutions.
   auto& [row, fluid, m, bu, bv, u, v] = viscous_;
   row.assign(p.size(), -1);

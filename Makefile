@@ -93,7 +93,7 @@ bench-solvers: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
 
 # The sample PPEs of real scenes (inlet channel, screw channel, dam break; data/ppe/, docs/solvers.md#sample-matrices):
-# SAMPLES=small (the committed ~1e4 cases, half a minute), large (the ~1e5 ones, git-ignored, about 15 minutes) or all.
+# SAMPLES=small (the committed ~1e4 cases, half a minute), large (the ~1e5 ones, git-ignored, about 11 minutes) or all.
 SAMPLES ?= small
 sample-ppes: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating dambreak

@@ -76,7 +76,8 @@ int main(int argc, char** argv) {
                  "classic: a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, H = 1 m high, "
                  "tank 5.366 m x 3 m (Buchner's wall pressure)")
       ->capture_default_str()->check(CLI::IsMember({"classic", "seed"}));
-  app.add_option("--dx", dx, "particle spacing [m] (default: a/20 for classic, H/25 for seed; the seed's own is 0.02)")
+  app.add_option("--dx", dx, "particle spacing [m] (default: a/20 for classic, H/25 for seed, the seed's own is "
+                             "0.02; with --particles, the file's)")
       ->check(positive_up_to(1.0));
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(number_in(0.0, 1.0));

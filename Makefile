@@ -87,20 +87,24 @@ bench-core: deps build/release/CMakeCache.txt
 
 SOLVER_SIZES ?= 1e4,1e5,1e6
 bench-solvers: deps build/release/CMakeCache.txt
+	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --sizes $(SOLVER_SIZES) --limit "eigen-bicgstab=200000" \
 	  --out bench/results/solvers.csv data/*.mtx data/ppe/*.mtx.gz
 	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
 
 # The sample PPEs of real scenes (inlet channel, screw channel, dam break; data/ppe/, docs/solvers.md#sample-matrices):
-# SAMPLES=small (the committed ~1e4 cases, half a minute), large (the ~1e5 ones, git-ignored, about 11 minutes) or all.
+# SAMPLES=small (the ~1e4 cases, half a minute), large (the ~1e5 ones, about 11 minutes) or all; the matrices stay out
+# of git, their index (data/ppe/index.csv) is in it.
 SAMPLES ?= small
 sample-ppes: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating dambreak
 	/usr/bin/python3 scripts/make_sample_ppes.py build/release $(SAMPLES)
 
-# Every backend on the sample PPEs alone (those of data/ppe/ on disk: the ~1e4 ones, the ~1e5 ones once made).
+# Every backend on the sample PPEs alone (those of data/ppe/ on disk: the ~1e4 ones, made first if missing; the ~1e5
+# ones once made).
 bench-samples: deps build/release/CMakeCache.txt
+	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --files-only --limit "eigen-bicgstab=200000" \
 	  --out bench/results/solvers_samples.csv data/ppe/*.mtx.gz

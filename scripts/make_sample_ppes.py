@@ -7,12 +7,13 @@ scene, the options, the command that repeats it, step, time, unknowns, nonzeros,
 b).
 
 A case runs from its options spelled out in full: data/ppe/NAME.toml, the config.toml its first run wrote (every
-option, defaults included), so a later change of an app's defaults does not move the samples. The ~1e4 cases are
-committed; the ~1e5 ones (about 30 MB compressed each) are made on demand and ignored by git.
+option, defaults included), so a later change of an app's defaults does not move the samples. The matrices (3 MB
+compressed each at ~1e4, about 30 MB at ~1e5) are made on demand and ignored by git; the index and the options are
+committed.
 
   scripts/make_sample_ppes.py BUILD_DIR [NAME|small|large|all ...]   make the cases (default: small) into data/ppe/
   scripts/make_sample_ppes.py BUILD_DIR --check NAME                 make NAME in a scratch directory and compare it
-                                                                      with data/ppe/index.csv and the committed file
+                                                                      with data/ppe/index.csv (and the file on disk, if any)
 Every run uses one OpenMP thread; a run is bitwise repeatable, so a case made again gives the same bytes as long as
 the code that assembles its PPE has not changed (the test SamplePpesRecreated checks channel_1e4).
 """
@@ -31,10 +32,10 @@ SOURCE = Path(__file__).resolve().parent.parent
 DATA = SOURCE / "data" / "ppe"
 INDEX = DATA / "index.csv"
 FIELDS = ["file", "scene", "options", "command", "step", "time_s", "unknowns", "nonzeros", "mtx_sha256", "rhs_sha256",
-          "committed"]
+          "made_by"]
 
-# name: (app, scene, the options of the first run, the exported step, committed). The step sits shortly before the end
-# of each run, so a run stops soon after writing it.
+# name: (app, scene, the options of the first run, the exported step, small: made by default). The step sits shortly
+# before the end of each run, so a run stops soon after writing it.
 CASES = {
     "channel_1e4": ("poiseuille", "inlet channel, Re 40, 25 across",
                     "--mode inlet --re 40 --across 25 --end-time 0.35 --frames 0", 50, True),
@@ -81,7 +82,7 @@ def counts(matrix_text):
 
 def make(build, name, scratch):
     """Runs case `name` into `scratch`; returns (row of the index, A's text, b's text)."""
-    app, scene, args, step, committed = CASES[name]
+    app, scene, args, step, small = CASES[name]
     config = DATA / f"{name}.toml"
     exe = Path(build) / "apps" / app / app
     out = Path(scratch) / name
@@ -102,7 +103,7 @@ def make(build, name, scratch):
     row = {"file": f"{name}.mtx.gz", "scene": scene, "options": f"{args} --export-ppe {step}",
            "command": f"{app} --config data/ppe/{name}.toml --out DIR", "step": step, "time_s": time,
            "unknowns": unknowns, "nonzeros": nonzeros, "mtx_sha256": sha256(a), "rhs_sha256": sha256(b),
-           "committed": "yes" if committed else "no (make sample-ppes SAMPLES=large)"}
+           "made_by": "make sample-ppes" if small else "make sample-ppes SAMPLES=large"}
     return row, a, b
 
 
@@ -123,7 +124,7 @@ def write_index(rows):
 
 
 def check(build, name):
-    """Makes `name` afresh; 0 if its A and b are bitwise those the index and the committed files hold."""
+    """Makes `name` afresh; 0 if its A and b are bitwise those the index records (and the files on disk hold)."""
     index = read_index()
     expected = index.get(f"{name}.mtx.gz")
     if expected is None:
@@ -144,8 +145,8 @@ def check(build, name):
     for p in problems:
         print(f"FAIL {name}: {p}")
     if problems:
-        print("The PPE this case assembles has changed. If the change is meant, run `make sample-ppes` and commit "
-              "data/ppe/ (the files and index.csv); the large cases: `make sample-ppes SAMPLES=all`.")
+        print("The PPE this case assembles has changed. If the change is meant, run `make sample-ppes SAMPLES=all` and "
+              "commit data/ppe/index.csv (the matrices themselves are not committed).")
     return 1 if problems else 0
 
 

@@ -2,12 +2,13 @@
 #   make demo   build (Release) and run the main demo
 #   make test   build with warnings as errors and run the whole test suite
 # Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
-# bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make test-sanitize;
+# bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make sample-ppes (the
+# sample PPEs of data/ppe/) and bench-samples (every backend on them); make test-sanitize;
 # make docs (the API reference); make install PREFIX=/opt/sparsemps.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -67,7 +68,7 @@ bench: deps build/release/CMakeCache.txt
 	mkdir -p $(QUICK)
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --sizes 1e4 1e5 --out $(QUICK)/core.csv
 	/usr/bin/python3 bench/plot_core.py $(QUICK)/core.csv $(QUICK)/core.png
-	./build/release/bench/bench_solvers --sizes 1e4,1e5 --out $(QUICK)/solvers.csv data/*.mtx
+	./build/release/bench/bench_solvers --sizes 1e4,1e5 --out $(QUICK)/solvers.csv data/*.mtx data/ppe/*.mtx.gz
 	/usr/bin/python3 bench/plot_solvers.py $(QUICK)/solvers.csv $(QUICK)/solvers.png
 	$(MAKE) --no-print-directory bench-scaling SCALING_SIZES=1e4,3e4,1e5 SCALING_OUT=$(QUICK)
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release --results $(QUICK) --runs runs/pareto-quick
@@ -86,10 +87,27 @@ bench-core: deps build/release/CMakeCache.txt
 
 SOLVER_SIZES ?= 1e4,1e5,1e6
 bench-solvers: deps build/release/CMakeCache.txt
+	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --sizes $(SOLVER_SIZES) --limit "eigen-bicgstab=200000" \
-	  --out bench/results/solvers.csv data/*.mtx
+	  --out bench/results/solvers.csv data/*.mtx data/ppe/*.mtx.gz
 	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
+
+# The sample PPEs of real scenes (inlet channel, screw channel, dam break; data/ppe/, docs/solvers.md#sample-matrices):
+# SAMPLES=small (the ~1e4 cases, half a minute), large (the ~1e5 ones, about 11 minutes) or all; the matrices stay out
+# of git, their index (data/ppe/index.csv) is in it.
+SAMPLES ?= small
+sample-ppes: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target poiseuille rotating dambreak
+	/usr/bin/python3 scripts/make_sample_ppes.py build/release $(SAMPLES)
+
+# Every backend on the sample PPEs alone (those of data/ppe/ on disk: the ~1e4 ones, made first if missing; the ~1e5
+# ones once made).
+bench-samples: deps build/release/CMakeCache.txt
+	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
+	cmake --build build/release -j$(JOBS) --target bench_solvers
+	./build/release/bench/bench_solvers --files-only --limit "eigen-bicgstab=200000" \
+	  --out bench/results/solvers_samples.csv data/ppe/*.mtx.gz
 
 # The periodic channel in both modes at 50 across to 20 D/U (a few minutes each), with profile plots.
 poiseuille: deps build/release/CMakeCache.txt

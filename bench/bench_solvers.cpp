@@ -6,6 +6,7 @@
 // (fresh setup) and on a perturbed system of the same size (the particles moved a little: reused setup).
 //
 //   bench_solvers --sizes 1e4,1e5,1e6 --limit "eigen-bicgstab=200000" --out bench/results/solvers.csv data/*.mtx
+//   bench_solvers --files-only data/ppe/*.mtx.gz   (the sample PPEs of real scenes, scripts/make_sample_ppes.py)
 //   bench_solvers --export-samples data      (writes the small sample PPEs kept in data/)
 #include <malloc.h>
 #include <omp.h>
@@ -126,12 +127,21 @@ Tank make_tank(const TankParams& t, double shift = 0.0, const std::vector<char>*
   return tank;
 }
 
+// NAME of NAME.mtx or NAME.mtx.gz (data/ppe/ keeps its samples compressed).
+std::string matrix_name(const fs::path& path) {
+  std::string name = path.filename().string();
+  for (const char* suffix : {".gz", ".mtx"})
+    if (name.ends_with(suffix)) name.resize(name.size() - std::string(suffix).size());
+  return name;
+}
+
 System from_file(const fs::path& path) {
   System s;
   s.source = path.filename().string();
   s.a = mps::read_matrix_market(path);
   s.a.validate();
-  const fs::path rhs = path.parent_path() / (path.stem().string() + "_rhs.mtx");
+  const bool gz = path.extension() == ".gz";
+  const fs::path rhs = path.parent_path() / (matrix_name(path) + (gz ? "_rhs.mtx.gz" : "_rhs.mtx"));
   if (fs::exists(rhs)) {
     s.b = mps::read_matrix_market_vector(rhs);
   } else {  // b = A 1: the exact solution is all ones
@@ -360,8 +370,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", out, "CSV output")->capture_default_str();
   app.add_option("--export-samples", export_dir, "write the small sample PPEs (Matrix Market) to DIR and exit");
+  bool files_only = false;
+  app.add_flag("--files-only", files_only, "time the Matrix Market files alone, no generated tank");
   app.add_option("matrices", files,
-                 "Matrix Market matrices to time as well (b from NAME_rhs.mtx if present, else A*1)");
+                 "Matrix Market matrices (.mtx or .mtx.gz) to time as well (b from NAME_rhs.mtx[.gz] if present, "
+                 "else A*1)");
   add_list_solvers_flag(app);
   CLI11_PARSE(app, argc, argv);
   if (!export_dir.empty()) {
@@ -455,6 +468,7 @@ int main(int argc, char** argv) {
   };
 
   const bool any_reuse = std::any_of(specs.begin(), specs.end(), has_reuse);
+  if (files_only) sizes.clear();
   for (double target : sizes) {
     TankParams t;
     t.nx = t.ny = std::max(8, static_cast<int>(std::lround(std::sqrt(target))));
@@ -482,7 +496,7 @@ int main(int argc, char** argv) {
                  same_size ? &next.ppe.rhs : nullptr);
   }
   for (const auto& f : files) {
-    if (fs::path(f).stem().string().ends_with("_rhs")) continue;  // a right-hand side, read with its matrix
+    if (matrix_name(f).ends_with("_rhs")) continue;  // a right-hand side, read with its matrix
     const System s = from_file(f);
     bench_system(s.source, s.a, s.b, nullptr, nullptr);
   }

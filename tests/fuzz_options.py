@@ -34,7 +34,7 @@ OPTIONS = {
                  "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
     "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames", "--front-tolerance",
                  "--shifting", "--gradient", "--collision", "--restitution",
-                 "--solver", "--data"],
+                 "--solver", "--data", "--particles"],
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
     "fsi": ["--scene", "--dx", "--modulus", "--poisson", "--density", "--cfl", "--relaxation", "--solid-cfl",

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "column.hpp"
+#include "mps/geometry.hpp"
 
 namespace {
 
@@ -80,6 +81,66 @@ TEST(DamBreak, RefusesAColumnThatDoesNotFitAndExperimentalDataThatIsNotNumbers) 
   EXPECT_THROW(dambreak::Scene{p}, std::invalid_argument);
   EXPECT_THROW(dambreak::column_from_name("tall"), std::invalid_argument);
   EXPECT_THROW(dambreak::read_table("/nonexistent/mm_data_1.txt"), std::runtime_error);
+}
+
+// A particle file holding a built-in column's particles runs as that column; the same particles moved elsewhere are a
+// new scene whose tank and water are measured from the walls and the fluid, to the lattice, and moved back to the
+// origin. A spacing that is not the file's, fluid outside the walls and a file without walls are refused.
+TEST(DamBreak, AParticleFileIsRecognisedAsItsColumnOrMeasuredAsANewTank) {
+  const dambreak::Params classic = dambreak::defaults(dambreak::Column::classic);
+  dambreak::Params options;
+  options.gamma = 0.2;
+  const mps::Particles built = dambreak::make_particles(classic);
+  const dambreak::FileScene same = dambreak::from_particles(built, 0.0, options);
+  EXPECT_EQ(same.params.column, dambreak::Column::classic);
+  EXPECT_EQ(same.params.l0, 0.0073);  // the median spacing to 12 digits
+  EXPECT_EQ(same.params.tank_height, classic.tank_height);
+  EXPECT_EQ(same.params.pressure_probes, classic.pressure_probes);
+  EXPECT_EQ(same.params.gamma, 0.2);
+  EXPECT_EQ(dambreak::from_particles(built, classic.l0, options).params.l0, classic.l0);
+  mps::Particles reversed = built;  // a frame holds the particles in the step's order
+  std::vector<int> order(built.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(order.size() - 1 - i);
+  reversed.permute(order);
+  EXPECT_EQ(dambreak::from_particles(reversed, classic.l0, options).params.column, dambreak::Column::classic);
+  mps::Particles moving = built;
+  moving.u[7] = 1e-3;
+  EXPECT_EQ(dambreak::from_particles(moving, classic.l0, options).params.column, dambreak::Column::file);
+
+  mps::Particles moved = built;
+  for (std::size_t i = 0; i < moved.size(); ++i) {
+    moved.x[i] += 0.3;
+    moved.y[i] -= 0.1;
+  }
+  const dambreak::FileScene measured = dambreak::from_particles(moved, classic.l0, options);
+  const dambreak::Params& p = measured.params;
+  EXPECT_EQ(p.column, dambreak::Column::file);
+  EXPECT_NEAR(p.tank_length, classic.tank_length, 1e-12);
+  EXPECT_NEAR(p.tank_height, classic.tank_height, 1e-12);
+  EXPECT_NEAR(p.width, classic.width, 1e-12);
+  EXPECT_NEAR(p.height, classic.height, 1e-12);
+  EXPECT_EQ(p.level_probes, classic.level_probes);
+  EXPECT_NEAR(p.end_time, classic.end_time, 1e-12);
+  double worst = 0;
+  for (std::size_t i = 0; i < built.size(); ++i)
+    worst = std::max({worst, std::abs(measured.particles.x[i] - built.x[i]), std::abs(measured.particles.y[i] - built.y[i])});
+  EXPECT_LT(worst, 1e-12);
+
+  auto refused = [&](const mps::Particles& particles, double dx, const std::string& cause) {
+    try {
+      (void)dambreak::from_particles(particles, dx, options);
+      ADD_FAILURE() << "accepted; expected " << cause;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(cause), std::string::npos) << e.what();
+    }
+  };
+  refused(built, 2 * classic.l0, "give the spacing the file was made with");
+  mps::Particles outside = built;
+  outside.add(1.0, 0.1, mps::Kind::fluid);
+  refused(outside, classic.l0, "lies outside the tank its wall particles enclose");
+  mps::Particles no_walls;
+  mps::fill_rectangle(no_walls, {0, 0, 0.1, 0.1}, 0.01, mps::Kind::fluid);
+  refused(no_walls, 0.0, "no wall particles");
 }
 
 // The short version of the classic column (a/20, to T = 2): the front against the experiments, mass kept, no fluid

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -59,6 +60,105 @@ TEST(Fuzz, MatrixMarketReaderParsesOrRefusesEveryMutatedFile) {
       const mps::CsrMatrix a = mps::read_matrix_market(file);
       EXPECT_NO_THROW(a.validate());
       for (double v : a.val) ASSERT_TRUE(std::isfinite(v));
+      ++parsed;
+    } catch (const std::runtime_error&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(parsed, 0);
+  EXPECT_GT(refused, 0);
+}
+
+// A mutated particle file reads as particles with every value finite and every array of one length, or is refused
+// with std::runtime_error.
+TEST(Fuzz, ParticleFileReaderParsesOrRefusesEveryMutatedFile) {
+  const std::vector<std::string> lines{"# a tank", "x,y,kind,u,v,p,group", "0.5,0.5,fluid,0,0,0,0",
+                                       "1.5,0.5,fluid,1,0,0,0",   "0.5,-0.5,wall,0,0,0,1", "1.5,-0.5,dummy,0,0,0,1",
+                                       "2.5,0.5,2,0,0,0,0"};
+  const std::vector<std::string> tokens{"0",  "1",    "2", "3",   "-1", "nan", "inf", "1e999", "1e-320", "fluid", "wall",
+                                        "", ",",  "x",   "kind", "#", "1.5", "0x10", "2147483648", " ", "y,x"};
+  std::mt19937 rng(26);
+  const fs::path file = fs::temp_directory_path() / "sparsemps_fuzz_particles.csv";
+  int parsed = 0, refused = 0;
+  for (int c = 0; c < 2000; ++c) {
+    std::vector<std::string> mutated = lines;
+    const int edits = std::uniform_int_distribution<int>(1, 3)(rng);
+    for (int e = 0; e < edits; ++e) {
+      auto& line = mutated[std::uniform_int_distribution<std::size_t>(0, mutated.size() - 1)(rng)];
+      switch (std::uniform_int_distribution<int>(0, 4)(rng)) {
+        case 0: {  // one field replaced
+          std::size_t at = line.find(',');
+          line = pick(rng, tokens) + (at == std::string::npos ? "" : line.substr(at));
+          break;
+        }
+        case 1: line.append(",").append(pick(rng, tokens)); break;
+        case 2: line = line.substr(0, line.size() / 2); break;
+        case 3: mutated.push_back(line); break;
+        default: line.clear();
+      }
+    }
+    {
+      std::ofstream out(file);
+      for (const auto& l : mutated) out << l << '\n';
+    }
+    try {
+      const mps::Particles p = mps::read_particles_csv(file);
+      ASSERT_FALSE(p.empty());
+      for (const auto* values : {&p.x, &p.y, &p.u, &p.v, &p.p}) {
+        ASSERT_EQ(values->size(), p.size());
+        for (double v : *values) ASSERT_TRUE(std::isfinite(v));
+      }
+      ASSERT_EQ(p.kind.size(), p.size());
+      for (mps::Kind k : p.kind) ASSERT_NE(k, mps::Kind::ghost);
+      ++parsed;
+    } catch (const std::runtime_error&) {
+      ++refused;
+    }
+  }
+  EXPECT_GT(parsed, 0);
+  EXPECT_GT(refused, 0);
+}
+
+// A frame with bytes changed, cut short or with a header number rewritten reads as particles with finite values, or
+// is refused with std::runtime_error: never a read past the file's end (the sanitizer build checks that).
+TEST(Fuzz, FrameReaderReadsOrRefusesEveryDamagedFrame) {
+  mps::Particles p;
+  for (int i = 0; i < 300; ++i) p.add(0.01 * (i % 20), 0.01 * (i / 20), static_cast<mps::Kind>(i % 3), i % 2, 0.5, -0.5);
+  const fs::path good = fs::temp_directory_path() / "sparsemps_fuzz_good.vtp";
+  mps::write_vtp(good, p, 0.25);
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::mt19937 rng(31);
+  const fs::path file = fs::temp_directory_path() / "sparsemps_fuzz_frame.vtp";
+  int parsed = 0, refused = 0;
+  for (int c = 0; c < 1500; ++c) {
+    std::string damaged = bytes;
+    const std::size_t data = damaged.find("<AppendedData");
+    switch (c % 4) {
+      case 0:  // bytes of the appended data changed
+        for (int k = 0; k < 4; ++k)
+          damaged[std::uniform_int_distribution<std::size_t>(data, damaged.size() - 1)(rng)] =
+              static_cast<char>(rng() & 0xff);
+        break;
+      case 1:  // cut short
+        damaged.resize(std::uniform_int_distribution<std::size_t>(0, damaged.size() - 1)(rng));
+        break;
+      case 2: {  // a number in the XML rewritten
+        const std::size_t quote = damaged.find("=\"", std::uniform_int_distribution<std::size_t>(0, data)(rng));
+        if (quote < data) damaged.insert(quote + 2, pick(rng, odd_tokens()));
+        break;
+      }
+      default:  // an array's header word (block counts, sizes) set to a random value
+        for (int k = 0; k < 8; ++k)
+          damaged[data + 40 + std::uniform_int_distribution<std::size_t>(0, 200)(rng)] = static_cast<char>(rng() & 0xff);
+    }
+    std::ofstream(file, std::ios::binary) << damaged;
+    try {
+      const mps::Particles q = mps::read_vtp(file);
+      for (std::size_t i = 0; i < q.size(); ++i) ASSERT_TRUE(std::isfinite(q.x[i]) && std::isfinite(q.p[i]));
       ++parsed;
     } catch (const std::runtime_error&) {
       ++refused;

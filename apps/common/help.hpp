@@ -49,7 +49,7 @@ class GroupedHelp : public CLI::Formatter {
       for (const char* word : {"INT ", "FLOAT ", "UINT "})
         if (range.rfind(word, 0) == 0) range = range.substr(std::string(word).size());
       std::replace(range.begin(), range.end(), ' ', '\x01');  // a range is not broken across lines
-      if (!range.empty() && range.front() != '{') text += "; " + range;
+      if (range.rfind("in\x01", 0) == 0) text += "; " + range;  // a set of names or FILE says nothing more
     }
     text = wrap(text, kWidth - kColumn);
     std::replace(text.begin(), text.end(), '\x01', ' ');
@@ -85,9 +85,14 @@ class GroupedHelp : public CLI::Formatter {
     return out + line;
   }
 
+  // FLOAT, INT, TEXT, or the check's own word where it names a kind of text (FILE, DIR).
   static std::string type_of(const CLI::Option* opt) {
     const std::string type = opt->get_type_name();
-    return type.substr(0, type.find(':'));
+    const std::size_t colon = type.find(':');
+    const std::string check = colon == std::string::npos ? "" : type.substr(colon + 1);
+    if (!check.empty() && std::all_of(check.begin(), check.end(), [](char c) { return c >= 'A' && c <= 'Z'; }))
+      return check;
+    return type.substr(0, colon);
   }
 };
 

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "mps/geometry.hpp"
+#include "mps/io.hpp"
 
 namespace dambreak {
 
@@ -19,7 +20,7 @@ Column column_from_name(const std::string& name) {
   throw std::invalid_argument("unknown column '" + name + "': choose classic or seed");
 }
 
-std::string to_string(Column c) { return c == Column::classic ? "classic" : "seed"; }
+std::string to_string(Column c) { return c == Column::classic ? "classic" : c == Column::seed ? "seed" : "file"; }
 
 Params defaults(Column c) {
   Params p;
@@ -159,11 +160,148 @@ double patch_pressure(const mps::Particles& s, double x, double y, double radius
   return count > 0 ? sum / count : 0.0;
 }
 
-Scene::Scene(const Params& p)
+mps::Domain make_domain(const Params& p, const mps::Particles& particles) {
+  mps::Domain d = make_domain(p);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    d.xmin = std::min(d.xmin, particles.x[i] - p.l0);
+    d.xmax = std::max(d.xmax, particles.x[i] + p.l0);
+    d.ymin = std::min(d.ymin, particles.y[i] - p.l0);
+    d.ymax = std::max(d.ymax, particles.y[i] + p.l0);
+  }
+  return d;
+}
+
+namespace {
+// A length measured on lattice particles: a whole number of spacings when it is one to round-off.
+double snapped(double length, double l0) {
+  const double n = std::round(length / l0);
+  return std::abs(length - n * l0) <= 1e-6 * l0 ? n * l0 : length;
+}
+
+// Whether `particles` are the built-in column c's at spacing l0, in any order (a frame holds them in the step's order):
+// the same kinds and groups at the same positions to 1e-9 l0, at rest.
+bool is_column(const mps::Particles& particles, Column c, double l0) {
+  Params q = defaults(c);
+  q.l0 = l0;
+  const double expected = (q.tank_length / l0 + 10) * (q.tank_height / l0 + 5);
+  if (!(expected < 4.0 * static_cast<double>(particles.size()) + 1000)) return false;  // not built to find out
+  const mps::Particles built = make_particles(q);
+  if (built.size() != particles.size()) return false;
+  // Each set sorted by its lattice cell, so that the two orders need not agree.
+  auto by_cell = [&](const mps::Particles& s) {
+    std::vector<std::size_t> order(s.size());
+    std::vector<std::pair<double, double>> cell(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      order[i] = i;
+      cell[i] = {std::floor(s.y[i] / l0), std::floor(s.x[i] / l0)};  // centres sit mid-cell
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cell[a] < cell[b]; });
+    return order;
+  };
+  const std::vector<std::size_t> mine = by_cell(particles), theirs = by_cell(built);
+  for (std::size_t k = 0; k < built.size(); ++k) {
+    const std::size_t i = theirs[k], j = mine[k];
+    if (built.kind[i] != particles.kind[j] || built.group[i] != particles.group[j] ||
+        std::abs(built.x[i] - particles.x[j]) > 1e-9 * l0 || std::abs(built.y[i] - particles.y[j]) > 1e-9 * l0 ||
+        particles.u[j] != 0.0 || particles.v[j] != 0.0 || particles.p[j] != 0.0)
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+FileScene from_particles(mps::Particles particles, double dx, const Params& options) {
+  const double spacing = mps::median_spacing(particles);
+  if (!std::isfinite(spacing)) throw std::invalid_argument("the particle file holds fewer than two particles");
+  double l0 = dx;
+  std::string how = "--dx";
+  if (!(dx > 0)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.12g", spacing);
+    l0 = std::strtod(text, nullptr);
+    how = "the file's median nearest-neighbour distance";
+  } else if (std::abs(spacing - dx) > 0.2 * dx) {
+    throw std::invalid_argument("the particle file's particles lie " + fmt(spacing) +
+                                " m apart (the median distance to the nearest one), but --dx is " + fmt(dx) +
+                                " m: give the spacing the file was made with, or leave --dx out");
+  }
+  FileScene out{options, std::move(particles), ""};
+  Params& p = out.params;
+  p.l0 = l0;
+  for (Column c : {Column::classic, Column::seed}) {
+    if (!is_column(out.particles, c, l0)) continue;
+    const Params base = defaults(c);
+    p.column = c;
+    p.width = base.width;
+    p.height = base.height;
+    p.tank_length = base.tank_length;
+    p.tank_height = base.tank_height;
+    p.level_probes = base.level_probes;
+    p.pressure_probes = base.pressure_probes;
+    p.end_time = base.end_time;
+    out.description = "spacing " + fmt(l0) + " m (" + how + "); the " + to_string(c) +
+                      " column's particles: its tank, probes and experiments";
+    return out;
+  }
+  mps::Particles& s = out.particles;
+  const double inf = std::numeric_limits<double>::infinity();
+  double wx0 = inf, wx1 = -inf, wy0 = inf, wy1 = -inf;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::wall) {
+      wx0 = std::min(wx0, s.x[i]);
+      wx1 = std::max(wx1, s.x[i]);
+      wy0 = std::min(wy0, s.y[i]);
+      wy1 = std::max(wy1, s.y[i]);
+    }
+  if (s.count(mps::Kind::fluid) == 0) throw std::invalid_argument("the particle file has no fluid particles");
+  if (!(wx0 < inf)) throw std::invalid_argument("the particle file has no wall particles: a dam break needs a tank");
+  // The walls' first layer sits half a spacing outside the tank's inner lines; the tank's top is its walls' top.
+  const double x0 = wx0 + 0.5 * l0, y0 = wy0 + 0.5 * l0;
+  if (std::abs(x0) > 1e-9 * l0 || std::abs(y0) > 1e-9 * l0)
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      s.x[i] -= x0;
+      s.y[i] -= y0;
+    }
+  p.column = Column::file;
+  p.tank_length = snapped(wx1 - 0.5 * l0 - x0, l0);
+  p.tank_height = snapped(wy1 + 0.5 * l0 - y0, l0);
+  double fx1 = -inf, fy1 = -inf;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] != mps::Kind::fluid) continue;
+    if (!(s.x[i] > 0 && s.x[i] < p.tank_length && s.y[i] > 0))
+      throw std::invalid_argument("the particle file's fluid particle at (" + fmt(s.x[i] + x0) + ", " +
+                                  fmt(s.y[i] + y0) + ") lies outside the tank its wall particles enclose (x in [" +
+                                  fmt(x0) + ", " + fmt(x0 + p.tank_length) + "], y above " + fmt(y0) +
+                                  "): a dam break's tank has walls left, right and below its water");
+    fx1 = std::max(fx1, s.x[i]);
+    fy1 = std::max(fy1, s.y[i]);
+  }
+  p.width = snapped(fx1 + 0.5 * l0, l0);
+  p.height = snapped(fy1 + 0.5 * l0, l0);
+  const Params classic = defaults(Column::classic);
+  p.level_probes.clear();
+  p.pressure_probes.clear();
+  for (double d : classic.level_probes)
+    if (d * p.height < p.tank_length) p.level_probes.push_back(d);
+  for (double h : classic.pressure_probes)
+    if (h * p.height < p.tank_height) p.pressure_probes.push_back(h);
+  p.end_time = 2.5 / std::sqrt(2 * p.g / p.width);  // T = 2.5, as the classic column
+  out.description = "spacing " + fmt(l0) + " m (" + how + "); tank " + fmt(p.tank_length) + " x " +
+                    fmt(p.tank_height) + " m (the wall particles' inner box" +
+                    (std::abs(x0) > 1e-9 * l0 || std::abs(y0) > 1e-9 * l0
+                         ? ", moved by (" + fmt(-x0) + ", " + fmt(-y0) + ") m to put its corner at the origin"
+                         : std::string()) +
+                    "); water " + fmt(p.width) + " m wide and " + fmt(p.height) + " m high (the fluid's box)";
+  return out;
+}
+
+Scene::Scene(const Params& p) : Scene(p, make_particles(p)) {}
+
+Scene::Scene(const Params& p, mps::Particles particles)
     : params_(checked(p)),
-      sim_(make_particles(p), make_domain(p), make_config(p)),
+      sim_(particles, make_domain(p, particles), make_config(p)),
       initial_fluid_(static_cast<long>(sim_.particles().count(mps::Kind::fluid))) {
-  const double L = p.tank_length, top = p.tank_height, ceiling = make_domain(p).ymax - 2 * p.l0;
+  const double L = p.tank_length, top = p.tank_height, ceiling = sim_.domain().ymax - 2 * p.l0;
   if (p.collision > 0.0) sim_.add<mps::ParticleCollision>(p.collision, p.restitution);
   if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
   if (p.wet_walls) sim_.add<mps::WetWalls>();

@@ -2,6 +2,7 @@
 // Dam break: a water column collapses under gravity in a tank with an open top (seed 003 §2.1). Two columns:
 // - classic: a wide, 2a high, a = 0.146 m, in a tank 4a wide (Martin & Moyce 1952, Koshizuka & Oka 1996: surge front);
 // - seed: 2H wide, H = 1 m high, in a tank 5.366H long and 3H high (Buchner 2002: downstream-wall pressure).
+// Or any tank, column and obstacles from a particle file (from_particles).
 // The scene samples the surge front, water levels at probe lines and wall pressures at probe patches as it runs.
 #include <array>
 #include <cmath>
@@ -13,7 +14,8 @@
 
 namespace dambreak {
 
-enum class Column { classic, seed };
+// file: a scene from a particle file that is neither built-in column; no experiment applies to it.
+enum class Column { classic, seed, file };
 Column column_from_name(const std::string& name);  // "classic" or "seed"; throws std::invalid_argument otherwise
 std::string to_string(Column c);
 
@@ -71,9 +73,28 @@ double water_level(const mps::Particles& particles, double x, double l0);
 // Mean pressure of the wall and fluid particles within `radius` of (x, y) (the probe's patch); 0 if none.
 double patch_pressure(const mps::Particles& particles, double x, double y, double radius);
 
+// A scene from a particle file's particles (docs/particle-files.md). The spacing is dx, or if dx is 0 the particles'
+// median nearest-neighbour distance to 12 significant digits (so a lattice made at 0.01 m gives 0.01). Particles equal
+// to a built-in column's at that spacing (as --write-particles writes them) run as that column, with its parameters,
+// probes and experiments. Any other file is Column::file: the tank is the wall particles' inner box (the walls' first
+// layer half a spacing outside it), the column the fluid's box from the tank's upstream wall and floor, both to the
+// lattice where they are within round-off of a whole number of spacings; the particles are moved so that the tank's
+// inner lower-left corner is the origin; the classic column's probes are kept where they lie inside the tank. The
+// options (gamma, solver, ...) come from `options`. Throws std::invalid_argument saying what to change.
+struct FileScene {
+  Params params;
+  mps::Particles particles;
+  std::string description;  // how the spacing, the tank and the column were found, for the console
+};
+FileScene from_particles(mps::Particles particles, double dx, const Params& options);
+
+// The domain of a scene: make_domain(p), widened where the particles reach beyond it (a file's extra dummy layers).
+mps::Domain make_domain(const Params& p, const mps::Particles& particles);
+
 class Scene {
  public:
-  explicit Scene(const Params& p);
+  explicit Scene(const Params& p);  // the column p describes (make_particles)
+  Scene(const Params& p, mps::Particles particles);  // these particles in p's tank (from_particles)
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
   [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
   [[nodiscard]] const mps::Simulation& sim() const { return sim_; }

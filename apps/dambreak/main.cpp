@@ -64,13 +64,22 @@ int main(int argc, char** argv) {
   CLI::App app{"SparseMPS dam break: a water column collapses in an open tank (seed 003 §2.1); the surge front against "
                "Martin & Moyce, the downstream-wall pressure against Buchner"};
   add_general_options(app);
+  std::string particles_file, write_particles;
+  app.add_option("--particles", particles_file,
+                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
+                 "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
+                 "--dx or the file's")
+      ->check(CLI::ExistingFile)
+      ->transform([](std::string name) { return fs::absolute(name).lexically_normal().string(); })  // replayable
+      ->group("Scene");
   app.add_option("--column", column_name,
                  "classic: a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, H = 1 m high, "
                  "tank 5.366 m x 3 m (Buchner's wall pressure)")
       ->capture_default_str()->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
   app.add_option("--data", data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
                  "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
-  app.add_option("--dx", dx, "particle spacing (default: a/20 for classic, H/25 for seed; the seed's own is 0.02) [m]")
+  app.add_option("--dx", dx, "particle spacing (default: a/20 for classic, H/25 for seed, the seed's own is 0.02; with "
+                             "--particles, the file's) [m]")
       ->check(positive_up_to(1.0))->group("Numerics");
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
@@ -83,7 +92,7 @@ int main(int argc, char** argv) {
   app.add_option("--collision", p.collision, "close pairs collide: two particles nearer than this that approach each "
                  "other keep only --restitution of their approach speed (0: off) [l0]")
       ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
-  app.add_option("--restitution", p.restitution, "restitution of a collision, in [0, 1]")
+  app.add_option("--restitution", p.restitution, "restitution of a collision")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--asymmetry", p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
                  "fraction of a flat surface's asymmetry (0: the density test alone)")
@@ -103,24 +112,55 @@ int main(int argc, char** argv) {
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
+  app.add_option("--write-particles", write_particles,
+                 "write the scene's initial particles to this CSV file (a start for --particles) and exit")
+      ->group("Output");
   CLI11_PARSE(app, argc, argv);
 
   try {
-    const dambreak::Column column = dambreak::column_from_name(column_name);
-    const dambreak::Params base = dambreak::defaults(column);
-    p.column = column;
     p.gradient = mps::gradient_variant_from_name(gradient);
-    p.width = base.width;
-    p.height = base.height;
-    p.tank_length = base.tank_length;
-    p.tank_height = base.tank_height;
-    p.level_probes = base.level_probes;
-    p.pressure_probes = base.pressure_probes;
-    p.l0 = dx > 0 ? dx : base.l0;
-    p.end_time = end_time > 0 ? end_time : base.end_time;
-    check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5),
-                   p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "raise --dx",
-                   "shorten --end-time or raise --cfl");
+    mps::Particles particles;
+    std::string scene_name = column_name + " column";
+    if (particles_file.empty()) {
+      const dambreak::Params base = dambreak::defaults(dambreak::column_from_name(column_name));
+      p.column = base.column;
+      p.width = base.width;
+      p.height = base.height;
+      p.tank_length = base.tank_length;
+      p.tank_height = base.tank_height;
+      p.level_probes = base.level_probes;
+      p.pressure_probes = base.pressure_probes;
+      p.l0 = dx > 0 ? dx : base.l0;
+      p.end_time = end_time > 0 ? end_time : base.end_time;
+      check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5),
+                     p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "raise --dx",
+                     "shorten --end-time or raise --cfl");
+      particles = dambreak::make_particles(p);
+    } else {
+      const bool frame = fs::path(particles_file).extension() == ".vtp";
+      dambreak::FileScene file = dambreak::from_particles(
+          frame ? mps::read_vtp(particles_file) : mps::read_particles_csv(particles_file), dx, p);
+      std::cout << "particles from " << particles_file << ": " << file.description << "\n";
+      p = file.params;
+      p.end_time = end_time > 0 ? end_time : file.params.end_time;
+      particles = std::move(file.particles);
+      column_name = dambreak::to_string(p.column);
+      scene_name = p.column == dambreak::Column::file ? "particles of " + particles_file : column_name + " column";
+      check_run_size(static_cast<double>(particles.size()),
+                     p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "use a coarser particle file",
+                     "shorten --end-time or raise --cfl");
+    }
+    const dambreak::Column column = p.column;
+    if (!write_particles.empty()) {
+      char spacing[40];
+      std::snprintf(spacing, sizeof spacing, "%.17g", p.l0);
+      mps::write_particles_csv(write_particles, particles,
+                               {"SparseMPS dam break: the " + scene_name + " at spacing " + spacing + " m, at rest",
+                                "run it with: dambreak --particles THIS-FILE --dx " + std::string(spacing)});
+      std::cout << "wrote " << particles.size() << " particles to " << write_particles
+                << "; run them with: dambreak --particles " << write_particles << " --dx " << spacing << "\n";
+      return 0;
+    }
     const fs::path data_dir(data);
     const dambreak::Table mm1 = dambreak::read_table((data_dir / "mm_data_1.txt").string());
     const dambreak::Table mm2 = dambreak::read_table((data_dir / "mm_data_2.txt").string());
@@ -128,11 +168,12 @@ int main(int argc, char** argv) {
     dambreak::Table buchner = dambreak::read_table((data_dir / "buchner_exp_data.txt").string());
     std::sort(buchner.begin(), buchner.end());  // digitised points, a few out of time order
 
-    dambreak::Scene scene(p);
+    dambreak::Scene scene(p, std::move(particles));
     const mps::Simulation& sim = scene.sim();
-    const nlohmann::json params = params_json(p, sim, data);
+    nlohmann::json params = params_json(p, sim, data);
+    if (!particles_file.empty()) params["particle_file"] = particles_file;
     std::cout << parameter_table(
-        "dam break, " + column_name + " column: " + std::to_string(sim.particles().size()) + " particles (" +
+        "dam break, " + scene_name + ": " + std::to_string(sim.particles().size()) + " particles (" +
             std::to_string(scene.initial_fluid()) + " fluid)",
         params,
         {{"scene", {"column_width_m", "column_height_m", "tank_length_m", "tank_height_m", "g_m_per_s2",
@@ -145,8 +186,7 @@ int main(int argc, char** argv) {
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
                         "last_good.vtp",
                         "config.toml", "solves.csv", "ppe"});
-    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()),
-                              "dambreak, " + column_name + " column");
+    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "dambreak, " + scene_name);
     write_run_config(app, "dambreak", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "dambreak", frames, p.end_time);
@@ -228,7 +268,7 @@ int main(int argc, char** argv) {
       bp.push_back(pe);
     }
     for (std::size_t k = 0; k < p.pressure_probes.size(); ++k) {
-      if (std::abs(p.pressure_probes[k] - 0.2) > 1e-12) continue;
+      if (column == dambreak::Column::file || std::abs(p.pressure_probes[k] - 0.2) > 1e-12) continue;
       const dambreak::Impact sim_impact = dambreak::impact(t_hat, pressures[k]);
       const dambreak::Impact exp_impact = dambreak::impact(bt, bp);
       // The probe's height is a value, not part of a key: keys hold no dots.
@@ -248,6 +288,9 @@ int main(int argc, char** argv) {
       else
         std::printf("impact at 0.2 H: the pressure there never reached 0.25 rho g H\n");
     }
+    if (column == dambreak::Column::file)
+      std::printf("a scene from a particle file: no experiment applies; its front, levels and wall pressure are in "
+                  "front.csv, level.csv and pressure.csv\n");
     checks["fluid_removed_as_spray_count"] = scene.removed();
     checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
     checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);

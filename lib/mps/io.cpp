@@ -7,6 +7,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <string_view>
+#include <map>
+#include <iterator>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -262,15 +265,24 @@ void write_matrix_market(const fs::path& path, std::span<const double> vector) {
 }
 
 namespace {
-// Returns the banner's words (lower case) and leaves `in` after the comment lines.
 // The data lines of a Matrix Market file after its banner and comments, with line numbers for messages, and
 // strict numbers: every token must be a whole number or a finite value ("nan", "inf" and "1e999" are errors).
+// Read through zlib, which reads a gzip file decompressed and any other file as it is.
 class MatrixMarketLines {
  public:
-  explicit MatrixMarketLines(const fs::path& path) : path_(path), in_(path) {
-    if (!in_) read_error(path, std::string("cannot open") + system_reason());
-    size_ = fs::file_size(path);
+  explicit MatrixMarketLines(const fs::path& path) : path_(path) {
+    errno = 0;
+    in_ = gzopen(path.c_str(), "rb");
+    if (in_ == nullptr) read_error(path, std::string("cannot open") + system_reason());
+    gzbuffer(in_, 1u << 17);
+    std::error_code ec;
+    const std::uintmax_t bytes = fs::file_size(path, ec);
+    // deflate expands at most 1032-fold: the bound on what a compressed file can hold
+    size_ = ec ? 0 : gzdirect(in_) != 0 ? bytes : bytes * 1032;
   }
+  MatrixMarketLines(const MatrixMarketLines&) = delete;
+  MatrixMarketLines& operator=(const MatrixMarketLines&) = delete;
+  ~MatrixMarketLines() { gzclose(in_); }
   [[nodiscard]] std::uintmax_t file_size() const { return size_; }
   [[noreturn]] void fail(const std::string& what) const {
     read_error(path_, (line_ > 0 ? "line " + std::to_string(line_) + ": " : std::string()) + what);
@@ -279,7 +291,7 @@ class MatrixMarketLines {
   std::vector<std::string> banner() {
     std::string line;
     ++line_;
-    if (!std::getline(in_, line) || line.rfind("%%MatrixMarket", 0) != 0) fail("missing %%MatrixMarket banner");
+    if (!getline(line) || line.rfind("%%MatrixMarket", 0) != 0) fail("missing %%MatrixMarket banner");
     std::istringstream words(line);
     std::vector<std::string> out;
     for (std::string w; words >> w;) {
@@ -290,7 +302,7 @@ class MatrixMarketLines {
   }
   // The next line that is neither a comment nor blank, split into words; false at the end of the file.
   bool next(std::vector<std::string>& words) {
-    for (std::string line; std::getline(in_, line);) {
+    for (std::string line; getline(line);) {
       ++line_;
       if (line.empty() || line[0] == '%') continue;
       std::istringstream split(line);
@@ -318,8 +330,25 @@ class MatrixMarketLines {
   }
 
  private:
+  // One line without its '\n'; false at the end of the file. A read error (a damaged gzip stream) is an error.
+  bool getline(std::string& line) {
+    line.clear();
+    char chunk[4096];
+    while (gzgets(in_, chunk, sizeof chunk) != nullptr) {
+      line += chunk;
+      if (!line.empty() && line.back() == '\n') {
+        line.pop_back();
+        return true;
+      }
+    }
+    int code = Z_OK;
+    const char* message = gzerror(in_, &code);
+    if (code != Z_OK && code != Z_BUF_ERROR) fail(std::string("cannot read on: ") + message);
+    return !line.empty();
+  }
+
   fs::path path_;
-  std::ifstream in_;
+  gzFile in_ = nullptr;
   std::uintmax_t size_ = 0;
   long line_ = 0;
 };
@@ -341,7 +370,8 @@ CsrMatrix read_matrix_market(const fs::path& path) {
   // Each entry takes at least 6 bytes ("1 1 1\n"): a count beyond that is a broken header, not a big matrix.
   const long entries = in.whole(w[2], 0, static_cast<long>(in.file_size() / 6), "entry count (bounded by the file size)");
   std::vector<std::tuple<int, int, double>> triplets;
-  triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
+  // Capped: a compressed file's bound above is loose, and a broken header must not allocate gigabytes.
+  triplets.reserve(static_cast<std::size_t>(std::min(symmetric ? 2 * entries : entries, 1L << 24)));
   for (long e = 0; e < entries; ++e) {
     if (!in.next(w)) in.fail("expected " + std::to_string(entries) + " entries, found " + std::to_string(e));
     if (w.size() != 3) in.fail("expected 'row column value'");
@@ -377,13 +407,460 @@ std::vector<double> read_matrix_market_vector(const fs::path& path) {
   if (!in.next(w) || w.size() != 2) in.fail("expected the size line 'rows 1'");
   const long rows = in.whole(w[0], 0, static_cast<long>(in.file_size() / 2), "row count (bounded by the file size)");
   in.whole(w[1], 1, 1, "column count");
-  std::vector<double> v(static_cast<std::size_t>(rows));
-  for (auto& x : v) {
+  std::vector<double> v;
+  v.reserve(static_cast<std::size_t>(std::min(rows, 1L << 24)));  // capped, as for the matrix
+  for (long r = 0; r < rows; ++r) {
     if (!in.next(w) || w.size() != 1) in.fail("expected " + std::to_string(rows) + " values, one per line");
-    x = in.finite(w[0]);
+    v.push_back(in.finite(w[0]));
   }
   if (in.next(w)) in.fail("more values than the " + std::to_string(rows) + " the size line announces");
   return v;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Particle files
+
+namespace {
+
+// Each non-ghost particle's nearest other particle (index, distance), by a grid of cells about as wide as the mean
+// spacing: a ring of cells k away holds nothing nearer than (k - 1) cells, so the search stops early.
+struct Nearest {
+  std::vector<std::size_t> index;
+  std::vector<double> distance;  // infinity where a particle is alone
+};
+
+Nearest nearest_particles(const Particles& p) {
+  std::vector<std::size_t> active;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] != Kind::ghost) active.push_back(i);
+  Nearest out{std::vector<std::size_t>(p.size(), 0),
+              std::vector<double>(p.size(), std::numeric_limits<double>::infinity())};
+  if (active.size() < 2) return out;
+  double x0 = p.x[active[0]], x1 = x0, y0 = p.y[active[0]], y1 = y0;
+  for (std::size_t i : active) {
+    x0 = std::min(x0, p.x[i]);
+    x1 = std::max(x1, p.x[i]);
+    y0 = std::min(y0, p.y[i]);
+    y1 = std::max(y1, p.y[i]);
+  }
+  const auto n = static_cast<double>(active.size());
+  const double w = x1 - x0, h = y1 - y0, extent = std::max(w, h);
+  // At least extent / n, so a row of particles (h = 0) gets no more cells than particles; all in one point: one cell.
+  double cell = std::max(std::sqrt(w * h / n), extent / n);
+  if (!(cell > 0.0)) cell = 1.0;
+  const auto nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
+  auto cell_of = [&](std::size_t i) {
+    const long cx = std::min(nx - 1, static_cast<long>((p.x[i] - x0) / cell));
+    const long cy = std::min(ny - 1, static_cast<long>((p.y[i] - y0) / cell));
+    return std::pair{cx, cy};
+  };
+  std::vector<std::size_t> start(static_cast<std::size_t>(nx * ny) + 1, 0), sorted(active.size());
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    ++start[static_cast<std::size_t>(cy * nx + cx) + 1];
+  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    sorted[fill[static_cast<std::size_t>(cy * nx + cx)]++] = i;
+  }
+  const long rings = std::max(nx, ny);
+  for (std::size_t i : active) {
+    const auto [cx, cy] = cell_of(i);
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t best_j = i;
+    auto scan = [&](long gx, long gy) {
+      const auto c = static_cast<std::size_t>(gy * nx + gx);
+      for (std::size_t s = start[c]; s < start[c + 1]; ++s) {
+        const std::size_t j = sorted[s];
+        const double d = j == i ? best : std::hypot(p.x[j] - p.x[i], p.y[j] - p.y[i]);
+        if (d < best || (d == best && j != i && j < best_j)) {
+          best = d;
+          best_j = j;
+        }
+      }
+    };
+    for (long k = 0; k <= rings; ++k) {  // the ring of cells k away: two full rows, and two cells of each row between
+      for (long gy = std::max(0L, cy - k); gy <= std::min(ny - 1, cy + k); ++gy) {
+        if (gy == cy - k || gy == cy + k) {
+          for (long gx = std::max(0L, cx - k); gx <= std::min(nx - 1, cx + k); ++gx) scan(gx, gy);
+        } else {
+          if (cx - k >= 0) scan(cx - k, gy);
+          if (cx + k < nx) scan(cx + k, gy);
+        }
+      }
+      if (best <= static_cast<double>(k) * cell) break;
+    }
+    out.index[i] = best_j;
+    out.distance[i] = best;
+  }
+  return out;
+}
+
+double median_of(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::infinity();
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+std::string trimmed(const std::string& text) {
+  const auto begin = text.find_first_not_of(" \t\r");
+  if (begin == std::string::npos) return {};
+  return text.substr(begin, text.find_last_not_of(" \t\r") - begin + 1);
+}
+
+std::vector<std::string> split_fields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::size_t from = 0;
+  for (std::size_t comma; (comma = line.find(',', from)) != std::string::npos; from = comma + 1)
+    fields.push_back(trimmed(line.substr(from, comma - from)));
+  fields.push_back(trimmed(line.substr(from)));
+  return fields;
+}
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return text;
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+Particles read_particles_csv(const fs::path& path) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path))
+    throw std::runtime_error("cannot read the particle file " + path.string() + system_reason());
+  long line_number = 0;
+  auto fail = [&](const std::string& what) -> void {
+    throw std::runtime_error("particle file " + path.string() + ":" + std::to_string(line_number) + ": " + what);
+  };
+  enum Column { x, y, kind, u, v, p, group, columns };
+  static const std::array<const char*, columns> names{"x", "y", "kind", "u", "v", "p", "group"};
+  const std::string valid = "the columns are x, y, kind (required) and u, v, p, group (optional)";
+  std::vector<int> field_column;  // the column each field of a row holds
+  std::array<int, columns> field_of{};
+  field_of.fill(-1);
+  Particles out;
+  std::vector<long> lines;  // each particle's line, for the messages of the spacing check
+  for (std::string line; std::getline(in, line);) {
+    ++line_number;
+    const std::string text = trimmed(line);
+    if (text.empty() || text[0] == '#') continue;
+    const std::vector<std::string> fields = split_fields(text);
+    if (field_column.empty()) {  // the header
+      for (const std::string& field : fields) {
+        const std::string name = lower(field);
+        const auto at = std::find(names.begin(), names.end(), name);
+        if (at == names.end())
+          fail("unknown column '" + field + "' in the header (the first line that is not a comment names the " +
+               "columns, comma-separated: " + valid.substr(16) + ")");
+        const auto column = static_cast<int>(at - names.begin());
+        if (field_of[static_cast<std::size_t>(column)] >= 0) fail("column '" + name + "' named twice in the header");
+        field_of[static_cast<std::size_t>(column)] = static_cast<int>(field_column.size());
+        field_column.push_back(column);
+      }
+      for (int c : {Column::x, Column::y, Column::kind})
+        if (field_of[static_cast<std::size_t>(c)] < 0)
+          fail(std::string("the header has no column '") + names[static_cast<std::size_t>(c)] + "' (" + valid + ")");
+      continue;
+    }
+    if (fields.size() != field_column.size())
+      fail("expected " + std::to_string(field_column.size()) + " comma-separated fields, as the header names, found " +
+           std::to_string(fields.size()));
+    std::array<double, columns> value{};
+    Kind particle_kind = Kind::fluid;
+    int particle_group = 0;
+    for (std::size_t f = 0; f < fields.size(); ++f) {
+      const std::string& word = fields[f];
+      const auto column = static_cast<std::size_t>(field_column[f]);
+      if (column == Column::kind) {
+        const std::string k = lower(word);
+        if (k == "fluid" || k == "0") particle_kind = Kind::fluid;
+        else if (k == "wall" || k == "1") particle_kind = Kind::wall;
+        else if (k == "dummy" || k == "2") particle_kind = Kind::dummy;
+        else if (k == "ghost" || k == "3") fail("kind '" + word + "': ghosts (inactive particles) cannot start a scene; leave the row out");
+        else fail("kind '" + word + "' is not fluid, wall or dummy (or 0, 1, 2)");
+        continue;
+      }
+      if (column == Column::group) {
+        long g = 0;
+        const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), g);
+        if (ec != std::errc() || end != word.data() + word.size() || g < std::numeric_limits<int>::min() ||
+            g > std::numeric_limits<int>::max())
+          fail("group '" + word + "' is not a whole number");
+        particle_group = static_cast<int>(g);
+        continue;
+      }
+      char* end = nullptr;
+      const double number = std::strtod(word.c_str(), &end);
+      if (word.empty() || end != word.c_str() + word.size() || !std::isfinite(number))
+        fail(std::string("column '") + names[column] + "': '" + word + "' is not a finite number");
+      value[column] = number;
+    }
+    out.add(value[Column::x], value[Column::y], particle_kind, particle_group, value[Column::u], value[Column::v]);
+    out.p.back() = value[Column::p];
+    lines.push_back(line_number);
+  }
+  if (in.bad()) fail("read error" + system_reason());
+  if (field_column.empty()) fail("no header line (" + valid + ")");
+  if (out.empty()) fail("no particles after the header");
+  const Nearest near = nearest_particles(out);
+  const double spacing = median_of(near.distance);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const std::size_t j = near.index[i];
+    const std::string pair = "particle file " + path.string() + ": lines " + std::to_string(lines[std::min(i, j)]) +
+                             " and " + std::to_string(lines[std::max(i, j)]) + ": ";
+    if (near.distance[i] == 0.0)
+      throw std::runtime_error(pair + "two particles at the same position (" + number_text(out.x[i]) + ", " +
+                               number_text(out.y[i]) + "); remove one");
+    if (near.distance[i] < 0.5 * spacing)
+      throw std::runtime_error(pair + "two particles " + number_text(near.distance[i]) +
+                               " m apart, less than half the file's spacing (" + number_text(spacing) +
+                               " m, the median distance to the nearest particle); remove or move one");
+  }
+  return out;
+}
+
+void write_particles_csv(const fs::path& path, const Particles& particles, const std::vector<std::string>& comments) {
+  write_atomically(path, [&](std::ofstream& out) {
+    for (const std::string& line : comments) out << "# " << line << '\n';
+    out << "x,y,kind,u,v,p,group\n";
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+      if (particles.kind[i] == Kind::ghost) continue;
+      out << particles.x[i] << ',' << particles.y[i] << ',' << to_string(particles.kind[i]) << ',' << particles.u[i]
+          << ',' << particles.v[i] << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
+    }
+  });
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Frames read back
+
+namespace {
+
+// The value of attribute `name` in an XML start tag, or `fallback` when the tag has none.
+std::string attribute(const std::string& tag, const std::string& name, const std::string& fallback = "") {
+  const std::string key = " " + name + "=\"";
+  const std::size_t at = tag.find(key);
+  if (at == std::string::npos) return fallback;
+  const std::size_t begin = at + key.size(), end = tag.find('"', begin);
+  return end == std::string::npos ? fallback : tag.substr(begin, end - begin);
+}
+
+// The appended arrays of a frame, decoded to doubles.
+class AppendedReader {
+ public:
+  AppendedReader(const fs::path& path, std::string_view data, bool wide_header, bool zlib)
+      : path_(path), data_(data), wide_(wide_header), zlib_(zlib) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("frame " + path_.string() + ": " + what);
+  }
+
+  // The array of the DataArray tag `tag`, as doubles, expecting `count` values.
+  std::vector<double> values(const std::string& tag, std::size_t count) const {
+    const std::string name = attribute(tag, "Name", "points");
+    if (attribute(tag, "format") != "appended")
+      fail("array '" + name + "' is not appended raw data (format '" + attribute(tag, "format") +
+           "'); write it with write_vtp, or with VTK's writer in appended mode without encoding");
+    const std::string type = attribute(tag, "type");
+    static const std::map<std::string, std::size_t> sizes{{"Float32", 4}, {"Float64", 8}, {"Int8", 1}, {"UInt8", 1},
+                                                          {"Int16", 2},   {"UInt16", 2},  {"Int32", 4}, {"UInt32", 4},
+                                                          {"Int64", 8},   {"UInt64", 8}};
+    const auto size = sizes.find(type);
+    if (size == sizes.end()) fail("array '" + name + "' has type '" + type + "', which is not read");
+    char* end = nullptr;
+    const std::string offset_text = attribute(tag, "offset");
+    const unsigned long long offset = std::strtoull(offset_text.c_str(), &end, 10);
+    if (offset_text.empty() || *end != '\0') fail("array '" + name + "' has no offset");
+    const std::vector<unsigned char> bytes = decode(name, offset);
+    if (bytes.size() != count * size->second)
+      fail("array '" + name + "' holds " + std::to_string(bytes.size()) + " bytes, not the " +
+           std::to_string(count * size->second) + " its " + std::to_string(count) + " values need");
+    std::vector<double> out(count);
+    const unsigned char* raw = bytes.data();
+    for (std::size_t k = 0; k < count; ++k) out[k] = number(type, raw + k * size->second);
+    return out;
+  }
+
+ private:
+  static double number(const std::string& type, const unsigned char* at) {
+    auto as = [&](auto zero) {
+      decltype(zero) v;
+      std::memcpy(&v, at, sizeof v);
+      return static_cast<double>(v);
+    };
+    if (type == "Float64") return as(double{});
+    if (type == "Float32") return as(float{});
+    if (type == "Int8") return as(std::int8_t{});
+    if (type == "UInt8") return as(std::uint8_t{});
+    if (type == "Int16") return as(std::int16_t{});
+    if (type == "UInt16") return as(std::uint16_t{});
+    if (type == "Int32") return as(std::int32_t{});
+    if (type == "UInt32") return as(std::uint32_t{});
+    if (type == "Int64") return as(std::int64_t{});
+    return as(std::uint64_t{});
+  }
+
+  std::uint64_t header(const std::string& name, std::uint64_t at) const {
+    const std::size_t width = wide_ ? 8 : 4;
+    if (at + width > data_.size()) fail("array '" + name + "' runs past the end of the file");
+    if (wide_) {
+      std::uint64_t v;
+      std::memcpy(&v, data_.data() + at, 8);
+      return v;
+    }
+    std::uint32_t v;
+    std::memcpy(&v, data_.data() + at, 4);
+    return v;
+  }
+
+  // The bytes of the array at `offset`: [byte count, bytes] uncompressed; [blocks, block size, last block's size
+  // if partial, each block's compressed size, blocks] with zlib, the layout write_vtp writes.
+  std::vector<unsigned char> decode(const std::string& name, std::uint64_t offset) const {
+    const std::uint64_t width = wide_ ? 8 : 4;
+    auto span = [&](std::uint64_t at, std::uint64_t length) {
+      if (at > data_.size() || length > data_.size() - at) fail("array '" + name + "' runs past the end of the file");
+      return reinterpret_cast<const unsigned char*>(data_.data() + at);
+    };
+    if (!zlib_) {
+      const std::uint64_t length = header(name, offset);
+      const unsigned char* at = span(offset + width, length);
+      return {at, at + length};
+    }
+    const std::uint64_t blocks = header(name, offset), block = header(name, offset + width),
+                        last = header(name, offset + 2 * width);
+    if (blocks > data_.size() / width || (blocks > 0 && (block == 0 || last > block)))
+      fail("array '" + name + "' has a broken compression header");
+    const std::uint64_t total = blocks == 0 ? 0 : (blocks - 1) * block + (last > 0 ? last : block);
+    if (total > 1032 * static_cast<std::uint64_t>(data_.size()))  // deflate's largest ratio
+      fail("array '" + name + "' claims more data than its file can hold");
+    std::vector<unsigned char> out(static_cast<std::size_t>(total));
+    std::uint64_t from = offset + (3 + blocks) * width;
+    for (std::uint64_t b = 0; b < blocks; ++b) {
+      const std::uint64_t compressed = header(name, offset + (3 + b) * width);
+      const std::uint64_t expected = b + 1 == blocks && last > 0 ? last : block;
+      uLongf length = static_cast<uLongf>(expected);
+      const int rc = uncompress(out.data() + b * block, &length, span(from, compressed), static_cast<uLong>(compressed));
+      if (rc != Z_OK || length != expected)
+        fail("array '" + name + "' does not decompress (block " + std::to_string(b) + ": " + zError(rc) + ")");
+      from += compressed;
+    }
+    return out;
+  }
+
+  fs::path path_;
+  std::string_view data_;
+  bool wide_, zlib_;
+};
+
+}  // namespace
+
+Particles read_vtp(const fs::path& path, double* time) {
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in || fs::is_directory(path)) throw std::runtime_error("cannot read the frame " + path.string() + system_reason());
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto fail = [&](const std::string& what) -> void { throw std::runtime_error("frame " + path.string() + ": " + what); };
+  const std::size_t appended = text.find("<AppendedData");
+  const std::string xml = text.substr(0, appended);
+  auto tag = [&](const std::string& name, std::size_t from = 0, std::size_t to = std::string::npos) {
+    const std::size_t at = xml.find("<" + name, from);
+    if (at == std::string::npos || at >= to) return std::string();
+    return xml.substr(at, xml.find('>', at) - at);
+  };
+  const std::string file = tag("VTKFile");
+  if (file.empty() || attribute(file, "type") != "PolyData") fail("not a VTK XML PolyData file (.vtp)");
+  const bool little = std::endian::native == std::endian::little;
+  if (attribute(file, "byte_order", "LittleEndian") != (little ? "LittleEndian" : "BigEndian"))
+    fail("byte order " + attribute(file, "byte_order") + " is not this machine's");
+  const std::string header_type = attribute(file, "header_type", "UInt32"), compressor = attribute(file, "compressor");
+  if (header_type != "UInt32" && header_type != "UInt64") fail("header_type " + header_type + " is not read");
+  if (!compressor.empty() && compressor != "vtkZLibDataCompressor")
+    fail("compressed by " + compressor + "; only zlib (vtkZLibDataCompressor) or no compression is read");
+  if (xml.find("<Piece", xml.find("<Piece") + 1) != std::string::npos) fail("more than one piece");
+  const std::string piece = tag("Piece");
+  char* end = nullptr;
+  const std::string points_text = attribute(piece, "NumberOfPoints");
+  const unsigned long long n = std::strtoull(points_text.c_str(), &end, 10);
+  if (piece.empty() || points_text.empty() || *end != '\0') fail("no piece with NumberOfPoints");
+  if (appended == std::string::npos) fail("no appended data (write it with write_vtp)");
+  const std::string appended_tag = text.substr(appended, text.find('>', appended) - appended);
+  if (attribute(appended_tag, "encoding") != "raw")
+    fail("appended data encoded as '" + attribute(appended_tag, "encoding") + "'; only raw is read");
+  const std::size_t underscore = text.find('_', appended + appended_tag.size());
+  if (underscore == std::string::npos) fail("no '_' opening the appended data");
+  const AppendedReader data(path, std::string_view(text).substr(underscore + 1), header_type == "UInt64",
+                            compressor == "vtkZLibDataCompressor");
+  if (n > text.size()) fail("NumberOfPoints " + points_text + " exceeds what the file can hold");
+
+  const std::size_t points_at = xml.find("<Points"), point_data_at = xml.find("<PointData");
+  const std::string points = tag("DataArray", points_at, xml.find("</Points"));
+  if (points_at == std::string::npos || points.empty()) fail("no points");
+  if (attribute(points, "NumberOfComponents", "1") != "3") fail("points without 3 components");
+  auto named = [&](const std::string& name, const std::string& components) {
+    for (std::size_t at = point_data_at; at != std::string::npos && at < xml.size();) {
+      const std::string array = tag("DataArray", at, xml.find("</PointData"));
+      if (array.empty()) break;
+      if (attribute(array, "Name") == name) {
+        if (attribute(array, "NumberOfComponents", "1") != components)
+          fail("array '" + name + "' has " + attribute(array, "NumberOfComponents", "1") + " components, not " +
+               components);
+        return array;
+      }
+      at = xml.find("<DataArray", at) + 1;
+    }
+    fail("no point array '" + name + "' (frames of write_vtp have velocity, pressure, kind and group)");
+    return std::string();
+  };
+  const std::vector<double> xyz = data.values(points, 3 * n), uvw = data.values(named("velocity", "3"), 3 * n),
+                            p = data.values(named("pressure", "1"), n), kind = data.values(named("kind", "1"), n),
+                            group = data.values(named("group", "1"), n);
+  Particles out;
+  out.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double values[] = {xyz[3 * i], xyz[3 * i + 1], uvw[3 * i], uvw[3 * i + 1], p[i]};
+    for (double v : values)
+      if (!std::isfinite(v)) fail("point " + std::to_string(i) + " has a value that is not finite");
+    if (kind[i] != 0 && kind[i] != 1 && kind[i] != 2)
+      fail("point " + std::to_string(i) + " has kind " + number_text(kind[i]) + ", not fluid (0), wall (1) or dummy (2)");
+    if (group[i] != std::floor(group[i]) || std::abs(group[i]) > std::numeric_limits<int>::max())
+      fail("point " + std::to_string(i) + " has group " + number_text(group[i]) + ", not a whole number");
+    out.add(xyz[3 * i], xyz[3 * i + 1], static_cast<Kind>(static_cast<int>(kind[i])), static_cast<int>(group[i]),
+            uvw[3 * i], uvw[3 * i + 1]);
+    out.p.back() = p[i];
+  }
+  if (time != nullptr) {
+    *time = std::numeric_limits<double>::quiet_NaN();
+    const std::size_t field_at = xml.find("<FieldData");
+    for (std::size_t at = field_at; at != std::string::npos;) {
+      const std::string array = tag("DataArray", at, xml.find("</FieldData"));
+      if (array.empty()) break;
+      if (attribute(array, "Name") == "TIME") {
+        *time = data.values(array, 1)[0];
+        break;
+      }
+      at = xml.find("<DataArray", at) + 1;
+    }
+  }
+  return out;
+}
+
+double median_spacing(const Particles& particles) {
+  Nearest near = nearest_particles(particles);
+  std::vector<double> distances;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.kind[i] != Kind::ghost) distances.push_back(near.distance[i]);
+  return median_of(std::move(distances));
 }
 
 }  // namespace mps

@@ -1,9 +1,9 @@
 #pragma once
 /// \file
-/// Output: VTK XML PolyData frames (.vtp, binary and zlib-compressed) and their series (.pvd) for ParaView, CSV
-/// tables, JSON summaries, and Matrix Market for exporting any PPE to other solvers. Every file is written to a
-/// temporary name and renamed into place, so a run that stops leaves its last complete outputs, never a half-written
-/// file.
+/// Input and output: VTK XML PolyData frames (.vtp, binary and zlib-compressed) and their series (.pvd) for ParaView,
+/// CSV tables, JSON summaries, particle files (CSV) a scene can start from, and Matrix Market for exporting any PPE to
+/// other solvers. Every file is written to a temporary name and renamed into place, so a run that stops leaves its
+/// last complete outputs, never a half-written file.
 #include <array>
 #include <filesystem>
 #include <map>
@@ -59,8 +59,32 @@ void write_matrix_market(const std::filesystem::path& path, const CsrMatrix& a);
 void write_matrix_market(const std::filesystem::path& path, const CsrMatrix& a, const std::vector<std::string>& comments,
                          bool symmetric);
 void write_matrix_market(const std::filesystem::path& path, std::span<const double> vector);  ///< "array real general"
-CsrMatrix read_matrix_market(const std::filesystem::path& path);  ///< coordinate, general or symmetric
-/// "array real" with one column; refuses anything else, naming the line.
+/// Coordinate, general or symmetric; a file whose name ends in .gz is read through zlib (gzip), so the compressed
+/// sample PPEs of data/ppe/ read as they are.
+CsrMatrix read_matrix_market(const std::filesystem::path& path);
+/// "array real" with one column (gzip-compressed if the name ends in .gz); refuses anything else, naming the line.
 std::vector<double> read_matrix_market_vector(const std::filesystem::path& path);
+
+/// Particles from a CSV file (docs/particle-files.md), in the file's order, each with the next id. Lines starting with
+/// '#' and blank lines are skipped; the first other line is the header, naming the columns in any order: `x`, `y`
+/// [m] and `kind` (`fluid`, `wall`, `dummy`, or 0, 1, 2) are required, `u`, `v` [m/s], `p` [Pa] and `group` (a whole
+/// number) optional, 0 when absent. Throws std::runtime_error naming the file, the line and what to change for: an
+/// unknown, repeated or missing column, a row with the wrong number of fields, a value that is not a finite number, an
+/// unknown kind or a ghost, no particles, and two particles closer than half the file's spacing (median_spacing).
+Particles read_particles_csv(const std::filesystem::path& path);
+/// Writes the non-ghost particles as read_particles_csv reads them: comment lines first (each prefixed "# "), then
+/// the header `x,y,kind,u,v,p,group` and one row per particle, 17 significant digits, so a read gives every bit back.
+void write_particles_csv(const std::filesystem::path& path, const Particles& particles,
+                         const std::vector<std::string>& comments = {});
+/// A frame as write_vtp writes it, read back as particles: positions, velocity, pressure, kind and group, bit for bit,
+/// in the frame's order, each with the next id; `time`, if not null, receives the frame's TIME (NaN without one). Reads
+/// VTK XML PolyData with one piece and raw appended data, zlib-compressed or not, with UInt32 or UInt64 headers, in the
+/// machine's byte order, as VTK's own writer makes it too. Throws std::runtime_error naming the file and the reason:
+/// another encoding, a missing array, a value that is not finite, a kind that is not fluid, wall or dummy, data that
+/// run past the file's end or do not decompress.
+Particles read_vtp(const std::filesystem::path& path, double* time = nullptr);
+/// The median distance from a non-ghost particle to its nearest other one [m]: the spacing of a lattice, whatever its
+/// shape (a cell grid, O(N)). Infinity for fewer than two particles.
+double median_spacing(const Particles& particles);
 
 }  // namespace mps

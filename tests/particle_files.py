@@ -1,0 +1,226 @@
+#!/usr/bin/python3
+"""Scenes from particle files (dambreak --particles and --write-particles, docs/particle-files.md):
+
+1. The classic column written out and run from its file gives bitwise the built-in run: the same bytes in every file
+   it writes (frames, front, level, pressure, solves.csv less its timings) and the same summary less its timings,
+   its run record and the file's path.
+2. The obstacle example (scripts/obstacle_tank.py: a block on the floor in the surge's path) runs as a new scene:
+   its tank and water found from the file, no experiment compared, the block standing still, no fluid ever inside
+   it, and the water's impact pressing on its upstream face. Without the block the surge is past its far side by the
+   end of the run, so each of these would fail if the file's geometry were not read.
+3. A frame made a particle file (scripts/frame_to_csv.py) holds the frame's values bit for bit, and a run starts
+   from it: the first frame as the classic column, a later one, moving, as a new scene. The later frame read as it
+   is (--particles FRAME.vtp) and as VTK's own writer writes it again (zlib, UInt32 headers) runs bitwise as from
+   its CSV file.
+4. A broken file, a file with no tank and a --dx that is not the file's spacing end with exit 1 and a message
+   naming the cause.
+
+  tests/particle_files.py BUILD_DIR
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+
+SOURCE = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(SOURCE / "scripts"))
+from compare_results import comparable_bytes, without_timings  # noqa: E402
+
+
+def run(build, args, out=None):
+    cmd = [str(Path(build) / "apps" / "dambreak" / "dambreak"), *args] + (["--out", str(out)] if out else [])
+    return subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS="1"), capture_output=True, text=True)
+
+
+def outputs(out):
+    files = {str(f.relative_to(out)): comparable_bytes(f) for f in sorted(Path(out).rglob("*"))
+             if f.is_file() and f.name not in ("summary.json", "config.toml")}
+    summary = json.loads((Path(out) / "summary.json").read_text())
+    summary.pop("run")
+    summary["parameters"].pop("particle_file", None)
+    return files, without_timings(summary)
+
+
+def frames(out):
+    """Each frame of a run as (time, dict of arrays), through VTK's own reader."""
+    result = []
+    for f in sorted((Path(out) / "frames").glob("*.vtp")):
+        reader = vtk.vtkXMLPolyDataReader()
+        reader.SetFileName(str(f))
+        reader.Update()
+        data = reader.GetOutput()
+        arrays = {name: vtk_to_numpy(data.GetPointData().GetArray(name)) for name in ("kind", "group", "pressure", "id")}
+        arrays["xy"] = vtk_to_numpy(data.GetPoints().GetData())[:, :2]
+        result.append((float(vtk_to_numpy(data.GetFieldData().GetArray("TIME"))[0]), arrays))
+    return result
+
+
+def round_trip(build, tmp, failures):
+    written = run(build, ["--column", "classic", "--write-particles", str(tmp / "classic.csv")])
+    if written.returncode != 0:
+        failures.append(f"--write-particles: exit {written.returncode}: {written.stderr[-300:]}")
+        return
+    dx = written.stdout.split("--dx")[-1].split()[0]
+    common = ["--end-time", "0.05", "--frames", "3", "--export-ppe", "20"]
+    built_in = run(build, ["--column", "classic", *common], tmp / "built-in")
+    from_file = run(build, ["--particles", str(tmp / "classic.csv"), "--dx", dx, *common], tmp / "from-file")
+    if built_in.returncode != from_file.returncode:
+        failures.append(f"exit {built_in.returncode} built in, {from_file.returncode} from the file: "
+                        f"{from_file.stderr[-300:]}")
+        return
+    files, summary = outputs(tmp / "built-in")
+    files2, summary2 = outputs(tmp / "from-file")
+    differ = sorted(k for k in set(files) | set(files2) if files.get(k) != files2.get(k))
+    if differ:
+        failures.append(f"round trip: files differ: {differ}")
+    if summary != summary2:
+        keys = sorted(k for k in set(summary) | set(summary2) if summary.get(k) != summary2.get(k))
+        failures.append(f"round trip: the summaries differ in {keys}")
+    config = (tmp / "from-file" / "config.toml").read_text()
+    if f'particles="{tmp / "classic.csv"}"' not in config.splitlines():
+        failures.append("config.toml does not record the particle file")
+    print(f"round trip: {len(files)} files and the summary bitwise the same ({summary['steps']} steps, "
+          f"front error {summary['checks'].get('martin_moyce_2_front_max_error')})")
+
+
+def obstacle(build, tmp, failures):
+    csv = tmp / "obstacle.csv"
+    subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "obstacle_tank.py"), str(csv)], check=True,
+                   capture_output=True)
+    out = tmp / "obstacle"
+    proc = run(build, ["--particles", str(csv), "--end-time", "0.15", "--frames", "15"], out)
+    if proc.returncode != 0:
+        failures.append(f"obstacle: exit {proc.returncode}: {proc.stderr[-300:]}")
+        return
+    summary = json.loads((out / "summary.json").read_text())
+    a = 0.146
+    l0 = a / 20
+    parameters = summary["parameters"]
+    found = {k: parameters[k] for k in ("column", "tank_length_m", "tank_height_m", "column_width_m",
+                                        "column_height_m")}
+    expected = {"column": "file", "tank_length_m": 4 * a, "tank_height_m": 3 * a, "column_width_m": a,
+                "column_height_m": 2 * a}
+    if any(found[k] != v if isinstance(v, str) else abs(found[k] - v) > 1e-12 for k, v in expected.items()):
+        failures.append(f"obstacle: the scene found {found}, expected {expected}")
+    if summary["status"] != "completed" or "martin_moyce_1_front_max_error" in summary["checks"]:
+        failures.append(f"obstacle: status {summary['status']}, checks {summary['checks']}: an experiment compared")
+    # The block: x in [2a, 2.5a], 0.5a high; its faces' particles sit l0/2 inside its outline.
+    x0, x1, top = 2 * a, 2.5 * a, 0.5 * a
+    first = None
+    peak, inside, moved = 0.0, 0, 0.0
+    shown = frames(out)
+    for time, f in shown:
+        block = f["group"] == 1
+        xy = f["xy"][block][np.argsort(f["id"][block])]  # the frames hold the particles in the step's order
+        if first is None:
+            first = xy
+        elif len(xy) == len(first):
+            moved = max(moved, np.abs(xy - first).max())
+        fluid = f["kind"] == 0
+        x, y = f["xy"][fluid, 0], f["xy"][fluid, 1]
+        inside += int(((x > x0 + 0.5 * l0) & (x < x1 - 0.5 * l0) & (y < top - 0.5 * l0)).sum())
+        face = block & (f["kind"] == 1) & (np.abs(f["xy"][:, 0] - (x0 + 0.5 * l0)) < 1e-9)
+        peak = max(peak, f["pressure"][face].max(initial=0.0))
+    rho_g_h = 1000 * 9.81 * 2 * a
+    print(f"obstacle: {len(first)} block particles, moved {moved:.3g} m; fluid inside the block {inside} times; "
+          f"peak pressure on its upstream face {peak:.0f} Pa = {peak / rho_g_h:.2f} rho g H over {len(shown)} frames")
+    if first is None or len(first) != 100:
+        failures.append(f"obstacle: {0 if first is None else len(first)} block particles in the frames, not 100")
+    if moved != 0.0:
+        failures.append(f"obstacle: the block moved by {moved} m")
+    if inside:
+        failures.append(f"obstacle: fluid inside the block ({inside} particle-frames)")
+    if not peak > 0.3 * rho_g_h:
+        failures.append(f"obstacle: the block's upstream face peaked at {peak:.0f} Pa, below 0.3 rho g H: no impact")
+    front = np.loadtxt(out / "front.csv", delimiter=",", skiprows=1)
+    if not front[-1, 1] > 1.9:
+        failures.append(f"obstacle: the surge front ended at {front[-1, 1]:.3f} a, short of the block at 2 a")
+
+
+def from_frames(build, tmp, failures):
+    for number, column in ((0, "classic"), (3, "file")):
+        frame = tmp / "built-in" / "frames" / f"dambreak_{number:04d}.vtp"
+        csv = tmp / f"frame{number}.csv"
+        subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "frame_to_csv.py"), str(frame), str(csv)],
+                       check=True, capture_output=True)
+        table = np.genfromtxt(csv, delimiter=",", skip_header=2, dtype=None, encoding=None)
+        reader = vtk.vtkXMLPolyDataReader()
+        reader.SetFileName(str(frame))
+        reader.Update()
+        data = reader.GetOutput()
+        xy = vtk_to_numpy(data.GetPoints().GetData())
+        uv = vtk_to_numpy(data.GetPointData().GetArray("velocity"))
+        p = vtk_to_numpy(data.GetPointData().GetArray("pressure"))
+        columns = [np.array([row[k] for row in table], dtype=float) for k in (0, 1, 3, 4, 5)]
+        if not all(np.array_equal(c, v) for c, v in zip(columns, (xy[:, 0], xy[:, 1], uv[:, 0], uv[:, 1], p))):
+            failures.append(f"{csv.name}: the values differ from the frame's")
+        out = tmp / f"from-frame{number}"
+        proc = run(build, ["--particles", str(csv), "--end-time", "0.01", "--frames", "0", "--export-ppe", "1"], out)
+        found = json.loads((out / "summary.json").read_text())["parameters"]["column"] if proc.returncode in (0, 2) \
+            else f"exit {proc.returncode}: {proc.stderr[-300:]}"
+        if found != column:
+            failures.append(f"{csv.name}: ran as {found}, expected {column}")
+    frame = tmp / "built-in" / "frames" / "dambreak_0003.vtp"
+    reader = vtk.vtkXMLPolyDataReader()
+    reader.SetFileName(str(frame))
+    writer = vtk.vtkXMLPolyDataWriter()  # VTK's own layout: 32-bit headers, its block size
+    writer.SetInputConnection(reader.GetOutputPort())
+    writer.SetFileName(str(tmp / "vtk-written.vtp"))
+    writer.SetDataModeToAppended()
+    writer.EncodeAppendedDataOff()
+    writer.SetCompressorTypeToZLib()
+    writer.SetHeaderTypeToUInt32()
+    writer.Write()
+    compared = ("front.csv", "ppe/step_000001.mtx", "ppe/step_000001_rhs.mtx")  # the PPE: 17 digits
+
+    def content(out):  # the PPE's header names the particle file: left out
+        return [b"".join(l for l in (out / name).read_bytes().splitlines(True) if not l.startswith(b"% scene:"))
+                for name in compared]
+    expected = content(tmp / "from-frame3")
+    for source in (frame, tmp / "vtk-written.vtp"):
+        out = tmp / f"from-{source.stem}"
+        proc = run(build, ["--particles", str(source), "--end-time", "0.01", "--frames", "0", "--export-ppe", "1"], out)
+        if proc.returncode not in (0, 2) or content(out) != expected:
+            failures.append(f"--particles {source.name}: exit {proc.returncode}, not the run from its CSV file: "
+                            f"{proc.stderr[-300:]}")
+    print("frames: made particle files bit for bit, the first run as the classic column, a later one as a new scene, "
+          "also read as .vtp (ours and VTK's)")
+
+
+def refusals(build, tmp, failures):
+    (tmp / "bad.csv").write_text("# a tank\nx,y,kind\n0.1,0.1,fluid\n0.2,0.1,water\n")
+    (tmp / "no-tank.csv").write_text("x,y,kind\n" + "".join(f"{0.01 * i},{0.01 * j},fluid\n" for i in range(8)
+                                                            for j in range(8)))
+    cases = [(["--particles", str(tmp / "bad.csv")], "bad.csv:4: kind 'water' is not fluid, wall or dummy"),
+             (["--particles", str(tmp / "no-tank.csv")], "no wall particles: a dam break needs a tank"),
+             (["--particles", str(tmp / "classic.csv"), "--dx", "0.01"], "give the spacing the file was made with"),
+             (["--particles", str(tmp / "missing.csv")], "missing.csv")]
+    for args, message in cases:
+        proc = run(build, args, tmp / "refused")
+        if proc.returncode == 0 or message not in proc.stderr:
+            failures.append(f"{' '.join(args)}: exit {proc.returncode}, stderr {proc.stderr[-300:]!r}, "
+                            f"expected {message!r}")
+    print(f"refusals: {len(cases)} bad inputs refused with their cause")
+
+
+def main():
+    build = sys.argv[1]
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        round_trip(build, Path(tmp), failures)
+        obstacle(build, Path(tmp), failures)
+        from_frames(build, Path(tmp), failures)
+        refusals(build, Path(tmp), failures)
+    for f in failures:
+        print("FAIL", f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

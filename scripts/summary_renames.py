@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The summary keys renamed in 0.2.0 (issue 26: one naming rule, docs/config-files.md), old path -> new path, and a
+"""The summary keys renamed by issue 26 (one naming rule, docs/config-files.md), old path -> new path, and a
 check that two records of scripts/compare_results.py differ by exactly these renames.
 
   scripts/summary_renames.py table                       # the renames, as the Markdown table of docs/config-files.md
@@ -159,7 +159,8 @@ def upgrade(summary, app):
 
 def table():
     rows = ["| app | old key | new key |", "| --- | --- | --- |"]
-    rows += [f"| all | `{o}` | {f'`{n}`' if n else '(removed: `run/version` holds it)'} |" for o, n in COMMON]
+    removed = "(removed: `run/version` holds it)"
+    rows += [f"| any that has it | `{o}` | {f'`{n}`' if n else removed} |" for o, n in COMMON]
     for app, renames in RENAMES.items():
         rows += [f"| {app} | `{o}` | `{n}` |" for o, n in renames]
     rows += [f"| {app} | | `{path}` (added: {value}) |" for app, path, value in ADDED]

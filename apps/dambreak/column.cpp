@@ -49,6 +49,18 @@ Params defaults(Column c) {
   return p;
 }
 
+void take_column_geometry(Params& p, Column c) {
+  const Params base = defaults(c);
+  p.column = c;
+  p.width = base.width;
+  p.height = base.height;
+  p.tank_length = base.tank_length;
+  p.tank_height = base.tank_height;
+  p.level_probes = base.level_probes;
+  p.pressure_probes = base.pressure_probes;
+  p.end_time = base.end_time;
+}
+
 namespace {
 std::string fmt(double v) {
   char s[32];
@@ -230,15 +242,7 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
   p.l0 = l0;
   for (Column c : {Column::classic, Column::seed}) {
     if (!is_column(out.particles, c, l0)) continue;
-    const Params base = defaults(c);
-    p.column = c;
-    p.width = base.width;
-    p.height = base.height;
-    p.tank_length = base.tank_length;
-    p.tank_height = base.tank_height;
-    p.level_probes = base.level_probes;
-    p.pressure_probes = base.pressure_probes;
-    p.end_time = base.end_time;
+    take_column_geometry(p, c);
     out.description = "spacing " + fmt(l0) + " m (" + how + "); the " + to_string(c) +
                       " column's particles: its tank, probes and experiments";
     return out;

@@ -52,6 +52,8 @@ struct Params {
 
 // The column's geometry with the coarse spacing (20 particles across a for the classic column, H/25 for the seed's).
 Params defaults(Column c);
+// Sets p's column and what comes with it (tank, probes, end time) to column c's, keeping the numerics.
+void take_column_geometry(Params& p, Column c);
 
 struct Sample {
   double time;

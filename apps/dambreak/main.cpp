@@ -122,16 +122,10 @@ int main(int argc, char** argv) {
     mps::Particles particles;
     std::string scene_name = column_name + " column";
     if (particles_file.empty()) {
-      const dambreak::Params base = dambreak::defaults(dambreak::column_from_name(column_name));
-      p.column = base.column;
-      p.width = base.width;
-      p.height = base.height;
-      p.tank_length = base.tank_length;
-      p.tank_height = base.tank_height;
-      p.level_probes = base.level_probes;
-      p.pressure_probes = base.pressure_probes;
-      p.l0 = dx > 0 ? dx : base.l0;
-      p.end_time = end_time > 0 ? end_time : base.end_time;
+      const dambreak::Column column = dambreak::column_from_name(column_name);
+      dambreak::take_column_geometry(p, column);
+      if (end_time > 0) p.end_time = end_time;
+      p.l0 = dx > 0 ? dx : dambreak::defaults(column).l0;
       check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5),
                      p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "raise --dx",
                      "shorten --end-time or raise --cfl");

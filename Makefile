@@ -8,7 +8,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -84,6 +84,15 @@ bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --out bench/results/core.csv
 	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
+
+# The distributed PPE on 1 and 2 MPI ranks at 1e5 and 1e6 unknowns, one thread per rank (docs/scaling.md): a row per
+# run appended to bench/results/distributed_ppe.csv, with the machine's load at its start.
+bench-distributed: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_ppe
+	for n in 1e5 1e6; do for p in 1 2; do \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$p \
+	    ./build/release/bench/bench_distributed_ppe --fluid $$n --out bench/results/distributed_ppe.csv || exit 1; \
+	done; done
 
 SOLVER_SIZES ?= 1e4,1e5,1e6
 bench-solvers: deps build/release/CMakeCache.txt

@@ -1,11 +1,12 @@
-# hypre and CHOLMOD ship no CMake package on Debian 12, so they are found by library (and, for the build, by
+# hypre, CHOLMOD and Zoltan ship no usable CMake package on Debian 12 (Zoltan's imports its library under the
+# configuration NONE only), so they are found by library (and, for the build, by
 # header) and wrapped in imported targets: a static libsparsemps's exported link interface then names
 # SparseMPS::HYPRE etc. rather than this machine's paths, and the installed SparseMPSConfig.cmake of a static build
 # includes this file to find them again wherever the package is used.
 #
 # In:  SPARSEMPS_BACKEND_HEADERS  ON in the build (headers wanted), OFF from the package config (only libraries)
 #      SPARSEMPS_BACKEND_HINTS    directories to search first (the config passes where the build found them)
-# Out: targets SparseMPS::HYPRE, SparseMPS::CHOLMOD, SparseMPS::suitesparseconfig;
+# Out: targets SparseMPS::HYPRE, SparseMPS::CHOLMOD, SparseMPS::suitesparseconfig, SparseMPS::Zoltan;
 #      SPARSEMPS_BACKENDS_MISSING lists what was not found (empty when all were).
 set(SPARSEMPS_BACKENDS_MISSING "")
 
@@ -38,3 +39,5 @@ _sparsemps_import(SparseMPS::CHOLMOD CHOLMOD_LIBRARY cholmod cholmod.h CHOLMOD_I
 # CHOLMOD's own dependencies (AMD, COLAMD, METIS, LAPACK/BLAS) come in through libcholmod.so; its BLAS is the
 # libblas.so.3 alternative, which Debian points at OpenBLAS once libopenblas-dev is installed.
 _sparsemps_import(SparseMPS::suitesparseconfig SUITESPARSECONFIG_LIBRARY suitesparseconfig "" "" "")
+# Zoltan (Debian: libtrilinos-zoltan-dev): the partitioner of mps/distributed.cpp; its headers under trilinos/.
+_sparsemps_import(SparseMPS::Zoltan ZOLTAN_LIBRARY trilinos_zoltan zoltan.h ZOLTAN_INCLUDE_DIR trilinos)

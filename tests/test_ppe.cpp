@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -119,6 +120,45 @@ TEST(Ppe, ClosedBoxGetsTheZeroMeanGaugeAndSolvesTheConsistentSingularSystem) {
   }
   EXPECT_NEAR(mean / static_cast<double>(sys.size()), 0.0, 1e-10);
   EXPECT_LT((l0 * pressure - b).norm(), 1e-9 * b.norm());
+}
+
+// ClosedGroups::leave (for mps/distributed.hpp, which gauges a group spanning ranks itself): the same system as the
+// gauged one but for the pinned diagonal and the removed mean; `anchored` marks exactly the rows with a free-surface
+// neighbour in the tank and none in the sealed box.
+TEST(Ppe, LeavingClosedGroupsUndoesOnlyTheGaugeAndAnchoredMarksTheSurfaceRows) {
+  const Box closed(true);
+  const mps::PpeSystem gauged = closed.assemble();
+  const mps::PpeSystem left =
+      mps::assemble_ppe({closed.p, closed.d, closed.near, closed.lap}, closed.surface, closed.source, {}, 0.0,
+                        mps::ClosedGroups::leave);
+  ASSERT_EQ(gauged.floating.size(), 1u);
+  EXPECT_TRUE(left.floating.empty());
+  EXPECT_TRUE(std::all_of(left.group.begin(), left.group.end(), [](int g) { return g == -1; }));
+  EXPECT_TRUE(std::all_of(left.anchored.begin(), left.anchored.end(), [](char a) { return a == 0; }));
+  ASSERT_EQ(left.matrix.col, gauged.matrix.col);
+  const int pin = gauged.floating[0].pinned;
+  for (int r = 0; r < left.matrix.rows; ++r)
+    for (int k = left.matrix.row_ptr[static_cast<std::size_t>(r)]; k < left.matrix.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      const double factor = r == pin && left.matrix.col[kk] == pin ? 2.0 : 1.0;
+      EXPECT_EQ(factor * left.matrix.val[kk], gauged.matrix.val[kk]);
+    }
+  for (std::size_t r = 0; r < left.size(); ++r)
+    EXPECT_NEAR(left.rhs[r] - gauged.floating[0].removed_rhs_mean, gauged.rhs[r], 1e-12 * std::abs(left.rhs[r]) + 1e-12);
+
+  const Box open(false);
+  const mps::PpeSystem tank = open.assemble();
+  int anchored = 0;
+  for (std::size_t r = 0; r < tank.size(); ++r) {
+    const auto i = static_cast<std::size_t>(tank.particle[r]);
+    bool surface_neighbour = false;
+    for (int j : open.near.of(i))
+      surface_neighbour = surface_neighbour || (open.surface[static_cast<std::size_t>(j)] &&
+                                                open.p.kind[static_cast<std::size_t>(j)] == mps::Kind::fluid);
+    EXPECT_EQ(tank.anchored[r] != 0, surface_neighbour) << "unknown " << r;
+    anchored += tank.anchored[r];
+  }
+  EXPECT_GT(anchored, 20);
 }
 
 // The compressibility term: A = -lap + shift I. A uniform density error in a closed box, which

@@ -111,14 +111,14 @@ void detect_free_surface(const Particles& particles, std::span<const double> n_s
 }
 
 PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet, double shift) {
+                       std::span<const double> dirichlet, double shift, ClosedGroups closed) {
   PpeSystem sys;
-  assemble_ppe(s, free_surface, source, sys, dirichlet, shift);
+  assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed);
   return sys;
 }
 
 void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& sys, std::span<const double> dirichlet, double shift) {
+                  PpeSystem& sys, std::span<const double> dirichlet, double shift, ClosedGroups closed) {
   const Particles& p = s.particles;
   const std::size_t n = p.size();
   if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n))
@@ -180,7 +180,8 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   a.rows = a.cols = static_cast<int>(m);
   a.row_ptr.assign(static_cast<std::size_t>(m) + 1, 0);
   sys.rhs.resize(static_cast<std::size_t>(m));
-  std::vector<char> anchored(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
+  std::vector<char>& anchored = sys.anchored;
+  anchored.assign(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
 
 #pragma omp parallel for schedule(static) if (detail::worth_threads(m))
   for (Index r = 0; r < m; ++r) {
@@ -225,7 +226,11 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
 
-  gauge_floating_groups(sys, anchored);
+  if (closed == ClosedGroups::gauge) {
+    gauge_floating_groups(sys, anchored);
+  } else {
+    sys.group.assign(static_cast<std::size_t>(m), -1);
+  }
 }
 
 std::vector<double> PpeSystem::gather(const Particles& particles, std::span<const double> offset) const {

@@ -56,6 +56,8 @@ struct PpeSystem {
   std::vector<int> particle;   ///< unknown -> particle
   std::vector<int> group;      ///< unknown -> index into floating, or -1 when anchored by a free surface
   std::vector<FloatingGroup> floating;  ///< the closed groups, each with its gauge
+  /// unknown -> 1 if its row has a free-surface (Dirichlet) neighbour or a shift, which fixes its group's level
+  std::vector<char> anchored;
 
   [[nodiscard]] std::size_t size() const { return particle.size(); }  ///< number of unknowns
   /// Particle pressures of the unknowns, as an initial guess (warm start).
@@ -74,16 +76,26 @@ struct PpeSystem {
                std::span<const double> offset = {}) const;
 };
 
+/// What assemble_ppe does with a closed group (one no free surface anchors).
+enum class ClosedGroups {
+  gauge,  ///< the zero-mean gauge of the file's notes: the system is nonsingular
+  leave,  ///< nothing (group and floating stay empty): for a caller that sees only part of a group and gauges
+          ///< the whole group itself (mps/distributed.hpp, where a group spans ranks)
+};
+
 /// `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
 /// `source` are per particle.
 /// `dirichlet` (per particle, optional): the value a free-surface particle is held at (0 if not given).
 /// `shift` (>= 0) is added to every diagonal entry, A = -lap + shift I: a compressibility term (see
 /// SimulationConfig::sound_speed). With shift > 0 no group is singular and none gets the gauge.
+/// `closed`: whether closed groups get the gauge (the default) or are left singular.
 PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet = {}, double shift = 0.0);
+                       std::span<const double> dirichlet = {}, double shift = 0.0,
+                       ClosedGroups closed = ClosedGroups::gauge);
 /// Same, refilling `out` in place (reusing its memory across time steps).
 void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0);
+                  PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0,
+                  ClosedGroups closed = ClosedGroups::gauge);
 
 /// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
 /// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.

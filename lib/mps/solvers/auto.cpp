@@ -72,7 +72,8 @@ SolverEntry auto_entry() {
            {"filter", "0.2",
             "hypre-pcg: AMG built on the PPE with couplings below this fraction of the strongest lumped onto the "
             "diagonal (half the solve's cost on the 4.1 l0 stencil)"}},
-          [](const SolverOptions& o, const SolverContext& c) { return std::make_unique<AutoSolver>(o, c); }};
+          [](const SolverOptions& o, const SolverContext& c) { return std::make_unique<AutoSolver>(o, c); },
+          /*distributed: hypre-pcg alone on a communicator*/ true};
 }
 
 }  // namespace mps

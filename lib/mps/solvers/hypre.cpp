@@ -679,7 +679,8 @@ SolverEntry hypre_amg_entry() {
           "hypre-pcg; useful to see the bare multigrid convergence.",
           hypre_keys("1e-8", "200"), [](const SolverOptions& o, const SolverContext& c) {
             return std::make_unique<HypreSolver>(Method::amg, o, c);
-          }};
+          },
+          /*distributed*/ true};
 }
 
 SolverEntry hypre_pcg_entry() {
@@ -688,7 +689,8 @@ SolverEntry hypre_pcg_entry() {
           "PPEs; with reuse=10 the setup is paid once every ~10 steps.",
           pcg_keys(), [](const SolverOptions& o, const SolverContext& c) {
             return std::make_unique<HypreSolver>(Method::pcg, o, c);
-          }};
+          },
+          /*distributed*/ true};
 }
 
 }  // namespace mps

@@ -1,5 +1,7 @@
 #include "mps/solvers/registry.hpp"
 
+#include <mpi.h>
+
 #include <charconv>
 #include <sstream>
 
@@ -23,6 +25,21 @@ std::string join_names(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
   return out;
+}
+
+// A serial backend handed one rank's block of rows would solve that block alone: a wrong answer, not an error.
+void refuse_more_than_one_rank(const std::string& name, int fortran_comm) {
+  int initialised = 0, finalized = 0;
+  MPI_Initialized(&initialised);
+  MPI_Finalized(&finalized);
+  if (!initialised || finalized)
+    throw std::invalid_argument("solver '" + name + "': SolverContext::mpi_comm is set but MPI is not running; set it "
+                                "with MPI_Comm_c2f(comm) between MPI_Init and MPI_Finalize");
+  int ranks = 1;
+  MPI_Comm_size(MPI_Comm_f2c(fortran_comm), &ranks);
+  if (ranks > 1)
+    throw std::invalid_argument("solver '" + name + "' solves on one rank only, but the communicator has " +
+                                std::to_string(ranks) + " ranks; use hypre-pcg, hypre-amg or auto on more than one rank");
 }
 
 }  // namespace
@@ -68,6 +85,7 @@ std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverCon
       }
       values[key] = value;
     }
+    if (context.mpi_comm && !entry.distributed) refuse_more_than_one_rank(entry.name, *context.mpi_comm);
     return entry.make(SolverOptions(entry.name, std::move(values)), context);
   }
   throw std::invalid_argument("unknown solver '" + parsed.name + "'; valid solvers: " + join_names(solver_names()));

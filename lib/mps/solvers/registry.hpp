@@ -47,6 +47,9 @@ struct SolverEntry {
   std::vector<SolverKey> keys;  ///< every key it accepts, with defaults
   /// Builds the solver from validated options.
   std::function<std::unique_ptr<LinearSolver>(const SolverOptions&, const SolverContext&)> make;
+  /// Solves with rows spread over the ranks of SolverContext::mpi_comm; make_solver refuses the others a
+  /// communicator of more than one rank.
+  bool distributed = false;
 };
 
 /// @{ The backends' registry entries, one function per backend file (named beside each); make_solver and

@@ -64,7 +64,8 @@ struct SolverSpec {
 /// Syntax only; names and keys are checked by make_solver.
 SolverSpec parse_solver_spec(std::string_view spec);
 
-/// What a host program may hand a solver besides its spec. Only the hypre backends read it today.
+/// What a host program may hand a solver besides its spec: the hypre backends (and auto) solve on its communicator,
+/// the serial backends refuse one of more than one rank (make_solver throws std::invalid_argument).
 struct SolverContext {
   /// The MPI communicator the hypre backends run on, as its Fortran handle so that this header needs no
   /// `<mpi.h>`: set it with MPI_Comm_c2f(comm) after MPI_Init, and keep the communicator alive as long as the

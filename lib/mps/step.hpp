@@ -200,6 +200,8 @@ class Simulation {
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
 
   virtual ~Simulation() = default;  ///< a DistributedSimulation is a Simulation
+  Simulation(Simulation&&) = default;  ///< a scene may build its simulation and hand it on
+  Simulation& operator=(Simulation&&) = default;  ///< same
 
  protected:
   /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On

@@ -8,7 +8,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -92,6 +92,18 @@ bench-distributed: deps build/release/CMakeCache.txt
 	for n in 1e5 1e6; do for p in 1 2; do \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$p \
 	    ./build/release/bench/bench_distributed_ppe --fluid $$n --out bench/results/distributed_ppe.csv || exit 1; \
+	done; done
+
+# The step on 1 and 2 ranks (bench_distributed_step, the dam break; docs/scaling.md): DSTEP_SIZES fluid particles,
+# DSTEP_STEPS timed steps each, appended to bench/results/distributed_step.csv.
+DSTEP_SIZES ?= 1e5 1e6
+DSTEP_STEPS ?= 5
+bench-distributed-step: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_step
+	for n in $(DSTEP_SIZES); do for p in 1 2; do \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$p \
+	    ./build/release/bench/bench_distributed_step --fluid $$n --steps $(DSTEP_STEPS) \
+	    --out bench/results/distributed_step.csv || exit 1; \
 	done; done
 
 SOLVER_SIZES ?= 1e4,1e5,1e6

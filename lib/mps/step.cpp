@@ -63,9 +63,9 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
 Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config,
                        std::unique_ptr<LinearSolver> solver)
     : particles_(std::move(particles)),
+      solver_(std::move(solver)),
       domain_(domain),
       config_(std::move(config)),
-      solver_(std::move(solver)),
       k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight)),
       k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight)),
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight)),
@@ -106,7 +106,7 @@ double max_fluid_speed_squared(const Particles& p) {
 }
 
 double Simulation::choose_dt(std::string& limit) const {
-  const double umax2 = max_fluid_speed_squared(particles_);
+  const double umax2 = max_over_ranks(max_fluid_speed_squared(particles_));
   double dt = config_.dt_max;
   limit = "dt_max";
   const double umax = std::sqrt(umax2);
@@ -148,6 +148,7 @@ const StepInfo& Simulation::step() {
 
 void Simulation::advance() {
   StepFields& f = fields_;
+  begin_step();
   auto t = Clock::now();
   f.dt = choose_dt(info_.dt_limit);
   f.time = info_.time + f.dt;
@@ -166,6 +167,7 @@ void Simulation::advance() {
   predict();
   run(&StepComponent::after_predictor);
   run(&StepComponent::before_projection);
+  share_predicted();
   times_.predict += lap(t);
 
   find_neighbors_at_star();
@@ -173,7 +175,9 @@ void Simulation::advance() {
 
   number_density_and_divergence();
   detect_surface();
+  share_surface();
   run(&StepComponent::before_source);
+  share_surface();
   compute_source();
   run(&StepComponent::before_assembly);
   assemble();
@@ -183,9 +187,12 @@ void Simulation::advance() {
   times_.solver_setup += info_.solve.setup_seconds;
   times_.solve += lap(t) - info_.solve.setup_seconds;
 
+  scatter_pressure();
   set_pressure_boundary_values();
+  share_pressure_boundary();
   run(&StepComponent::after_pressure);
   correct();
+  end_corrector();
   run(&StepComponent::after_corrector);
   finish_step();
   times_.correct += lap(t);
@@ -379,10 +386,13 @@ void Simulation::solve() {
   }
 }
 
+void Simulation::scatter_pressure() {
+  ppe_.scatter(fields_.pressure, particles_, config_.clamp_negative_pressure, fields_.pressure_offset);
+}
+
 void Simulation::set_pressure_boundary_values() {
   Particles& p = particles_;
   StepFields& f = fields_;
-  ppe_.scatter(f.pressure, p, config_.clamp_negative_pressure, f.pressure_offset);
   if (!f.held_value.empty())  // a free-surface particle shows the pressure it was held at
     for (std::size_t i = 0; i < p.size(); ++i)
       if (p.kind[i] == Kind::fluid && f.surface[i])
@@ -424,7 +434,7 @@ void Simulation::correct() {
 }
 
 void Simulation::finish_step() {
-  info_.max_speed = std::sqrt(max_fluid_speed_squared(particles_));
+  info_.max_speed = std::sqrt(max_over_ranks(max_fluid_speed_squared(particles_)));
   info_.time += fields_.dt;
   ++info_.step;
 }

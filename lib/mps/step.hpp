@@ -199,9 +199,36 @@ class Simulation {
   /// r* is later found into the same memory).
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
 
+  virtual ~Simulation() = default;  ///< a DistributedSimulation is a Simulation
+  Simulation(Simulation&&) = default;  ///< a scene may build its simulation and hand it on
+  Simulation& operator=(Simulation&&) = default;  ///< same
+
+ protected:
+  /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On
+  /// one process each does nothing, or what the serial step always did.
+  virtual void begin_step() {}  ///< before the time step is chosen: the distributed step migrates and builds its halo
+  /// The largest of `value` over the processes (the time step's and the summary's |u|max).
+  [[nodiscard]] virtual double max_over_ranks(double value) const { return value; }
+  virtual void share_predicted() {}  ///< after the predictor's components: the copies' r*, u*
+  virtual void share_surface() {}    ///< after the free surface and again after the before_source components
+  virtual void assemble();           ///< the PPE (assemble_ppe)
+  virtual void solve();              ///< the pressure solve
+  virtual void scatter_pressure();   ///< the solution into the particles' pressures (PpeSystem::scatter)
+  virtual void share_pressure_boundary() {}  ///< after the dummies' pressures: the copies' pressures and carriers
+  virtual void end_corrector() {}    ///< after the corrector, before its components: the copies are dropped
+  /// Throws SimulationError if a particle broke the stability guard.
+  virtual void check_guard() const;
+  /// @}
+
+  /// @{ The state a derived simulation's stages work on (see the members of the same names above).
+  Particles particles_;
+  StepInfo info_;
+  StepFields fields_;
+  std::unique_ptr<LinearSolver> solver_;
+  /// @}
+
  private:
   void advance();
-  void check_guard() const;
   [[nodiscard]] std::string dt_advice() const;
   [[nodiscard]] double choose_dt(std::string& limit) const;
   void run(void (StepComponent::*hook)(StepContext&));
@@ -214,23 +241,17 @@ class Simulation {
   void number_density_and_divergence();
   void detect_surface();
   void compute_source();
-  void assemble();
-  void solve();
   void set_pressure_boundary_values();
   void correct();
   void finish_step();
 
-  Particles particles_;
   Domain domain_;
   SimulationConfig config_;
-  std::unique_ptr<LinearSolver> solver_;
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
   CellGrid grid_;
   std::vector<std::unique_ptr<StepComponent>> components_;
-  StepInfo info_;
   PhaseTimes times_;
-  StepFields fields_;
   // The lists at r^n and at the wider r* radius share one buffer: their uses do not overlap, and a list at 4.1 l0
   // costs about 200 bytes a particle.
   NeighborList near_star_, close_star_;

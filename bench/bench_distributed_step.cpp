@@ -1,0 +1,135 @@
+// The MPS step on P ranks (mps/distributed_step.hpp): apps/dambreak's classic column at a spacing giving about the
+// requested fluid count, built on every rank and distributed, stepped `--steps` times after one untimed step (the
+// first solve's AMG setup and the first halo). Per step: the slowest rank's wall time (between barriers), its phase
+// times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations. One CSV row per
+// run, appended; run it under mpirun for each P:
+//
+//   OMP_NUM_THREADS=1 mpirun -np 2 bench_distributed_step --fluid 1e5 --out bench/results/distributed_step.csv
+#include <mpi.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "column.hpp"
+#include "mps/components.hpp"
+#include "mps/distributed_step.hpp"
+
+namespace {
+
+template <class T>
+T reduce(MPI_Comm comm, T value, MPI_Op op, MPI_Datatype type) {
+  MPI_Allreduce(MPI_IN_PLACE, &value, 1, type, op, comm);
+  return value;
+}
+double slowest(MPI_Comm comm, double seconds) { return reduce(comm, seconds, MPI_MAX, MPI_DOUBLE); }
+double total(MPI_Comm comm, double value) { return reduce(comm, value, MPI_SUM, MPI_DOUBLE); }
+
+// Everything holding MPI or hypre objects lives here, so that it is gone before MPI_Finalize.
+int run(int argc, char** argv) {
+  const MPI_Comm comm = MPI_COMM_WORLD;
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &ranks);
+
+  CLI::App app("The MPS step on P ranks: per-step phase times, halo volume, messages and migrations");
+  double fluid = 1e5;
+  int steps = 5;
+  std::string spec = "hypre-pcg:tol=1e-8", out;
+  app.add_option("--fluid", fluid, "fluid particles of the dam-break column (about)")->check(CLI::Range(1e2, 1e8));
+  app.add_option("--steps", steps, "steps timed, after one untimed")->check(CLI::Range(1, 10000));
+  app.add_option("--solver", spec, "solver spec (hypre-pcg or hypre-amg on more than one rank)");
+  app.add_option("--out", out, "CSV file to append the row to (header written when the file is new)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  // The machine's load when the run starts: other jobs on the cores change what P ranks can gain.
+  double load = -1.0;
+  if (rank == 0) std::ifstream("/proc/loadavg") >> load;
+
+  // The classic column is a wide and 2a high: a / l0 = sqrt(fluid / 2) particles across.
+  dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
+  p.l0 = p.width / std::round(std::sqrt(fluid / 2.0));
+  p.shifting = 0.0;  // refused on several ranks
+  p.solver = spec;
+  const mps::Particles scene = dambreak::make_particles(p);
+  const mps::Domain domain = dambreak::make_domain(p, scene);
+  mps::DistributedSimulation sim(scene, domain, dambreak::make_config(p), static_cast<int>(MPI_Comm_c2f(comm)));
+  sim.add<mps::ParticleCollision>(p.collision, p.restitution);
+  sim.add<mps::AsymmetrySurface>(p.asymmetry);
+  const double ceiling = domain.ymax - 2 * p.l0, top = p.tank_height, length = p.tank_length;
+  sim.add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < length)); });
+
+  sim.step();
+  const mps::PhaseTimes t0 = sim.times();
+  const mps::DistributedStepStats s0 = sim.stats();
+  double wall = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    MPI_Barrier(comm);
+    const double start = MPI_Wtime();
+    sim.step();
+    wall += slowest(comm, MPI_Wtime() - start);
+  }
+  const mps::PhaseTimes& t = sim.times();
+  const mps::DistributedStepStats& s = sim.stats();
+  const double n = steps;
+  const double migrate = slowest(comm, s.migrate_seconds - s0.migrate_seconds) / n;
+  const double halo = slowest(comm, s.halo_seconds - s0.halo_seconds) / n;
+  const double neighbors = slowest(comm, t.neighbors - t0.neighbors) / n;
+  const double predict = slowest(comm, t.predict - t0.predict) / n;
+  const double assemble = slowest(comm, t.assemble - t0.assemble) / n;
+  const double setup = slowest(comm, t.solver_setup - t0.solver_setup) / n;
+  const double solve = slowest(comm, t.solve - t0.solve) / n;
+  const double correct = slowest(comm, t.correct - t0.correct) / n;
+  const auto copies = static_cast<double>(s.halo_copies - s0.halo_copies) / n;
+  const double copies_max = slowest(comm, copies), copies_sum = total(comm, copies);
+  const double messages_sum = total(comm, static_cast<double>(s.messages_sent - s0.messages_sent) / n);
+  const double bytes_sum = total(comm, static_cast<double>(s.bytes_sent - s0.bytes_sent) / n);
+  const double migrated_sum = total(comm, static_cast<double>(s.migrated - s0.migrated) / n);
+  const double owned_max = slowest(comm, static_cast<double>(sim.particles().size()));
+  const double fluid_count = total(comm, static_cast<double>(sim.particles().count(mps::Kind::fluid)));
+  if (rank != 0) return 0;
+
+  std::cout << ranks << " rank(s), " << scene.size() << " particles (" << fluid_count << " fluid), load " << load
+            << ": " << wall / n << " s per step (migrate " << migrate << ", halo " << halo << ", neighbours "
+            << neighbors << ", predict " << predict << ", assemble " << assemble << ", AMG setup " << setup
+            << ", solve " << solve << ", correct " << correct << "); halo copies " << copies_max << " (largest rank), "
+            << messages_sum << " messages and " << bytes_sum << " bytes a step, " << migrated_sum
+            << " migrated a step, " << sim.last_step().solve.iterations << " iterations\n";
+  if (!out.empty()) {
+    const bool fresh = !std::filesystem::exists(out);
+    std::ofstream csv(out, std::ios::app);
+    if (fresh)
+      csv << "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"
+             "neighbors_s,predict_s,assemble_s,setup_s,solve_s,correct_s,iterations,halo_copies_max,halo_copies_sum,"
+             "messages_per_step,bytes_per_step,migrated_per_step\n";
+    const char* threads = std::getenv("OMP_NUM_THREADS");
+    csv << ranks << ',' << (threads ? threads : "") << ',' << load << ',' << scene.size() << ',' << fluid_count << ','
+        << owned_max << ',' << spec << ',' << steps << ',' << wall / n << ',' << migrate << ',' << halo << ','
+        << neighbors << ',' << predict << ',' << assemble << ',' << setup << ',' << solve << ',' << correct << ','
+        << sim.last_step().solve.iterations << ',' << copies_max << ',' << copies_sum << ',' << messages_sum << ','
+        << bytes_sum << ',' << migrated_sum << '\n';
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int status = 0;
+  try {
+    status = run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "bench_distributed_step: " << e.what() << '\n';
+    status = 1;
+  }
+  MPI_Finalize();
+  return status;
+}

@@ -1,0 +1,193 @@
+#include "mps/distributed_step.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <string>
+
+#include "mps/components.hpp"
+
+namespace mps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+SolverContext on(int comm) {
+  SolverContext context;
+  context.mpi_comm = comm;
+  return context;
+}
+
+// The migration puts each rank's particles in id order; reordering by cell would shuffle owned and halo copies.
+SimulationConfig without_reordering(SimulationConfig config) {
+  config.reorder_every = 0;
+  return config;
+}
+
+// A right-hand side of zeros over all ranks has the solution zero (Simulation::solve's special case): an iterative
+// solver measuring its residual relative to |b| could not confirm it.
+class ZeroSolution : public LinearSolver {
+ public:
+  SolveReport solve(const CsrMatrix&, std::span<const double>, std::span<double> x) override {
+    std::fill(x.begin(), x.end(), 0.0);
+    return {};
+  }
+  [[nodiscard]] std::string spec() const override { return "zero"; }
+};
+
+}  // namespace
+
+DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm)
+    : Simulation(std::move(scene), domain, without_reordering(config), make_solver(config.solver, on(comm))),
+      comm_(comm) {
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  MPI_Comm_rank(c, &rank_);
+  MPI_Comm_size(c, &ranks_);
+  refuse_unsupported();
+  const SimulationConfig& cfg = this->config();
+  halo_radius_ = cfg.l0 * (std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient,
+                                     cfg.radius_laplacian}) + 2.0 * cfg.max_displacement);
+  // Every rank validated the whole scene; rank 0's copy is the one distributed.
+  Particles& p = particles_;
+  if (rank_ != 0) p = Particles{};
+  const auto start = Clock::now();
+  count(distribute_particles(p, comm_));
+  stats_.migrate_seconds += seconds_since(start);
+}
+
+void DistributedSimulation::refuse_unsupported() const {
+  const SimulationConfig& c = config();
+  const Domain& d = domain();
+  auto refuse = [](const std::string& what) {
+    throw std::invalid_argument("distributed simulation: " + what + " does not run on several ranks yet; run it "
+                                "serially (mps::Simulation)");
+  };
+  if (d.periodic_x || d.periodic_y) refuse("a periodic domain (a halo copy would need its periodic image's shift)");
+  if (c.implicit_viscosity) refuse("implicit viscosity (its viscous system is solved over all particles at once)");
+  if (c.shifting > 0.0) refuse("particle shifting (it reads the global |u|max and neighbours after the copies go)");
+  if (c.initial_reference_density) refuse("initial_reference_density (a t = 0 mean over the whole domain)");
+  if (find<OpenOutlet>()) refuse("OpenOutlet (its buffers reach across the domain)");
+  if (find<ParticleShifting>()) refuse("ParticleShifting (it reads the global |u|max and neighbours after the copies go)");
+  if (find<InitialReferenceDensity>()) refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
+}
+
+void DistributedSimulation::count(const ExchangeStats& e) {
+  stats_.messages_sent += static_cast<std::size_t>(e.messages_sent);
+  stats_.bytes_sent += e.bytes_sent;
+}
+
+void DistributedSimulation::begin_step() {
+  // Components a scene added after construction are refused here, on every rank alike.
+  refuse_unsupported();
+  ++stats_.steps;
+  auto start = Clock::now();
+  const ExchangeStats moved = distribute_particles(particles_, comm_);
+  stats_.migrated += moved.particles_sent;
+  count(moved);
+  stats_.migrate_seconds += seconds_since(start);
+  start = Clock::now();
+  halo_.emplace(particles_, domain(), halo_radius_, comm_);
+  stats_.halo_copies += halo_->copies();
+  count(halo_->setup());
+  stats_.halo_seconds += seconds_since(start);
+}
+
+double DistributedSimulation::max_over_ranks(double value) const {
+  MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, MPI_Comm_f2c(comm_));
+  return value;
+}
+
+void DistributedSimulation::share_predicted() {
+  halo_->refresh(particles_);
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
+}
+
+void DistributedSimulation::share_surface() {
+  halo_->refresh(std::span<char>(fields_.surface));
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
+}
+
+void DistributedSimulation::assemble() {
+  const StepFields& f = fields_;
+  const double screening = config().sound_speed * f.dt;
+  const Kernel& k = laplacian_kernel();
+  distributed_ppe_ = assemble_distributed_ppe(*halo_, {particles_, domain(), neighbors_at_star(k), k},
+                                              f.held.empty() ? f.surface : f.held, f.source, f.held_value,
+                                              screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
+  info_.unknowns = static_cast<std::size_t>(distributed_ppe_.global_rows);
+  long long surface = 0;
+  for (std::size_t i = 0; i < halo_->owned(); ++i) surface += f.surface[i];
+  MPI_Allreduce(MPI_IN_PLACE, &surface, 1, MPI_LONG_LONG, MPI_SUM, MPI_Comm_f2c(comm_));
+  info_.free_surface = static_cast<std::size_t>(surface);
+  info_.floating_groups = distributed_ppe_.closed.size();
+}
+
+void DistributedSimulation::solve() {
+  Particles& p = particles_;
+  const StepFields& f = fields_;
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  const PpeSystem& local = distributed_ppe_.local;
+  // Simulation::solve's two special cases, decided over all ranks: a zero right-hand side, and no previous pressure
+  // (or no warm start), which starts from P - offset = 0 rather than from -offset.
+  int zero_rhs = std::all_of(distributed_ppe_.rhs.begin(), distributed_ppe_.rhs.end(), [](double b) { return b == 0.0; });
+  int no_previous = std::all_of(local.particle.begin(), local.particle.begin() + static_cast<std::ptrdiff_t>(distributed_ppe_.rows()),
+                                [&](int i) { return p.p[static_cast<std::size_t>(i)] == 0.0; });
+  MPI_Allreduce(MPI_IN_PLACE, &zero_rhs, 1, MPI_INT, MPI_LAND, c);
+  MPI_Allreduce(MPI_IN_PLACE, &no_previous, 1, MPI_INT, MPI_LAND, c);
+  if (no_previous || !config().warm_start)
+    for (std::size_t r = 0; r < distributed_ppe_.rows(); ++r) {
+      const auto i = static_cast<std::size_t>(local.particle[r]);
+      p.p[i] = f.pressure_offset.empty() ? 0.0 : f.pressure_offset[i];
+    }
+  ZeroSolution zero;
+  LinearSolver& solver = zero_rhs ? static_cast<LinearSolver&>(zero) : *solver_;
+  info_.solve = solve_distributed_ppe(*halo_, distributed_ppe_, solver, p, config().clamp_negative_pressure,
+                                      f.pressure_offset);
+}
+
+void DistributedSimulation::share_pressure_boundary() {
+  halo_->refresh(std::span<double>(particles_.p));
+  count(halo_->last_refresh());
+  halo_->refresh(std::span<char>(fields_.carriers));
+  count(halo_->last_refresh());
+  stats_.refreshes += 2;
+}
+
+void DistributedSimulation::end_corrector() {
+  halo_->remove(particles_);
+  halo_.reset();
+}
+
+void DistributedSimulation::check_guard() const {
+  std::string reason;
+  try {
+    Simulation::check_guard();
+  } catch (const SimulationError& e) {
+    reason = e.what();
+  }
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  int first = reason.empty() ? ranks_ : rank_;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, c);
+  if (first == ranks_) return;
+  int length = static_cast<int>(reason.size());
+  MPI_Bcast(&length, 1, MPI_INT, first, c);
+  reason.resize(static_cast<std::size_t>(length));
+  MPI_Bcast(reason.data(), length, MPI_CHAR, first, c);
+  throw SimulationError("rank " + std::to_string(first) + " of " + std::to_string(ranks_) +
+                        " (particle numbers are that rank's): " + reason);
+}
+
+Particles DistributedSimulation::gather() const {
+  Particles all = particles();
+  const std::vector<int> to_root(all.size(), 0);
+  migrate_particles(all, to_root, comm_);
+  return all;
+}
+
+}  // namespace mps

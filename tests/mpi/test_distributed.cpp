@@ -348,28 +348,4 @@ TEST(Distributed, SerialBackendsRefuseMoreThanOneRank) {
   for (const char* name : {"hypre-pcg", "hypre-amg", "auto"}) EXPECT_NO_THROW(mps::make_solver(name, context)) << name;
 }
 
-// Another rank's failed assertion, printed with its rank (those ranks run without gtest's printer).
-class FailurePrinter : public ::testing::EmptyTestEventListener {
-  void OnTestPartResult(const ::testing::TestPartResult& result) override {
-    if (result.failed())
-      std::fprintf(stderr, "[rank %d] %s:%d: failure\n%s\n", rank(), result.file_name() ? result.file_name() : "?",
-                   result.line_number(), result.message());
-  }
-};
-
 }  // namespace
-
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  ::testing::InitGoogleTest(&argc, argv);
-  // Rank 0 reports; the others print only their failures (gtest's printer would repeat every line).
-  if (rank() != 0) {
-    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
-    delete listeners.Release(listeners.default_result_printer());
-    listeners.Append(new FailurePrinter);
-  }
-  int failed = RUN_ALL_TESTS();
-  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, kComm);
-  MPI_Finalize();
-  return failed;
-}

@@ -5,18 +5,14 @@
 
 #include <cstdio>
 
-namespace {
+#include "mpi_test.hpp"
 
-int world_rank() {
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
-}
+namespace {
 
 class FailurePrinter : public ::testing::EmptyTestEventListener {
   void OnTestPartResult(const ::testing::TestPartResult& result) override {
     if (result.failed())
-      std::fprintf(stderr, "[rank %d] %s:%d: failure\n%s\n", world_rank(),
+      std::fprintf(stderr, "[rank %d] %s:%d: failure\n%s\n", mpi_test::rank(),
                    result.file_name() ? result.file_name() : "?", result.line_number(), result.message());
   }
 };
@@ -26,13 +22,13 @@ class FailurePrinter : public ::testing::EmptyTestEventListener {
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
-  if (world_rank() != 0) {
+  if (mpi_test::rank() != 0) {
     auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
     delete listeners.Release(listeners.default_result_printer());
     listeners.Append(new FailurePrinter);
   }
   int failed = RUN_ALL_TESTS();
-  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, mpi_test::kComm);
   MPI_Finalize();
   return failed;
 }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mpi_test.hpp"
 #include "mps/distributed.hpp"
 #include "mps/geometry.hpp"
 #include "mps/kernel.hpp"
@@ -22,22 +23,15 @@
 #include "mps/ppe.hpp"
 #include "mps/solvers/solver.hpp"
 
+using mpi_test::comm;
+using mpi_test::kComm;
+using mpi_test::rank;
+using mpi_test::ranks;
+
 namespace {
 
 constexpr double kL0 = 0.01;
-const MPI_Comm kComm = MPI_COMM_WORLD;
 
-int rank() {
-  int r = 0;
-  MPI_Comm_rank(kComm, &r);
-  return r;
-}
-int ranks() {
-  int s = 1;
-  MPI_Comm_size(kComm, &s);
-  return s;
-}
-int comm() { return static_cast<int>(MPI_Comm_c2f(kComm)); }
 
 // A tall open tank (free surface on top: with 2 or 3 ranks RCB cuts across the height, so the lower ranks own no
 // free-surface particle and their rows are anchored only through another rank) or a sealed box (one closed group).

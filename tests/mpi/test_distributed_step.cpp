@@ -12,14 +12,19 @@
 #include <vector>
 
 #include "column.hpp"
+#include "mpi_test.hpp"
 #include "mps/components.hpp"
 #include "mps/distributed_step.hpp"
 #include "mps/solvers/solver.hpp"
 #include "tank.hpp"
 
+using mpi_test::comm;
+using mpi_test::kComm;
+using mpi_test::rank;
+using mpi_test::ranks;
+
 namespace {
 
-const MPI_Comm kComm = MPI_COMM_WORLD;
 constexpr int kSteps = 100;
 // hypre-pcg to a relative residual of 1e-10 each step. A solve's pressure error is at most cond(A) x tol of the
 // largest pressure, ~1e-7 for these PPEs (cond(A) up to ~1e3 at these sizes). The velocity correction dt/rho grad(dp)
@@ -31,17 +36,6 @@ const std::string kSolver = "hypre-pcg:tol=1e-10";
 constexpr double kPositionBound = 2e-7;  // in l0
 constexpr double kPressureBound = 2e-7;  // relative to the largest |p| of the serial run
 
-int rank() {
-  int r = 0;
-  MPI_Comm_rank(kComm, &r);
-  return r;
-}
-int ranks() {
-  int s = 1;
-  MPI_Comm_size(kComm, &s);
-  return s;
-}
-int comm() { return static_cast<int>(MPI_Comm_c2f(kComm)); }
 
 struct Scene {
   mps::Particles particles;

@@ -375,6 +375,7 @@ class HookRecorder : public mps::StepComponent {
     EXPECT_EQ(c.fields.carriers.size(), c.particles.size());
     log_.push_back(name_ + ".after_pressure");
   }
+  void shift_positions(mps::StepContext&) override { log_.push_back(name_ + ".shift_positions"); }
   void after_corrector(mps::StepContext&) override { log_.push_back(name_ + ".after_corrector"); }
 
  private:
@@ -414,7 +415,7 @@ TEST(StepComponents, HooksRunInTheAlgorithmsOrderComponentsInTheOrderAddedWithTh
       "a.before_predictor", "b.before_predictor", "a.after_predictor", "b.after_predictor",
       "a.before_projection", "b.before_projection", "a.before_source", "b.before_source",
       "a.before_assembly", "b.before_assembly", "a.after_pressure", "b.after_pressure",
-      "a.after_corrector", "b.after_corrector"};
+      "a.shift_positions", "b.shift_positions", "a.after_corrector", "b.after_corrector"};
   EXPECT_EQ(log, expected);
   EXPECT_NE(sim.find<HookRecorder>(), nullptr);
   EXPECT_EQ(sim.find<mps::OpenOutlet>(), nullptr);

@@ -184,7 +184,7 @@ void InitialReferenceDensity::before_source(StepContext& c) {
   }
 }
 
-void ParticleShifting::after_corrector(StepContext& c) {
+void ParticleShifting::shift_positions(StepContext& c) {
   Particles& p = c.particles;
   const StepFields& f = c.fields;
   const Kernel& k = c.sim.gradient_kernel();
@@ -203,7 +203,7 @@ void ParticleShifting::after_corrector(StepContext& c) {
     movable_[i] = along_surface_ || !near_surface_[i];
   }
   const double l0 = c.sim.config().l0;
-  const double diffusion = coefficient_ * l0 * std::sqrt(max_fluid_speed_squared(p)) * f.dt;
+  const double diffusion = coefficient_ * l0 * std::sqrt(c.sim.max_over_ranks(max_fluid_speed_squared(p))) * f.dt;
   const Stencil stencil{p, c.sim.domain(), close, k};
   if (!along_surface_) {
     shift_particles(stencil, diffusion, 0.2 * l0, movable_, p);

@@ -152,7 +152,7 @@ class ParticleShifting : public StepComponent {
   /// shift too, along the surface only (mps::surface_normals); otherwise they stay where they are.
   explicit ParticleShifting(double coefficient, bool along_surface = false)
       : coefficient_(coefficient), along_surface_(along_surface) {}
-  void after_corrector(StepContext& c) override;
+  void shift_positions(StepContext& c) override;
 
  private:
   double coefficient_;

@@ -68,10 +68,8 @@ void DistributedSimulation::refuse_unsupported() const {
   };
   if (d.periodic_x || d.periodic_y) refuse("a periodic domain (a halo copy would need its periodic image's shift)");
   if (c.implicit_viscosity) refuse("implicit viscosity (its viscous system is solved over all particles at once)");
-  if (c.shifting > 0.0) refuse("particle shifting (it reads the global |u|max and neighbours after the copies go)");
   if (c.initial_reference_density) refuse("initial_reference_density (a t = 0 mean over the whole domain)");
   if (find<OpenOutlet>()) refuse("OpenOutlet (its buffers reach across the domain)");
-  if (find<ParticleShifting>()) refuse("ParticleShifting (it reads the global |u|max and neighbours after the copies go)");
   if (find<InitialReferenceDensity>()) refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
 }
 
@@ -157,6 +155,13 @@ void DistributedSimulation::share_pressure_boundary() {
   halo_->refresh(std::span<char>(fields_.carriers));
   count(halo_->last_refresh());
   stats_.refreshes += 2;
+}
+
+// Shifting moves a particle by its neighbours' positions and velocities at n+1.
+void DistributedSimulation::share_corrected() {
+  halo_->refresh(particles_);
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
 }
 
 void DistributedSimulation::end_corrector() {

@@ -29,14 +29,14 @@ struct DistributedStepStats {
 /// starts with a new RCB partition (partition_particles) and the migration to it, then a halo at the largest kernel
 /// radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
 /// stages then run over owned and halo particles, the copies refreshed after the predictor (whole particles), after
-/// the free surface (flags), by the distributed PPE, and after the pressure boundary values (pressures, carriers).
+/// the free surface (flags), by the distributed PPE, after the pressure boundary values (pressures, carriers) and
+/// after the corrector (whole particles, for particle shifting).
 /// The time step and the stability guard are taken over all ranks. Between steps particles() holds this rank's own
 /// particles only, sorted by id after each migration; gather() collects them all on rank 0.
 ///
-/// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve), particle
-/// shifting (it reads |u|max and neighbours after the copies are dropped), the initial reference density (a t = 0
-/// mean over the domain), and OpenOutlet (its buffers reach across the domain); also a pressure solver that does not
-/// run on the communicator (the serial backends on more than one rank).
+/// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve), the
+/// initial reference density (a t = 0 mean over the domain), and OpenOutlet (its buffers reach across the domain);
+/// also a pressure solver that does not run on the communicator (the serial backends on more than one rank).
 class DistributedSimulation : public Simulation {
  public:
   /// Every rank passes the same scene: every rank validates it as Simulation does, rank 0's particles are then
@@ -51,16 +51,17 @@ class DistributedSimulation : public Simulation {
   /// The halo's radius: the largest kernel radius plus twice config().max_displacement, both in l0 [m].
   [[nodiscard]] double halo_radius() const { return halo_radius_; }
   [[nodiscard]] const DistributedStepStats& stats() const { return stats_; }  ///< exchanges so far
+  [[nodiscard]] double max_over_ranks(double value) const override;  ///< MPI_Allreduce(MAX)
 
  protected:
   void begin_step() override;                       ///< new partition, migration, halo
-  [[nodiscard]] double max_over_ranks(double value) const override;  ///< MPI_Allreduce(MAX)
   void share_predicted() override;                  ///< copies take their owners' r*, u*
   void share_surface() override;                    ///< copies take their owners' free-surface flags
   void assemble() override;                         ///< assemble_distributed_ppe
   void solve() override;                            ///< solve_distributed_ppe (which scatters the pressures)
   void scatter_pressure() override {}               ///< done by solve()
   void share_pressure_boundary() override;          ///< copies take their owners' pressures and carrier flags
+  void share_corrected() override;                  ///< copies take their owners' r^{n+1}, u^{n+1}
   void end_corrector() override;                    ///< drops the copies
   void check_guard() const override;                ///< every rank stops if one rank's guard trips
 

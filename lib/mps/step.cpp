@@ -192,6 +192,8 @@ void Simulation::advance() {
   share_pressure_boundary();
   run(&StepComponent::after_pressure);
   correct();
+  share_corrected();
+  run(&StepComponent::shift_positions);
   end_corrector();
   run(&StepComponent::after_corrector);
   finish_step();

@@ -143,7 +143,10 @@ class StepComponent {
   virtual void before_source(StepContext&) {}      ///< n*, div u* and the free surface known
   virtual void before_assembly(StepContext&) {}    ///< source known
   virtual void after_pressure(StepContext&) {}     ///< pressures scattered, dummies set, carriers known
-  virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1
+  /// Velocities and positions at n+1, the neighbour lists of r* still in place (on ranks, the halo's copies too, at
+  /// n+1): where particle shifting moves particles by their neighbours.
+  virtual void shift_positions(StepContext&) {}
+  virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1, final (on ranks: own only)
 };
 
 /// A run: particles in a domain, stepped by the semi-implicit MPS step with the components added to it.
@@ -198,6 +201,8 @@ class Simulation {
   /// Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection: the list at
   /// r* is later found into the same memory).
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
+  /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
+  [[nodiscard]] virtual double max_over_ranks(double value) const { return value; }
 
   virtual ~Simulation() = default;  ///< a DistributedSimulation is a Simulation
   Simulation(Simulation&&) = default;  ///< a scene may build its simulation and hand it on
@@ -207,15 +212,14 @@ class Simulation {
   /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On
   /// one process each does nothing, or what the serial step always did.
   virtual void begin_step() {}  ///< before the time step is chosen: the distributed step migrates and builds its halo
-  /// The largest of `value` over the processes (the time step's and the summary's |u|max).
-  [[nodiscard]] virtual double max_over_ranks(double value) const { return value; }
   virtual void share_predicted() {}  ///< after the predictor's components: the copies' r*, u*
   virtual void share_surface() {}    ///< after the free surface and again after the before_source components
   virtual void assemble();           ///< the PPE (assemble_ppe)
   virtual void solve();              ///< the pressure solve
   virtual void scatter_pressure();   ///< the solution into the particles' pressures (PpeSystem::scatter)
   virtual void share_pressure_boundary() {}  ///< after the dummies' pressures: the copies' pressures and carriers
-  virtual void end_corrector() {}    ///< after the corrector, before its components: the copies are dropped
+  virtual void share_corrected() {}  ///< after the corrector: the copies' r^{n+1}, u^{n+1} (for shift_positions)
+  virtual void end_corrector() {}    ///< after shift_positions, before after_corrector: the copies are dropped
   /// Throws SimulationError if a particle broke the stability guard.
   virtual void check_guard() const;
   /// @}

@@ -24,12 +24,14 @@ class FrameSeries {
       : dir_(dir), stem_(stem), count_(count), interval_(count > 0 ? end_time / count : 2 * end_time),
         series_(dir / (stem + ".pvd")) {}
   // Writes the next frame if its time has come.
-  void write_if_due(const mps::Simulation& sim) {
-    if (count_ <= 0 || sim.time() < next_ * interval_ - 1e-12) return;
+  void write_if_due(const mps::Simulation& sim) { write_if_due(sim.time(), sim.particles()); }
+  // The same for particles held apart from a simulation (a run on ranks gathers them).
+  void write_if_due(double time, const mps::Particles& particles) {
+    if (count_ <= 0 || time < next_ * interval_ - 1e-12) return;
     char name[64];
     std::snprintf(name, sizeof name, "frames/%s_%04d.vtp", stem_.c_str(), next_++);
-    mps::write_vtp(dir_ / name, sim.particles(), sim.time());
-    series_.add(sim.time(), dir_ / name);
+    mps::write_vtp(dir_ / name, particles, time);
+    series_.add(time, dir_ / name);
   }
   [[nodiscard]] const std::filesystem::path& path() const { return series_.path(); }
 
@@ -73,13 +75,14 @@ inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::siz
           {"particle_steps_per_s", t.total() > 0 ? static_cast<double>(particles) * steps / t.total() : 0.0}};
 }
 
-// The simulation holds the last good state: keep it beside the frames, say what went wrong in summary.json
-// and on stderr. Returns the app's exit status.
+// The simulation holds the last good state (last_good: its particles, or on ranks their gathering): keep it beside
+// the frames, say what went wrong in summary.json and on stderr. Returns the app's exit status.
 inline int report_guard_stop(const std::filesystem::path& dir, const mps::SimulationError& error,
-                             const nlohmann::json& params, const mps::Simulation& sim) {
+                             const nlohmann::json& params, const mps::Simulation& sim,
+                             const mps::Particles* last_good = nullptr) {
   std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
   try {
-    mps::write_vtp(dir / "last_good.vtp", sim.particles(), sim.time());
+    mps::write_vtp(dir / "last_good.vtp", last_good ? *last_good : sim.particles(), sim.time());
     write_solves(dir, sim);
     write_summary(dir, {{"status", "failed"}, {"error", error.what()}, {"parameters", params}, {"time_s", sim.time()},
                         {"steps", sim.last_step().step}});

@@ -21,11 +21,10 @@ class SolveLog final : public mps::StepComponent {
   void after_pressure(mps::StepContext& c) override {
     const mps::StepInfo& info = c.sim.last_step();
     const mps::SolveReport& r = info.solve;
-    const mps::PpeSystem& ppe = c.sim.last_ppe();
     const int step = info.step + 1;
     std::ostringstream row;
     row.precision(17);
-    row << step << ',' << c.fields.time << ',' << ppe.size() << ',' << (r.backend.empty() ? "none" : r.backend) << ','
+    row << step << ',' << c.fields.time << ',' << info.unknowns << ',' << (r.backend.empty() ? "none" : r.backend) << ','
         << r.iterations << ',' << r.relative_residual << ',' << r.setup_seconds << ',' << r.solve_seconds << ','
         << (r.setup_reused ? 1 : 0);
     rows_.push_back(row.str());

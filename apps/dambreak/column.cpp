@@ -1,5 +1,7 @@
 #include "column.hpp"
 
+#include <mpi.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -301,32 +303,50 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
 
 Scene::Scene(const Params& p) : Scene(p, make_particles(p)) {}
 
-Scene::Scene(const Params& p, mps::Particles particles)
+namespace {
+std::unique_ptr<mps::Simulation> make_simulation(const Params& p, const mps::Particles& particles,
+                                                 std::optional<int> comm) {
+  const mps::Domain domain = make_domain(p, particles);
+  if (comm) return std::make_unique<mps::DistributedSimulation>(particles, domain, make_config(p), *comm);
+  return std::make_unique<mps::Simulation>(particles, domain, make_config(p));
+}
+}  // namespace
+
+Scene::Scene(const Params& p, mps::Particles particles, std::optional<int> comm)
     : params_(checked(p)),
-      sim_(particles, make_domain(p, particles), make_config(p)),
-      initial_fluid_(static_cast<long>(sim_.particles().count(mps::Kind::fluid))) {
-  const double L = p.tank_length, top = p.tank_height, ceiling = sim_.domain().ymax - 2 * p.l0;
-  if (p.collision > 0.0) sim_.add<mps::ParticleCollision>(p.collision, p.restitution);
-  if (p.asymmetry > 0.0) sim_.add<mps::AsymmetrySurface>(p.asymmetry);
-  if (p.wet_walls) sim_.add<mps::WetWalls>();
+      sim_(make_simulation(p, particles, comm)),
+      distributed_(dynamic_cast<const mps::DistributedSimulation*>(sim_.get())),
+      initial_fluid_(static_cast<long>(particles.count(mps::Kind::fluid))) {
+  const double L = p.tank_length, top = p.tank_height, ceiling = sim_->domain().ymax - 2 * p.l0;
+  if (p.collision > 0.0) sim_->add<mps::ParticleCollision>(p.collision, p.restitution);
+  if (p.asymmetry > 0.0) sim_->add<mps::AsymmetrySurface>(p.asymmetry);
+  if (p.wet_walls) sim_->add<mps::WetWalls>();
   // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
   // (a particle inside a wall is counted, not hidden).
-  sim_.add<mps::RemoveEscaped>(
+  sim_->add<mps::RemoveEscaped>(
       [=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
   sample();
 }
 
-long Scene::removed() const { return sim_.find<mps::RemoveEscaped>()->removed(); }
+long Scene::removed() const {
+  long long count = sim_->find<mps::RemoveEscaped>()->removed();
+  if (distributed_) MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_LONG_LONG, MPI_SUM, MPI_Comm_f2c(distributed_->comm()));
+  return static_cast<long>(count);
+}
 
 void Scene::step() {
-  sim_.step();
+  sim_->step();
   sample();
 }
 
 void Scene::sample() {
-  const mps::Particles& s = sim_.particles();
+  if (distributed_) {
+    gathered_ = distributed_->gather();
+    if (distributed_->rank() != 0) return;
+  }
+  const mps::Particles& s = all_particles();
   const Params& p = params_;
-  Sample sample{sim_.time(), surge_front(s, p.l0), {}, {}};
+  Sample sample{sim_->time(), surge_front(s, p.l0), {}, {}};
   for (double d : p.level_probes) sample.levels.push_back(water_level(s, p.tank_length - d * p.height, p.l0));
   // The probe's patch is centred on the wall line; the first wall layer sits l0/2 behind it.
   for (double h : p.pressure_probes)

@@ -6,10 +6,13 @@
 // The scene samples the surge front, water levels at probe lines and wall pressures at probe patches as it runs.
 #include <array>
 #include <cmath>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "mps/components.hpp"
+#include "mps/distributed_step.hpp"
 #include "mps/step.hpp"
 
 namespace dambreak {
@@ -93,18 +96,23 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
 // The domain of a scene: make_domain(p), widened where the particles reach beyond it (a file's extra dummy layers).
 mps::Domain make_domain(const Params& p, const mps::Particles& particles);
 
+// On the ranks of an MPI communicator (comm: its Fortran handle) the scene runs as an mps::DistributedSimulation; every
+// rank passes the same parameters and particles. Its particles are then gathered on rank 0 after every step and
+// sampled there: samples(), all_particles() and the wall counts are rank 0's alone (empty or zero on the others).
 class Scene {
  public:
   explicit Scene(const Params& p);  // the column p describes (make_particles)
-  Scene(const Params& p, mps::Particles particles);  // these particles in p's tank (from_particles)
+  Scene(const Params& p, mps::Particles particles, std::optional<int> comm = {});  // these particles in p's tank
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
-  [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
-  [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
-  [[nodiscard]] mps::Simulation& sim() { return sim_; }  // to add components of one's own
+  [[nodiscard]] bool done() const { return sim_->time() >= params_.end_time - 1e-12; }
+  [[nodiscard]] const mps::Simulation& sim() const { return *sim_; }
+  [[nodiscard]] mps::Simulation& sim() { return *sim_; }  // to add components of one's own
+  // Every particle after the last step (on ranks: gathered on rank 0, sorted by id; empty on the other ranks).
+  [[nodiscard]] const mps::Particles& all_particles() const { return distributed_ ? gathered_ : sim_->particles(); }
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] const std::vector<Sample>& samples() const { return samples_; }  // t = 0 and after every step
   // Fluid removed as spray over the walls, as mps::RemoveEscaped counted it (so that fluid plus spray equals the
-  // initial count is a check, not a definition).
+  // initial count is a check, not a definition); on ranks the sum over them (collective).
   [[nodiscard]] long removed() const;
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
   // Fluid particles inside a wall (below its top and past its first layer's centres, l0/2 beyond the wall line): the
@@ -115,7 +123,9 @@ class Scene {
  private:
   void sample();
   Params params_;
-  mps::Simulation sim_;
+  std::unique_ptr<mps::Simulation> sim_;
+  const mps::DistributedSimulation* distributed_ = nullptr;
+  mps::Particles gathered_;
   long initial_fluid_;
   long most_inside_walls_ = 0;
   double deepest_past_wall_line_ = -1e300;

@@ -1,6 +1,7 @@
 // Dam break (seed 003 §2.1): a water column collapses in a tank with an open top. The classic column's surge front is
 // compared with Martin & Moyce (1952) and Koshizuka & Oka (1996); the seed column's downstream-wall pressure with
-// Buchner (2002). Writes frames (.vtp/.pvd), front.csv, level.csv, pressure.csv and summary.json to --out.
+// Buchner (2002). Writes frames (.vtp/.pvd), front.csv, level.csv, pressure.csv and summary.json to --out. Under
+// `mpirun -np P` the scene runs on P ranks (docs/scaling.md) and rank 0 writes the same outputs.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "help.hpp"
 #include "mps/io.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "solve_log.hpp"
@@ -23,7 +25,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim, const std::string& data) {
+nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim, const std::string& data, int ranks) {
   const auto& c = sim.config();
   std::vector<std::string> physics{"gravity", "viscosity (explicit)", "free surface", "hydrostatic split",
                                    "spray removal"};
@@ -47,13 +49,14 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
           {"level_probes_from_downstream_wall_H", p.level_probes}, {"pressure_probes_H", p.pressure_probes},
           {"pressure_patch_radius_l0", p.pressure_patch}, {"data", data},
           {"physics_on", physics},
-          {"wall_layers", 1}, {"dummy_layers", 4}};
+          {"wall_layers", 1}, {"dummy_layers", 4}, {"ranks", ranks}};
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  const AppRanks ranks(&argc, &argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak",
@@ -117,7 +120,10 @@ int main(int argc, char** argv) {
       ->group("Output");
   CLI11_PARSE(app, argc, argv);
 
+  bool running = false;  // from the first step on, an error may be one rank's alone
   try {
+    if (ranks.distributed() && !export_ppe.empty())
+      throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
     p.gradient = mps::gradient_variant_from_name(gradient);
     mps::Particles particles;
     std::string scene_name = column_name + " column";
@@ -146,6 +152,7 @@ int main(int argc, char** argv) {
     }
     const dambreak::Column column = p.column;
     if (!write_particles.empty()) {
+      if (!ranks.root()) return 0;
       char spacing[40];
       std::snprintf(spacing, sizeof spacing, "%.17g", p.l0);
       mps::write_particles_csv(write_particles, particles,
@@ -162,13 +169,14 @@ int main(int argc, char** argv) {
     dambreak::Table buchner = dambreak::read_table((data_dir / "buchner_exp_data.txt").string());
     std::sort(buchner.begin(), buchner.end());  // digitised points, a few out of time order
 
-    dambreak::Scene scene(p, std::move(particles));
+    dambreak::Scene scene(p, std::move(particles), ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     const mps::Simulation& sim = scene.sim();
-    nlohmann::json params = params_json(p, sim, data);
+    nlohmann::json params = params_json(p, sim, data, ranks.size());
     if (!particles_file.empty()) params["particle_file"] = particles_file;
     std::cout << parameter_table(
-        "dam break, " + scene_name + ": " + std::to_string(sim.particles().size()) + " particles (" +
-            std::to_string(scene.initial_fluid()) + " fluid)",
+        "dam break, " + scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
+            std::to_string(scene.initial_fluid()) + " fluid)" +
+            (ranks.distributed() ? " on " + std::to_string(ranks.size()) + " MPI ranks" : ""),
         params,
         {{"scene", {"column_width_m", "column_height_m", "tank_length_m", "tank_height_m", "g_m_per_s2",
                     "rho_kg_per_m3", "nu_m2_per_s"}},
@@ -177,22 +185,25 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                        "last_good.vtp",
-                        "config.toml", "solves.csv", "ppe"});
-    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "dambreak, " + scene_name);
-    write_run_config(app, "dambreak", dir);
-    fs::create_directories(dir / "frames");
-    FrameSeries series(dir, "dambreak", frames, p.end_time);
-    series.write_if_due(sim);
+    // Rank 0 writes every output; the others step with it and join its gathers.
+    FrameSeries series(dir, "dambreak", ranks.root() ? frames : 0, p.end_time);
+    if (ranks.root()) {
+      clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
+                          "last_good.vtp", "config.toml", "solves.csv", "ppe"});
+      scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "dambreak, " + scene_name);
+      write_run_config(app, "dambreak", dir);
+      fs::create_directories(dir / "frames");
+    }
+    series.write_if_due(sim.time(), scene.all_particles());
+    running = true;
     double next_report = p.end_time / 10;
     Progress progress(p.end_time, "s");
     try {
       while (!scene.done()) {
         scene.step();
         progress.update(sim.time(), sim.last_step().step);
-        series.write_if_due(sim);
-        if (sim.time() >= next_report - 1e-12) {
+        series.write_if_due(sim.time(), scene.all_particles());
+        if (ranks.root() && sim.time() >= next_report - 1e-12) {
           const auto& s = sim.last_step();
           progress.clear();
           std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "
@@ -203,10 +214,13 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
+      // The guard stops every rank at the same step (the scene's gathering is the last good state).
       progress.finish(sim.time(), sim.last_step().step);
-      return report_guard_stop(dir, e, params, sim);
+      return ranks.root() ? report_guard_stop(dir, e, params, sim, &scene.all_particles()) : 1;
     }
     progress.finish(sim.time(), sim.last_step().step);
+    const long removed = scene.removed();
+    if (!ranks.root()) return 0;
 
     // The series in the experiments' units: T = t sqrt(2g/a) for the front, t sqrt(g/H) and rho g H for the rest.
     const auto& samples = scene.samples();
@@ -285,24 +299,26 @@ int main(int argc, char** argv) {
     if (column == dambreak::Column::file)
       std::printf("a scene from a particle file: no experiment applies; its front, levels and wall pressure are in "
                   "front.csv, level.csv and pressure.csv\n");
-    checks["fluid_removed_as_spray_count"] = scene.removed();
+    checks["fluid_removed_as_spray_count"] = removed;
     checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
     checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
     write_solves(dir, sim);
     write_summary(dir,
                     {{"status", column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
                      {"parameters", params},
-                     {"particles", {{"fluid", scene.initial_fluid()}, {"total", sim.particles().size()}}},
+                     {"particles", {{"fluid", scene.initial_fluid()}, {"total", scene.all_particles().size()}}},
                      {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
                      {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
     std::printf("spray removed: %ld particles; most fluid particles inside a wall at once: %ld; deepest past a wall "
-                "line: %.3f l0\n", scene.removed(), scene.most_inside_walls(),
+                "line: %.3f l0\n", removed, scene.most_inside_walls(),
                 std::max(0.0, scene.deepest_past_wall_line() / p.l0));
     std::printf("outputs: %s (ParaView), front.csv, level.csv, pressure.csv, summary.json in %s\n",
                 series.path().string().c_str(), dir.string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << error_message(e) << "\n";
+    // Before the run every rank meets the same error and rank 0 says it; during it, a rank alone may.
+    if (ranks.root() || running) std::cerr << "error: " << error_message(e) << "\n";
+    if (running) ranks.stop_all(1);
     return 1;
   }
 }

@@ -1,0 +1,117 @@
+#!/usr/bin/python3
+"""The apps under mpirun (docs/scaling.md): the same command on 1 process and on 2 and 3 ranks gives the same run.
+
+For each case the app runs plainly, then under `mpirun -np P`, with hypre-pcg at a relative residual of 1e-10. Asserted:
+the exit status, step count and particle counts agree; rank 0 wrote every output the serial run wrote (one summary,
+one set of frames, the same .pvd times); the last frame's particles, matched by id, agree in position to POSITION_L0
+of l0 and in pressure to PRESSURE of the largest pressure; and the sampled series (the dam break's front.csv) agree
+to POSITION_L0 l0 (as written, to 10 digits). The bounds are those of tests/mpi/test_distributed_step.cpp (a solve at tol 1e-10 is within
+cond(A) tol ~ 1e-7 of the largest pressure; the correction then moves particles by at most ~2e-9 l0 a step, 2e-7 l0
+over 100 steps). Each case runs about 100 steps.
+
+  tests/apps_on_ranks.py BUILD_DIR MPIEXEC RANKS
+"""
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+POSITION_L0 = 2e-7
+PRESSURE = 2e-7
+SOLVER = "hypre-pcg:tol=1e-10"
+# app: (options, l0 [m], the series compared column by column as lengths: file and its unit in l0)
+CASES = {
+    "dambreak": ("--column classic --end-time 0.0610 --frames 2", 0.0073, [("front.csv", 20.0)]),  # x / a, a = 20 l0
+}
+
+
+def read_frame(path: Path) -> dict:
+    reader = vtkXMLPolyDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    if reader.GetErrorCode():
+        raise RuntimeError(f"VTK could not read {path}")
+    data = reader.GetOutput()
+    arrays = data.GetPointData()
+    ids = vtk_to_numpy(arrays.GetArray("id"))
+    order = np.argsort(ids)
+    return {"id": ids[order], "xy": vtk_to_numpy(data.GetPoints().GetData())[order, :2],
+            "p": vtk_to_numpy(arrays.GetArray("pressure"))[order]}
+
+
+def frames_of(pvd: Path) -> list:
+    return [(float(d.get("timestep")), pvd.parent / d.get("file")) for d in ET.parse(pvd).getroot().iter("DataSet")]
+
+
+def run(command: list, out: Path) -> int:
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMP_NUM_THREADS="1")
+    done = subprocess.run(command + ["--out", str(out)], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True, timeout=600)
+    if not (out / "summary.json").exists():
+        raise AssertionError(f"{' '.join(command)} wrote no summary:\n{done.stdout[-3000:]}")
+    return done.returncode
+
+
+def main() -> int:
+    build, mpiexec, ranks = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for app, (options, l0, series) in CASES.items():
+            binary = str(build / "apps" / app / app)
+            command = [binary] + options.split() + ["--solver", SOLVER]
+            serial_out, ranks_out = Path(tmp) / f"{app}_serial", Path(tmp) / f"{app}_ranks"
+            status = run(command, serial_out)
+            status_ranks = run([mpiexec, "--oversubscribe", "--mca", "btl", "self,vader", "-np", str(ranks)] + command,
+                               ranks_out)
+
+            def check(ok, what):
+                if not ok:
+                    failures.append(f"{app} on {ranks} ranks: {what}")
+                return ok
+
+            check(status == status_ranks, f"exit status {status_ranks}, serially {status}")
+            a = json.loads((serial_out / "summary.json").read_text())
+            b = json.loads((ranks_out / "summary.json").read_text())
+            check(b["parameters"].get("ranks") == ranks, f"the summary records ranks {b['parameters'].get('ranks')}")
+            for key in ("steps", "particles", "status"):
+                check(a[key] == b[key], f"summary {key} {b[key]}, serially {a[key]}")
+            check(sorted(p.name for p in serial_out.iterdir()) == sorted(p.name for p in ranks_out.iterdir()),
+                  "rank 0 wrote other files than the serial run")
+            fa, fb = frames_of(serial_out / f"{app}.pvd"), frames_of(ranks_out / f"{app}.pvd")
+            if not check([t for t, _ in fa] == [t for t, _ in fb], "the frames' times differ"):
+                continue
+            last_a, last_b = read_frame(fa[-1][1]), read_frame(fb[-1][1])
+            if not check(np.array_equal(last_a["id"], last_b["id"]), "the last frame holds other particles"):
+                continue
+            position = np.max(np.hypot(*(last_a["xy"] - last_b["xy"]).T)) / l0
+            largest = np.max(np.abs(last_a["p"]))
+            pressure = np.max(np.abs(last_a["p"] - last_b["p"])) / largest
+            worst_series = 0.0
+            for name, unit_l0 in series:
+                rows_a = list(csv.reader(open(serial_out / name)))
+                rows_b = list(csv.reader(open(ranks_out / name)))
+                check(rows_a[0] == rows_b[0] and len(rows_a) == len(rows_b), f"{name}: other columns or rows")
+                values_a = np.array(rows_a[1:], dtype=float)
+                values_b = np.array(rows_b[1:], dtype=float)
+                check(np.array_equal(values_a[:, 0], values_b[:, 0]), f"{name}: other sample times")
+                worst_series = max(worst_series, np.max(np.abs(values_a[:, 1:] - values_b[:, 1:])) * unit_l0)
+            print(f"{app} on {ranks} ranks, {a['steps']} steps: last frame max |r - r_serial| = {position:.3g} l0, "
+                  f"max |p - p_serial| = {pressure:.3g} of {largest:.4g} Pa; series max difference {worst_series:.3g} l0")
+            check(position <= POSITION_L0, f"positions differ by {position:.3g} l0 (bound {POSITION_L0})")
+            check(pressure <= PRESSURE, f"pressures differ by {pressure:.3g} of the largest (bound {PRESSURE})")
+            check(worst_series <= POSITION_L0, f"series differ by {worst_series:.3g} l0 (bound {POSITION_L0})")
+    for failure in failures:
+        print("FAIL:", failure)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

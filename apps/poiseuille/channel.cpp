@@ -1,5 +1,7 @@
 #include "channel.hpp"
 
+#include <mpi.h>
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -141,10 +143,15 @@ double initial_dt(const Params& p) {
   return p.dt_factor * (p.implicit_viscosity ? cfl_dt : std::min(cfl_dt, viscous_dt));
 }
 
-mps::Simulation make_simulation(const Params& p) {
+namespace {
+mps::Domain channel_domain(const Params& p) {
   const double l0 = p.l0(), L = channel_length(p);
-  const mps::Domain domain = p.periodic() ? mps::Domain{0.0, L, -6.0 * l0, p.D + 6.0 * l0, true, false}
-                                          : mps::Domain{-6.0 * l0, L + 6.0 * l0, -6.0 * l0, p.D + 6.0 * l0};
+  return p.periodic() ? mps::Domain{0.0, L, -6.0 * l0, p.D + 6.0 * l0, true, false}
+                      : mps::Domain{-6.0 * l0, L + 6.0 * l0, -6.0 * l0, p.D + 6.0 * l0};
+}
+
+mps::SimulationConfig channel_config(const Params& p) {
+  const double l0 = p.l0();
   mps::SimulationConfig c;
   c.l0 = l0;
   c.rho = p.rho;
@@ -169,10 +176,16 @@ mps::Simulation make_simulation(const Params& p) {
   // negative gauge pressure, and clamping it would leave every push of the plate unanswered (measured: the
   // flow rate at the station ran 47 % above U D by t = 0.25 D/U).
   c.clamp_negative_pressure = false;
-  mps::Particles particles = make_particles(p);
-  std::shared_ptr<mps::PushingPlate> plate;
-  if (!p.periodic()) plate = std::make_shared<mps::PushingPlate>(particles, kPlateGroup, p.U(), l0, L);
-  mps::Simulation sim(std::move(particles), domain, c);
+  return c;
+}
+
+std::shared_ptr<mps::PushingPlate> make_plate(const Params& p, const mps::Particles& particles) {
+  if (p.periodic()) return nullptr;
+  return std::make_shared<mps::PushingPlate>(particles, kPlateGroup, p.U(), p.l0(), channel_length(p));
+}
+
+void add_channel_components(mps::Simulation& sim, const Params& p, std::shared_ptr<mps::PushingPlate> plate) {
+  const double l0 = p.l0(), L = channel_length(p);
   if (plate) sim.add<mps::BoundaryMotion>([plate](mps::Particles& s, double t) { (*plate)(s, t); });
   // The liquid is confined but for its open outlet (and the dry wall ends behind the plate). A void opened by
   // the shear elsewhere, read as free surface, stayed open at P = 0 and was carried downstream until the
@@ -195,6 +208,23 @@ mps::Simulation make_simulation(const Params& p) {
     sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, 0.0, 0.0, 1.0, p.U(), 0.0, kBottomConveyorGroup});
     sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, p.D, 0.0, -1.0, p.U(), 0.0, kTopConveyorGroup});
   }
+}
+}  // namespace
+
+mps::Simulation make_simulation(const Params& p) {
+  mps::Particles particles = make_particles(p);
+  const auto plate = make_plate(p, particles);
+  mps::Simulation sim(std::move(particles), channel_domain(p), channel_config(p));
+  add_channel_components(sim, p, plate);
+  return sim;
+}
+
+std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm) {
+  mps::Particles particles = make_particles(p);
+  const auto plate = make_plate(p, particles);
+  auto sim = std::make_unique<mps::DistributedSimulation>(std::move(particles), channel_domain(p), channel_config(p),
+                                                          comm);
+  add_channel_components(*sim, p, plate);
   return sim;
 }
 
@@ -220,6 +250,13 @@ void ProfileSampler::add(const mps::Simulation& sim) {
     ++count_[k];
   }
   ++samples_;
+}
+
+void ProfileSampler::sum_over_ranks(int comm) {
+  const MPI_Comm c = MPI_Comm_f2c(comm);
+  MPI_Allreduce(MPI_IN_PLACE, sum_.data(), static_cast<int>(sum_.size()), MPI_DOUBLE, MPI_SUM, c);
+  MPI_Allreduce(MPI_IN_PLACE, count_.data(), static_cast<int>(count_.size()), MPI_LONG, MPI_SUM, c);
+  MPI_Allreduce(MPI_IN_PLACE, &max_abs_v_, 1, MPI_DOUBLE, MPI_MAX, c);
 }
 
 Profile ProfileSampler::result(double time) const {

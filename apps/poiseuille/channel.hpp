@@ -10,9 +10,11 @@
 // Walls are one wall layer and four dummy layers with mirror velocities (mps::MirrorWall). The periodic
 // channels are closed (no free surface): the PPE takes the library's all-Neumann treatment; the inlet
 // channel's outlet is free surface (P = 0).
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "mps/distributed_step.hpp"
 #include "mps/step.hpp"
 
 namespace poiseuille {
@@ -62,6 +64,8 @@ double exact_velocity(const Params& p, double y, double t);
 // Fluid group 0, bottom wall group 1, top wall group 2; inlet: plate group 3 and a pool of ghosts.
 mps::Particles make_particles(const Params& p);
 mps::Simulation make_simulation(const Params& p);
+// The same scene on the ranks of an MPI communicator (its Fortran handle); every rank passes the same p.
+std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm);
 // Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for
 // refusing runs too large to be meant).
 double estimated_particles(const Params& p);
@@ -85,7 +89,8 @@ struct Profile {
 class ProfileSampler {
  public:
   explicit ProfileSampler(const Params& p);
-  void add(const mps::Simulation& sim);
+  void add(const mps::Simulation& sim);  // on ranks: this rank's own particles
+  void sum_over_ranks(int comm);  // on ranks, before result(): the samples of every rank (collective)
   [[nodiscard]] Profile result(double time) const;  // compared with the exact solution at `time`
   [[nodiscard]] int samples() const { return samples_; }
   void clear();

@@ -1,12 +1,15 @@
 // Plane channel flows against exact solutions: the paper's pushing-plate inlet channel against the developed
 // parabola at its measuring station, or a periodic channel driven by a body force (Poiseuille start-up) or by
 // a sliding top wall (Couette start-up) against the transient series. Writes frames (.vtp/.pvd), profile.csv,
-// centerline.csv and summary.json to --out; plot_profile.py turns profile.csv into profile.png.
+// centerline.csv and summary.json to --out; plot_profile.py turns profile.csv into profile.png. Under `mpirun -np P` the
+// inlet channel runs on P ranks (docs/scaling.md) and rank 0 writes the same outputs.
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
+#include <optional>
 
 #include "channel.hpp"
 #include "checks.hpp"
@@ -14,6 +17,7 @@
 #include "help.hpp"
 #include "mps/io.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "solve_log.hpp"
@@ -23,7 +27,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& sim, double end_time) {
+nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& sim, double end_time, int ranks) {
   const auto& c = sim.config();
   const char* drive = p.mode == poiseuille::Mode::inlet        ? "pushing-plate inlet, open outlet"
                       : p.mode == poiseuille::Mode::body_force ? "body force, periodic x"
@@ -43,7 +47,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
       {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
       {"physics_on", {drive, c.implicit_viscosity ? "viscosity (implicit)" : "viscosity (explicit)", "mirror no-slip walls",
                       p.periodic() ? "closed-domain PPE gauge" : "free-surface outlet"}},
-      {"wall_layers", 1}, {"dummy_layers", 4}};
+      {"wall_layers", 1}, {"dummy_layers", 4}, {"ranks", ranks}};
   if (p.periodic()) {
     j["length_l0"] = p.length_l0;
   } else {
@@ -57,6 +61,7 @@ nlohmann::json params_json(const poiseuille::Params& p, const mps::Simulation& s
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  const AppRanks ranks(&argc, &argv);
   record_run("poiseuille", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   poiseuille::Params p;
@@ -114,18 +119,33 @@ int main(int argc, char** argv) {
   add_export_ppe_option(app, export_ppe);
   CLI11_PARSE(app, argc, argv);
 
+  bool running = false;  // from the first step on, an error may be one rank's alone
   try {
+    if (ranks.distributed() && !export_ppe.empty())
+      throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
     p.mode = poiseuille::parse_mode(mode);
     p.validate();
     check_run_size(poiseuille::estimated_particles(p), end_time * p.convective_time() / poiseuille::initial_dt(p),
                    "use fewer --across or a shorter channel", "shorten --end-time or raise --dt-factor");
-    mps::Simulation sim = poiseuille::make_simulation(p);
-    nlohmann::json params = params_json(p, sim, end_time);
+    std::unique_ptr<mps::DistributedSimulation> distributed;
+    std::optional<mps::Simulation> serial;
+    if (ranks.distributed()) distributed = poiseuille::make_distributed_simulation(p, ranks.comm());
+    else serial.emplace(poiseuille::make_simulation(p));
+    mps::Simulation& sim = distributed ? *distributed : *serial;
+    // Every particle, on rank 0 (on ranks gathered there: for frames and the axis; the profile is summed instead).
+    mps::Particles gathered;
+    auto all_particles = [&]() -> const mps::Particles& {
+      if (!distributed) return sim.particles();
+      gathered = distributed->gather();
+      return gathered;
+    };
+    nlohmann::json params = params_json(p, sim, end_time, ranks.size());
     if (!p.periodic()) params["average_D_over_U"] = average;
-    const mps::Particles& start = sim.particles();
+    const mps::Particles& start = all_particles();
     std::cout << parameter_table(
         "poiseuille, " + params["scene"].get<std::string>() + ": " + std::to_string(start.size()) + " particles (" +
-            std::to_string(start.count(mps::Kind::fluid)) + " fluid)",
+            std::to_string(start.count(mps::Kind::fluid)) + " fluid)" +
+            (ranks.distributed() ? " on " + std::to_string(ranks.size()) + " MPI ranks" : ""),
         params,
         {{"scene", {"mode", "width_m", "re", "velocity_scale_m_per_s", "nu_m2_per_s", "rho_kg_per_m3", "length_l0",
                     "channel_length_D", "station_D", "outlet_buffer_l0", "body_force_m_per_s2"}},
@@ -134,19 +154,25 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "initial_guess"}},
          {"run", {"end_time_D_over_U", "average_D_over_U"}}});
     const fs::path dir(out);
-    clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
-                        "config.toml", "solves.csv", "ppe"});
-    sim.add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "poiseuille --mode " + mode);
-    write_run_config(app, "poiseuille", dir);
-    fs::create_directories(dir / "frames");
+    // Rank 0 writes every output; the others step with it and join its gathers.
+    if (ranks.root()) {
+      clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
+                          "config.toml", "solves.csv", "ppe"});
+      sim.add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "poiseuille --mode " + mode);
+      write_run_config(app, "poiseuille", dir);
+      fs::create_directories(dir / "frames");
+    }
     mps::PvdSeries series(dir / "channel.pvd");
     const double t_end = end_time * p.convective_time();
     auto write_frame = [&](int k) {
+      const mps::Particles& all = all_particles();
+      if (!ranks.root()) return;
       char name[32];
       std::snprintf(name, sizeof name, "frames/channel_%04d.vtp", k);
-      mps::write_vtp(dir / name, sim.particles(), sim.time());
+      mps::write_vtp(dir / name, all, sim.time());
       series.add(sim.time(), dir / name);
     };
+    running = true;
     int frame = 0, profile = 0;
     if (frames > 0) write_frame(frame++);
     std::vector<std::string> header{"y_over_D"};
@@ -166,6 +192,7 @@ int main(int argc, char** argv) {
           if (sim.time() > t_profile - window) sampler.add(sim);
         }
         if (sampler.samples() == 0) sampler.add(sim);
+        if (distributed) sampler.sum_over_ranks(ranks.comm());
         last = sampler.result(sim.time());
         const double tu = sim.time() / p.convective_time();
         if (columns[0].empty())
@@ -188,15 +215,18 @@ int main(int argc, char** argv) {
         ++profile;
       }
     } catch (const mps::SimulationError& e) {
+      // The guard stops every rank at the same step, each holding the last good state.
       progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
-      return report_guard_stop(dir, e, params, sim);
+      const mps::Particles& last_good = all_particles();
+      return ranks.root() ? report_guard_stop(dir, e, params, sim, &last_good) : 1;
     }
     progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
+    const mps::Particles& s = all_particles();
+    if (!ranks.root()) return 0;
     write_solves(dir, sim);
     mps::write_csv(dir / "profile.csv", header, columns);
     // The axis: u of the fluid nearest y = D/2, against x (uniform in a periodic channel at steady state).
     std::vector<double> cx, cu, ce;
-    const mps::Particles& s = sim.particles();
     for (std::size_t i = 0; i < s.size(); ++i)
       if (s.kind[i] == mps::Kind::fluid && std::abs(s.y[i] - 0.5 * p.D) < 0.5 * p.l0()) {
         cx.push_back(s.x[i] / p.D);
@@ -234,7 +264,9 @@ int main(int argc, char** argv) {
                 (dir / "summary.json").string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << error_message(e) << "\n";
+    // Before the run every rank meets the same error and rank 0 says it; during it, a rank alone may.
+    if (ranks.root() || running) std::cerr << "error: " << error_message(e) << "\n";
+    if (running) ranks.stop_all(1);
     return 1;
   }
 }

@@ -21,6 +21,7 @@
 #include "mps/io.hpp"
 #include "mps/step.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "png.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -79,6 +80,7 @@ std::string time_tag(double t) {
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  require_one_process(AppRanks(&argc, &argv), "acoustic");
   record_run("acoustic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   std::string case_name = "free", boundary_name, gradient_name = "mps", weight_name = "classic", out;

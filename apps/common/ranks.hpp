@@ -54,3 +54,12 @@ class AppRanks {
   }
   int rank_ = 0, size_ = 1;
 };
+
+// The apps whose scenes run on one process: under mpirun each rank would run the whole scene into the same files.
+inline void require_one_process(const AppRanks& ranks, const std::string& app) {
+  if (!ranks.distributed()) return;
+  if (ranks.root())
+    std::fprintf(stderr, "error: %s runs on one process, not on %d MPI ranks; run it without mpirun (dambreak and "
+                 "poiseuille run on ranks: docs/scaling.md)\n", app.c_str(), ranks.size());
+  std::exit(1);
+}

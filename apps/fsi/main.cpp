@@ -13,6 +13,7 @@
 #include "help.hpp"
 #include "mps/io.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "scene.hpp"
@@ -22,6 +23,7 @@ namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  require_one_process(AppRanks(&argc, &argv), "fsi");
   record_run("fsi", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   fsi::Params p;

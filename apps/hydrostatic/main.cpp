@@ -11,6 +11,7 @@
 #include "help.hpp"
 #include "mps/io.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "solve_log.hpp"
@@ -38,6 +39,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  require_one_process(AppRanks(&argc, &argv), "hydrostatic");
   record_run("hydrostatic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;

@@ -16,6 +16,7 @@
 #include "help.hpp"
 #include "mps/io.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "rotor.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -217,6 +218,7 @@ std::vector<double> parse_times(const std::string& list) {
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  require_one_process(AppRanks(&argc, &argv), "rotating");
   record_run("rotating", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   rotating::Params p;

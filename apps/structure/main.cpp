@@ -16,6 +16,7 @@
 #include "mps/io.hpp"
 #include "mps/particles.hpp"
 #include "openmp_wait.hpp"
+#include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "scenes.hpp"
@@ -42,6 +43,7 @@ double relative(double value, double reference) { return std::abs(value - refere
 
 int main(int argc, char** argv) {
   prefer_passive_openmp_wait(argv);
+  require_one_process(AppRanks(&argc, &argv), "structure");
   record_run("structure", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string scene_name = "plate", model_name = "svk", out = "runs/structure",

@@ -78,9 +78,10 @@ void DistributedSimulation::count(const ExchangeStats& e) {
   stats_.bytes_sent += e.bytes_sent;
 }
 
+// Components a scene added after construction are refused here, on every rank alike.
+void DistributedSimulation::check_components() const { refuse_unsupported(); }
+
 void DistributedSimulation::begin_step() {
-  // Components a scene added after construction are refused here, on every rank alike.
-  refuse_unsupported();
   ++stats_.steps;
   auto start = Clock::now();
   const ExchangeStats moved = distribute_particles(particles_, comm_);

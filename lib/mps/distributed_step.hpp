@@ -54,6 +54,7 @@ class DistributedSimulation : public Simulation {
   [[nodiscard]] double max_over_ranks(double value) const override;  ///< MPI_Allreduce(MAX)
 
  protected:
+  void check_components() const override;           ///< refuses what does not run on ranks (added since)
   void begin_step() override;                       ///< new partition, migration, halo
   void share_predicted() override;                  ///< copies take their owners' r*, u*
   void share_surface() override;                    ///< copies take their owners' free-surface flags

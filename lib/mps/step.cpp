@@ -123,6 +123,7 @@ double Simulation::choose_dt(std::string& limit) const {
 }
 
 const StepInfo& Simulation::step() {
+  check_components();
   before_step_ = particles_;
   const StepInfo info_before = info_;
   const std::string at = "step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) + " s";

@@ -211,6 +211,8 @@ class Simulation {
  protected:
   /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On
   /// one process each does nothing, or what the serial step always did.
+  /// Before a step, outside its rollback: throws std::invalid_argument for a component the step cannot run.
+  virtual void check_components() const {}
   virtual void begin_step() {}  ///< before the time step is chosen: the distributed step migrates and builds its halo
   virtual void share_predicted() {}  ///< after the predictor's components: the copies' r*, u*
   virtual void share_surface() {}    ///< after the free surface and again after the before_source components

@@ -230,6 +230,20 @@ TEST(DistributedStep, RefusesWhatDoesNotRunDistributedYet) {
   Scene implicit = scene;
   implicit.config.implicit_viscosity = true;
   EXPECT_NE(message(implicit).find("implicit viscosity"), std::string::npos);
+  // A component added after construction is refused at the next step, before anything moves.
+  {
+    mps::DistributedSimulation sim(scene.particles, scene.domain, scene.config, comm());
+    mps::CellGrid grid(scene.domain, 4.1 * scene.config.l0);
+    sim.add<mps::InitialReferenceDensity>(scene.particles, scene.domain, grid, sim.density_kernel());
+    std::string refused;
+    try {
+      sim.step();
+    } catch (const std::invalid_argument& e) {
+      refused = e.what();
+    }
+    EXPECT_NE(refused.find("InitialReferenceDensity"), std::string::npos) << refused;
+    EXPECT_EQ(sim.last_step().step, 0);
+  }
   if (ranks() > 1) {
     Scene serial_solver = scene;
     serial_solver.config.solver = "eigen-cg";

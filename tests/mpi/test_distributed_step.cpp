@@ -98,12 +98,29 @@ struct Comparison {
   int steps_with_unequal_dt = 0;  // steps where some rank took another dt than rank 0
   int steps_with_lost_particles = 0;  // steps after which the ranks held other than the scene's count
   std::size_t migrated = 0;       // particles sent between ranks over the run, all ranks
+  std::size_t repartitions = 0;   // new cuts at the start of a step (the same count on every rank)
+  double max_imbalance = 0;       // the largest rank's particles over the mean, worst step
   bool same_ids = false;          // the gathered ids are exactly the serial run's
 };
 
-Comparison run_both(const Scene& scene) {
+// The serial run (rank 0 only), its particles in id order.
+mps::Particles serial_run(const Scene& scene) {
+  mps::SolverContext self;
+  self.mpi_comm = static_cast<int>(MPI_Comm_c2f(MPI_COMM_SELF));
+  mps::Simulation serial(scene.particles, scene.domain, scene.config, mps::make_solver(kSolver, self));
+  if (scene.add_components) scene.add_components(serial, scene);
+  for (int s = 0; s < kSteps; ++s) serial.step();
+  // The serial run reorders its particles by cell; put them back in id order.
+  mps::Particles ref = serial.particles();
+  std::vector<int> by_id(ref.size());
+  for (std::size_t i = 0; i < ref.size(); ++i) by_id[static_cast<std::size_t>(ref.id[i])] = static_cast<int>(i);
+  ref.permute(by_id);
+  return ref;
+}
+
+Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::DistributedOptions options = {}) {
   Comparison out;
-  mps::DistributedSimulation distributed(scene.particles, scene.domain, scene.config, comm());
+  mps::DistributedSimulation distributed(scene.particles, scene.domain, scene.config, comm(), options);
   if (scene.add_components) scene.add_components(distributed, scene);
   const long long total = static_cast<long long>(scene.particles.size());
   for (int s = 0; s < kSteps; ++s) {
@@ -119,19 +136,10 @@ Comparison run_both(const Scene& scene) {
   unsigned long long migrated = distributed.stats().migrated;
   MPI_Allreduce(MPI_IN_PLACE, &migrated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
   out.migrated = migrated;
+  out.repartitions = distributed.stats().repartitions;
+  out.max_imbalance = distributed.stats().max_imbalance;
   const mps::Particles gathered = distributed.gather();
   if (rank() != 0) return out;
-
-  mps::SolverContext self;
-  self.mpi_comm = static_cast<int>(MPI_Comm_c2f(MPI_COMM_SELF));
-  mps::Simulation serial(scene.particles, scene.domain, scene.config, mps::make_solver(kSolver, self));
-  if (scene.add_components) scene.add_components(serial, scene);
-  for (int s = 0; s < kSteps; ++s) serial.step();
-  // The serial run reorders its particles by cell; put them back in id order.
-  mps::Particles ref = serial.particles();
-  std::vector<int> by_id(ref.size());
-  for (std::size_t i = 0; i < ref.size(); ++i) by_id[static_cast<std::size_t>(ref.id[i])] = static_cast<int>(i);
-  ref.permute(by_id);
   out.same_ids = gathered.id == ref.id;
   if (!out.same_ids) return out;
   for (std::size_t i = 0; i < ref.size(); ++i) out.largest_pressure = std::max(out.largest_pressure, std::abs(ref.p[i]));
@@ -143,30 +151,55 @@ Comparison run_both(const Scene& scene) {
   return out;
 }
 
-void expect_same_answer(const char* name, const Scene& scene, bool particles_cross_cuts) {
-  const Comparison c = run_both(scene);
+Comparison expect_same_answer(const char* name, const Scene& scene, bool particles_cross_cuts, const mps::Particles& ref,
+                              mps::DistributedOptions options = {}) {
+  const Comparison c = run_both(scene, ref, options);
   EXPECT_EQ(c.steps_with_unequal_dt, 0) << "every rank must take the same dt every step";
   EXPECT_EQ(c.steps_with_lost_particles, 0) << "the ranks together must hold every particle after every step";
   if (ranks() > 1 && particles_cross_cuts) {
     EXPECT_GT(c.migrated, 0U) << "the scene should move particles between ranks (else migration goes untested)";
   }
-  if (rank() != 0) return;
-  ASSERT_TRUE(c.same_ids) << "the gathered particles must be the serial run's, each once, sorted by id";
-  std::printf("[ %s on %d ranks, %d steps ] max |r - r_serial| = %.3g l0 (bound %.0e), max |p - p_serial| = %.3g of "
-              "the largest %.4g Pa (bound %.0e), particles migrated %zu\n",
-              name, ranks(), kSteps, c.max_position_l0, kPositionBound, c.max_pressure_rel, c.largest_pressure,
-              kPressureBound, c.migrated);
+  if (rank() != 0) return c;
+  EXPECT_TRUE(c.same_ids) << "the gathered particles must be the serial run's, each once, sorted by id";
+  if (!c.same_ids) return c;
+  std::printf("[ %s on %d ranks, %d steps, rebalance threshold %g ] max |r - r_serial| = %.3g l0 (bound %.0e), max |p "
+              "- p_serial| = %.3g of the largest %.4g Pa (bound %.0e), particles migrated %zu, repartitions %zu, max "
+              "imbalance %.4f\n",
+              name, ranks(), kSteps, options.rebalance_threshold, c.max_position_l0, kPositionBound,
+              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance);
   EXPECT_GT(c.largest_pressure, 0.0);
   EXPECT_LE(c.max_position_l0, kPositionBound);
   EXPECT_LE(c.max_pressure_rel, kPressureBound);
+  return c;
 }
 
-TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) { expect_same_answer("hydrostatic tank", hydrostatic_tank(), false); }
+// Rank 0's serial reference (empty elsewhere).
+mps::Particles reference(const Scene& scene) { return rank() == 0 ? serial_run(scene) : mps::Particles{}; }
 
-TEST(DistributedStep, DamBreakGivesTheSerialAnswer) { expect_same_answer("dam break", dam_break(1e-6), true); }
+TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) {
+  const Scene scene = hydrostatic_tank();
+  expect_same_answer("hydrostatic tank", scene, false, reference(scene));
+}
+
+// With the default threshold the cuts stay put over these 100 steps (the imbalance stays below it); with a threshold
+// of 1 every step makes new cuts, as before the cuts were kept. Both give the serial answer: the partition does not
+// enter the results.
+TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
+  const Scene scene = dam_break(1e-6);
+  const mps::Particles ref = reference(scene);
+  const mps::DistributedOptions kept;
+  const Comparison c = expect_same_answer("dam break", scene, true, ref, kept);
+  EXPECT_EQ(c.repartitions, 0U) << "below the threshold the cuts are kept (max imbalance " << c.max_imbalance << ")";
+  EXPECT_LE(c.max_imbalance, kept.rebalance_threshold);
+  mps::DistributedOptions every_step;
+  every_step.rebalance_threshold = 1.0;
+  const Comparison renewed = expect_same_answer("dam break", scene, true, ref, every_step);
+  EXPECT_EQ(renewed.repartitions, static_cast<std::size_t>(kSteps));
+}
 
 TEST(DistributedStep, ViscousDamBreakGivesTheSerialAnswer) {
-  expect_same_answer("viscous dam break (nu = 1e-2)", dam_break(1e-2), true);
+  const Scene scene = dam_break(1e-2);
+  expect_same_answer("viscous dam break (nu = 1e-2)", scene, true, reference(scene));
 }
 
 // A particle thrown at 1e3 m/s on the last rank after the corrector: that rank's guard trips, and every rank stops

@@ -52,7 +52,7 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   refuse_unsupported();
   if (std::isnan(options_.rebalance_threshold))
     throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
-                                "count over the mean to tolerate before new cuts (default 1.10)");
+                                "count over the mean to tolerate before new cuts (default 1.05)");
   const SimulationConfig& cfg = this->config();
   halo_radius_ = cfg.l0 * (std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient,
                                      cfg.radius_laplacian}) + 2.0 * cfg.max_displacement);
@@ -62,7 +62,7 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   const auto start = Clock::now();
   partition_.emplace(comm_);
   const RcbPartition::Placement placed = partition_->place(p, options_.rebalance_threshold);
-  stats_.imbalance = stats_.max_imbalance = placed.imbalance;
+  stats_.kept_imbalance = stats_.imbalance = stats_.max_imbalance = placed.imbalance;
   count(migrate_particles(p, placed.destination, comm_));
   stats_.migrate_seconds += seconds_since(start);
 }
@@ -111,6 +111,7 @@ void DistributedSimulation::migrate_to_partition() {
   } else {
     stats_.assign_seconds += placing;
   }
+  stats_.kept_imbalance = placed.kept_imbalance;
   stats_.imbalance = placed.imbalance;
   stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
   const ExchangeStats moved = migrate_particles(particles_, placed.destination, comm_);

@@ -100,6 +100,8 @@ struct Comparison {
   std::size_t migrated = 0;       // particles sent between ranks over the run, all ranks
   std::size_t repartitions = 0;   // new cuts at the start of a step (the same count on every rank)
   double max_imbalance = 0;       // the largest rank's particles over the mean, worst step
+  double max_kept_imbalance = 0;  // the same had the cuts been kept every step
+  int wrong_decisions = 0;        // steps that repartitioned at or below the threshold, or kept the cuts above it
   bool same_ids = false;          // the gathered ids are exactly the serial run's
 };
 
@@ -124,7 +126,13 @@ Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::Distribu
   if (scene.add_components) scene.add_components(distributed, scene);
   const long long total = static_cast<long long>(scene.particles.size());
   for (int s = 0; s < kSteps; ++s) {
+    const std::size_t repartitions = distributed.stats().repartitions;
     const double dt = distributed.step().dt;
+    const mps::DistributedStepStats& stats = distributed.stats();
+    const bool renewed = stats.repartitions > repartitions;
+    const bool above = stats.kept_imbalance > options.rebalance_threshold || options.rebalance_threshold <= 1.0;
+    out.wrong_decisions += renewed != above || (!renewed && stats.imbalance != stats.kept_imbalance);
+    out.max_kept_imbalance = std::max(out.max_kept_imbalance, stats.kept_imbalance);
     double lo = dt, hi = dt;
     MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_DOUBLE, MPI_MIN, kComm);
     MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_DOUBLE, MPI_MAX, kComm);
@@ -156,6 +164,7 @@ Comparison expect_same_answer(const char* name, const Scene& scene, bool particl
   const Comparison c = run_both(scene, ref, options);
   EXPECT_EQ(c.steps_with_unequal_dt, 0) << "every rank must take the same dt every step";
   EXPECT_EQ(c.steps_with_lost_particles, 0) << "the ranks together must hold every particle after every step";
+  EXPECT_EQ(c.wrong_decisions, 0) << "new cuts exactly when the kept cuts' imbalance exceeds the threshold";
   if (ranks() > 1 && particles_cross_cuts) {
     EXPECT_GT(c.migrated, 0U) << "the scene should move particles between ranks (else migration goes untested)";
   }
@@ -164,9 +173,9 @@ Comparison expect_same_answer(const char* name, const Scene& scene, bool particl
   if (!c.same_ids) return c;
   std::printf("[ %s on %d ranks, %d steps, rebalance threshold %g ] max |r - r_serial| = %.3g l0 (bound %.0e), max |p "
               "- p_serial| = %.3g of the largest %.4g Pa (bound %.0e), particles migrated %zu, repartitions %zu, max "
-              "imbalance %.4f\n",
+              "imbalance %.4f (%.4f with the cuts kept)\n",
               name, ranks(), kSteps, options.rebalance_threshold, c.max_position_l0, kPositionBound,
-              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance);
+              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance, c.max_kept_imbalance);
   EXPECT_GT(c.largest_pressure, 0.0);
   EXPECT_LE(c.max_position_l0, kPositionBound);
   EXPECT_LE(c.max_pressure_rel, kPressureBound);
@@ -181,16 +190,19 @@ TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) {
   expect_same_answer("hydrostatic tank", scene, false, reference(scene));
 }
 
-// With the default threshold the cuts stay put over these 100 steps (the imbalance stays below it); with a threshold
-// of 1 every step makes new cuts, as before the cuts were kept. Both give the serial answer: the partition does not
-// enter the results.
+// With the default threshold the cuts are kept while the imbalance stays below it: on 2 ranks over all 100 steps (the
+// kept cuts' imbalance measured 1.0324 at most, at the start), on 3 ranks until it reaches 1.054 (the count is
+// printed). With a threshold of 1 every step makes new cuts, as before the cuts were kept. Every run gives the serial
+// answer: the partition does not enter the results.
 TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
   const Scene scene = dam_break(1e-6);
   const mps::Particles ref = reference(scene);
   const mps::DistributedOptions kept;
   const Comparison c = expect_same_answer("dam break", scene, true, ref, kept);
-  EXPECT_EQ(c.repartitions, 0U) << "below the threshold the cuts are kept (max imbalance " << c.max_imbalance << ")";
   EXPECT_LE(c.max_imbalance, kept.rebalance_threshold);
+  if (ranks() <= 2) {
+    EXPECT_EQ(c.repartitions, 0U) << "below the threshold the cuts are kept (max imbalance " << c.max_imbalance << ")";
+  }
   mps::DistributedOptions every_step;
   every_step.rebalance_threshold = 1.0;
   const Comparison renewed = expect_same_answer("dam break", scene, true, ref, every_step);

@@ -115,6 +115,22 @@ int run(int argc, char** argv) {
     wall += step_seconds;
     record(before, step_seconds);
   }
+  // The two placements alone on the last step's particles, between barriers, the slowest rank's, best of 5: new RCB
+  // cuts, and the assignment of every particle to kept cuts (the step adds one MPI_Allreduce of P counts to either).
+  double repartition_alone = 1e300, assign_alone = 1e300;
+  {
+    mps::RcbPartition partition(sim.comm());
+    for (int k = 0; k < 5; ++k) {
+      MPI_Barrier(comm);
+      double start = MPI_Wtime();
+      (void)partition.repartition(sim.particles());
+      repartition_alone = std::min(repartition_alone, slowest(comm, MPI_Wtime() - start));
+      MPI_Barrier(comm);
+      start = MPI_Wtime();
+      (void)partition.assign(sim.particles());
+      assign_alone = std::min(assign_alone, slowest(comm, MPI_Wtime() - start));
+    }
+  }
   const mps::PhaseTimes& t = sim.times();
   const mps::DistributedStepStats& s = sim.stats();
   const double n = steps;
@@ -149,7 +165,8 @@ int run(int argc, char** argv) {
             << " migrated a step, " << sim.last_step().solve.iterations << " iterations; threshold "
             << options.rebalance_threshold << ": " << repartitions << " repartitions (" << repartition
             << " s each), assignment to the kept cuts " << assign << " s, largest imbalance " << s.max_imbalance
-            << " (fluid alone " << max_fluid_imbalance << ")\n";
+            << " (fluid alone " << max_fluid_imbalance << "); alone, new cuts " << repartition_alone
+            << " s, assignment to kept cuts " << assign_alone << " s\n";
   if (!out.empty()) {
     const std::string header =
         "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"

@@ -52,7 +52,7 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   refuse_unsupported();
   if (std::isnan(options_.rebalance_threshold))
     throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
-                                "count over the mean to tolerate before new cuts (default 1.05)");
+                                "count over the mean to tolerate before new cuts (default 1.01)");
   const SimulationConfig& cfg = this->config();
   halo_radius_ = cfg.l0 * (std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient,
                                      cfg.radius_laplacian}) + 2.0 * cfg.max_displacement);

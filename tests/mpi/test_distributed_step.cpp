@@ -190,18 +190,22 @@ TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) {
   expect_same_answer("hydrostatic tank", scene, false, reference(scene));
 }
 
-// With the default threshold the cuts are kept while the imbalance stays below it: on 2 ranks over all 100 steps (the
-// kept cuts' imbalance measured 1.0324 at most, at the start), on 3 ranks until it reaches 1.054 (the count is
-// printed). With a threshold of 1 every step makes new cuts, as before the cuts were kept. Every run gives the serial
-// answer: the partition does not enter the results.
+// The cuts are kept while the imbalance stays at or below the threshold, and renewed when it exceeds it (every step's
+// decision is checked in run_both). At 1.05 the dam break's 100 steps on 2 ranks keep the cuts throughout (measured
+// 1.0324 at most, at the start; on 3 ranks 1.0508 once); at the default 1.01 a few steps renew them (the count is
+// printed); at 1 every step does, as before the cuts were kept. Every run gives the serial answer: the partition does
+// not enter the results.
 TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
   const Scene scene = dam_break(1e-6);
   const mps::Particles ref = reference(scene);
-  const mps::DistributedOptions kept;
-  const Comparison c = expect_same_answer("dam break", scene, true, ref, kept);
-  EXPECT_LE(c.max_imbalance, kept.rebalance_threshold);
+  expect_same_answer("dam break", scene, true, ref);
+  mps::DistributedOptions loose;
+  loose.rebalance_threshold = 1.05;
+  const Comparison kept = expect_same_answer("dam break", scene, true, ref, loose);
+  EXPECT_LE(kept.max_imbalance, loose.rebalance_threshold);
   if (ranks() <= 2) {
-    EXPECT_EQ(c.repartitions, 0U) << "below the threshold the cuts are kept (max imbalance " << c.max_imbalance << ")";
+    EXPECT_EQ(kept.repartitions, 0U) << "below the threshold the cuts are kept (max imbalance " << kept.max_imbalance
+                                     << ")";
   }
   mps::DistributedOptions every_step;
   every_step.rebalance_threshold = 1.0;

@@ -152,9 +152,10 @@ int run(int argc, char** argv) {
   const std::size_t repartitions = s.repartitions - s0.repartitions;
   const std::size_t assignments = static_cast<std::size_t>(steps) - repartitions;
   // Per placement, of the steps that made one: an assignment to the kept boxes, and new cuts.
-  const double assign = assignments ? slowest(comm, s.assign_seconds - s0.assign_seconds) / static_cast<double>(assignments) : 0.0;
-  const double repartition =
-      repartitions ? slowest(comm, s.repartition_seconds - s0.repartition_seconds) / static_cast<double>(repartitions) : 0.0;
+  const double assign_total = slowest(comm, s.assign_seconds - s0.assign_seconds);
+  const double repartition_total = slowest(comm, s.repartition_seconds - s0.repartition_seconds);
+  const double assign = assignments ? assign_total / static_cast<double>(assignments) : 0.0;
+  const double repartition = repartitions ? repartition_total / static_cast<double>(repartitions) : 0.0;
   if (rank != 0) return 0;
 
   std::cout << ranks << " rank(s), " << scene.size() << " particles (" << fluid_count << " fluid), load " << load
@@ -177,7 +178,8 @@ int run(int argc, char** argv) {
     if (!fresh) {
       std::string existing;
       std::getline(std::ifstream(out) >> std::ws, existing);
-      if (existing != header) throw std::runtime_error(out + " has other columns than this bench writes; give a new file");
+      if (existing != header)
+        throw std::runtime_error(out + " has other columns than this bench writes; give a new file");
     }
     std::ofstream csv(out, std::ios::app);
     if (fresh) csv << header << '\n';

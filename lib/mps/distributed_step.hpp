@@ -43,8 +43,8 @@ struct DistributedOptions {
 
 /// A Simulation whose particles are spread over the ranks of `comm` (MPI_Comm_c2f of the communicator). Each step
 /// starts by placing the particles in the kept RCB boxes (RcbPartition::place: new cuts when the load imbalance
-/// exceeds options.rebalance_threshold) and the migration of those that crossed a cut, then a halo at the largest kernel
-/// radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
+/// exceeds options.rebalance_threshold) and the migration of those that crossed a cut, then a halo at the largest
+/// kernel radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
 /// stages then run over owned and halo particles, the copies refreshed after the predictor (whole particles), after
 /// the free surface (flags), by the distributed PPE, and after the pressure boundary values (pressures, carriers).
 /// The time step and the stability guard are taken over all ranks. Between steps particles() holds this rank's own

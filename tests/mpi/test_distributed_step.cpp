@@ -159,8 +159,8 @@ Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::Distribu
   return out;
 }
 
-Comparison expect_same_answer(const char* name, const Scene& scene, bool particles_cross_cuts, const mps::Particles& ref,
-                              mps::DistributedOptions options = {}) {
+Comparison expect_same_answer(const char* name, const Scene& scene, bool particles_cross_cuts,
+                              const mps::Particles& ref, mps::DistributedOptions options = {}) {
   const Comparison c = run_both(scene, ref, options);
   EXPECT_EQ(c.steps_with_unequal_dt, 0) << "every rank must take the same dt every step";
   EXPECT_EQ(c.steps_with_lost_particles, 0) << "the ranks together must hold every particle after every step";
@@ -175,7 +175,8 @@ Comparison expect_same_answer(const char* name, const Scene& scene, bool particl
               "- p_serial| = %.3g of the largest %.4g Pa (bound %.0e), particles migrated %zu, repartitions %zu, max "
               "imbalance %.4f (%.4f with the cuts kept)\n",
               name, ranks(), kSteps, options.rebalance_threshold, c.max_position_l0, kPositionBound,
-              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance, c.max_kept_imbalance);
+              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance,
+              c.max_kept_imbalance);
   EXPECT_GT(c.largest_pressure, 0.0);
   EXPECT_LE(c.max_position_l0, kPositionBound);
   EXPECT_LE(c.max_pressure_rel, kPressureBound);

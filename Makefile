@@ -8,7 +8,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -105,6 +105,21 @@ bench-distributed-step: deps build/release/CMakeCache.txt
 	    ./build/release/bench/bench_distributed_step --fluid $$n --steps $(DSTEP_STEPS) \
 	    --out bench/results/distributed_step.csv || exit 1; \
 	done; done
+
+# The dam break's load imbalance on 2 ranks against time, one trace per rebalance threshold (docs/scaling.md, "Keeping
+# the cuts"): concatenated into bench/results/rebalance_trace.csv, the runs' rows appended to rebalance.csv, the figure.
+REBALANCE_THRESHOLDS ?= inf 1.10 1.05 1.02 1.01 1
+bench-rebalance: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_step
+	for t in $(REBALANCE_THRESHOLDS); do \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np 2 \
+	    ./build/release/bench/bench_distributed_step --fluid 800 --steps 2000 --threshold $$t \
+	    --trace build/release/rebalance_trace_$$t.csv --out bench/results/rebalance.csv || exit 1; \
+	done
+	t0=$(firstword $(REBALANCE_THRESHOLDS)); (head -1 build/release/rebalance_trace_$$t0.csv; \
+	  for t in $(REBALANCE_THRESHOLDS); do tail -n +2 build/release/rebalance_trace_$$t.csv; done) \
+	  > bench/results/rebalance_trace.csv
+	/usr/bin/python3 scripts/plot_rebalance.py bench/results/rebalance_trace.csv bench/results/rebalance_trace.png
 
 SOLVER_SIZES ?= 1e4,1e5,1e6
 bench-solvers: deps build/release/CMakeCache.txt

@@ -1,18 +1,23 @@
 // The MPS step on P ranks (mps/distributed_step.hpp): apps/dambreak's classic column at a spacing giving about the
 // requested fluid count, built on every rank and distributed, stepped `--steps` times after one untimed step (the
 // first solve's AMG setup and the first halo). Per step: the slowest rank's wall time (between barriers), its phase
-// times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations. One CSV row per
-// run, appended; run it under mpirun for each P:
+// times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations, the
+// repartitions and the largest load imbalance. One CSV row per run, appended; run it under mpirun for each P:
 //
 //   OMP_NUM_THREADS=1 mpirun -np 2 bench_distributed_step --fluid 1e5 --out bench/results/distributed_step.csv
+//
+// --trace FILE writes one row per step (time, load imbalance by particles and by fluid, repartition, migrations,
+// the time placing particles): how the load drifts with the cuts kept (--threshold inf) or renewed.
 #include <mpi.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 
 #include "column.hpp"
@@ -39,11 +44,15 @@ int run(int argc, char** argv) {
   CLI::App app("The MPS step on P ranks: per-step phase times, halo volume, messages and migrations");
   double fluid = 1e5;
   int steps = 5;
-  std::string spec = "hypre-pcg:tol=1e-8", out;
+  std::string spec = "hypre-pcg:tol=1e-8", out, trace;
+  mps::DistributedOptions options;
   app.add_option("--fluid", fluid, "fluid particles of the dam-break column (about)")->check(CLI::Range(1e2, 1e8));
   app.add_option("--steps", steps, "steps timed, after one untimed")->check(CLI::Range(1, 10000));
   app.add_option("--solver", spec, "solver spec (hypre-pcg or hypre-amg on more than one rank)");
   app.add_option("--out", out, "CSV file to append the row to (header written when the file is new)");
+  app.add_option("--threshold", options.rebalance_threshold,
+                 "new RCB cuts when the largest rank holds more than this times the mean (1: every step; inf: never)");
+  app.add_option("--trace", trace, "CSV file to write one row per step to (imbalance, repartitions, migrations)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -56,25 +65,70 @@ int run(int argc, char** argv) {
   // The classic column is a wide and 2a high: a / l0 = sqrt(fluid / 2) particles across.
   dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
   p.l0 = p.width / std::round(std::sqrt(fluid / 2.0));
-  p.shifting = 0.0;  // refused on several ranks
   p.solver = spec;
   const mps::Particles scene = dambreak::make_particles(p);
   const mps::Domain domain = dambreak::make_domain(p, scene);
-  mps::DistributedSimulation sim(scene, domain, dambreak::make_config(p), static_cast<int>(MPI_Comm_c2f(comm)));
+  mps::DistributedSimulation sim(scene, domain, dambreak::make_config(p), static_cast<int>(MPI_Comm_c2f(comm)),
+                                 options);
   sim.add<mps::ParticleCollision>(p.collision, p.restitution);
   sim.add<mps::AsymmetrySurface>(p.asymmetry);
   const double ceiling = domain.ymax - 2 * p.l0, top = p.tank_height, length = p.tank_length;
   sim.add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < length)); });
 
-  sim.step();
+  std::ofstream trace_csv;
+  if (rank == 0 && !trace.empty()) {
+    trace_csv.open(trace);
+    trace_csv << "ranks,fluid_target,rebalance_threshold,step,time_s,imbalance,fluid_imbalance,repartitioned,"
+                 "migrated,place_s,step_s\n";
+  }
+  double max_fluid_imbalance = 0.0;
+  // One row of the trace: this step's imbalance (by particles, as the partition balances, and by fluid alone).
+  auto record = [&](const mps::DistributedStepStats& before, double step_seconds) {
+    const mps::DistributedStepStats& now = sim.stats();
+    const double fluid_imbalance = mps::load_imbalance(sim.particles().count(mps::Kind::fluid), sim.comm());
+    max_fluid_imbalance = std::max(max_fluid_imbalance, fluid_imbalance);
+    const double migrated = total(comm, static_cast<double>(now.migrated - before.migrated));
+    const double place = slowest(comm, now.assign_seconds + now.repartition_seconds - before.assign_seconds -
+                                           before.repartition_seconds);
+    if (trace_csv.is_open())
+      trace_csv << ranks << ',' << fluid << ',' << options.rebalance_threshold << ',' << now.steps << ','
+                << sim.time() << ',' << now.imbalance << ',' << fluid_imbalance << ','
+                << (now.repartitions - before.repartitions) << ',' << migrated << ',' << place << ','
+                << step_seconds << '\n';
+  };
+  {
+    const mps::DistributedStepStats before = sim.stats();
+    const double start = MPI_Wtime();
+    sim.step();
+    record(before, slowest(comm, MPI_Wtime() - start));
+  }
   const mps::PhaseTimes t0 = sim.times();
   const mps::DistributedStepStats s0 = sim.stats();
   double wall = 0.0;
   for (int k = 0; k < steps; ++k) {
+    const mps::DistributedStepStats before = sim.stats();
     MPI_Barrier(comm);
     const double start = MPI_Wtime();
     sim.step();
-    wall += slowest(comm, MPI_Wtime() - start);
+    const double step_seconds = slowest(comm, MPI_Wtime() - start);
+    wall += step_seconds;
+    record(before, step_seconds);
+  }
+  // The two placements alone on the last step's particles, between barriers, the slowest rank's, best of 5: new RCB
+  // cuts, and the assignment of every particle to kept cuts (the step adds one MPI_Allreduce of P counts to either).
+  double repartition_alone = 1e300, assign_alone = 1e300;
+  {
+    mps::RcbPartition partition(sim.comm());
+    for (int k = 0; k < 5; ++k) {
+      MPI_Barrier(comm);
+      double start = MPI_Wtime();
+      (void)partition.repartition(sim.particles());
+      repartition_alone = std::min(repartition_alone, slowest(comm, MPI_Wtime() - start));
+      MPI_Barrier(comm);
+      start = MPI_Wtime();
+      (void)partition.assign(sim.particles());
+      assign_alone = std::min(assign_alone, slowest(comm, MPI_Wtime() - start));
+    }
   }
   const mps::PhaseTimes& t = sim.times();
   const mps::DistributedStepStats& s = sim.stats();
@@ -94,6 +148,13 @@ int run(int argc, char** argv) {
   const double migrated_sum = total(comm, static_cast<double>(s.migrated - s0.migrated) / n);
   const double owned_max = slowest(comm, static_cast<double>(sim.particles().size()));
   const double fluid_count = total(comm, static_cast<double>(sim.particles().count(mps::Kind::fluid)));
+  const std::size_t repartitions = s.repartitions - s0.repartitions;
+  const std::size_t assignments = static_cast<std::size_t>(steps) - repartitions;
+  // Per placement, of the steps that made one: an assignment to the kept boxes, and new cuts.
+  const double assign_total = slowest(comm, s.assign_seconds - s0.assign_seconds);
+  const double repartition_total = slowest(comm, s.repartition_seconds - s0.repartition_seconds);
+  const double assign = assignments ? assign_total / static_cast<double>(assignments) : 0.0;
+  const double repartition = repartitions ? repartition_total / static_cast<double>(repartitions) : 0.0;
   if (rank != 0) return 0;
 
   std::cout << ranks << " rank(s), " << scene.size() << " particles (" << fluid_count << " fluid), load " << load
@@ -101,20 +162,33 @@ int run(int argc, char** argv) {
             << neighbors << ", predict " << predict << ", assemble " << assemble << ", AMG setup " << setup
             << ", solve " << solve << ", correct " << correct << "); halo copies " << copies_max << " (largest rank), "
             << messages_sum << " messages and " << bytes_sum << " bytes a step, " << migrated_sum
-            << " migrated a step, " << sim.last_step().solve.iterations << " iterations\n";
+            << " migrated a step, " << sim.last_step().solve.iterations << " iterations; threshold "
+            << options.rebalance_threshold << ": " << repartitions << " repartitions (" << repartition
+            << " s each), assignment to the kept cuts " << assign << " s, largest imbalance " << s.max_imbalance
+            << " (fluid alone " << max_fluid_imbalance << "); alone, new cuts " << repartition_alone
+            << " s, assignment to kept cuts " << assign_alone << " s\n";
   if (!out.empty()) {
+    const std::string header =
+        "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"
+        "neighbors_s,predict_s,assemble_s,setup_s,solve_s,correct_s,iterations,halo_copies_max,halo_copies_sum,"
+        "messages_per_step,bytes_per_step,migrated_per_step,rebalance_threshold,repartitions,max_imbalance,assign_s,"
+        "repartition_s";
     const bool fresh = !std::filesystem::exists(out);
+    if (!fresh) {
+      std::string existing;
+      std::getline(std::ifstream(out) >> std::ws, existing);
+      if (existing != header)
+        throw std::runtime_error(out + " has other columns than this bench writes; give a new file");
+    }
     std::ofstream csv(out, std::ios::app);
-    if (fresh)
-      csv << "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"
-             "neighbors_s,predict_s,assemble_s,setup_s,solve_s,correct_s,iterations,halo_copies_max,halo_copies_sum,"
-             "messages_per_step,bytes_per_step,migrated_per_step\n";
+    if (fresh) csv << header << '\n';
     const char* threads = std::getenv("OMP_NUM_THREADS");
     csv << ranks << ',' << (threads ? threads : "") << ',' << load << ',' << scene.size() << ',' << fluid_count << ','
         << owned_max << ',' << spec << ',' << steps << ',' << wall / n << ',' << migrate << ',' << halo << ','
         << neighbors << ',' << predict << ',' << assemble << ',' << setup << ',' << solve << ',' << correct << ','
         << sim.last_step().solve.iterations << ',' << copies_max << ',' << copies_sum << ',' << messages_sum << ','
-        << bytes_sum << ',' << migrated_sum << '\n';
+        << bytes_sum << ',' << migrated_sum << ',' << options.rebalance_threshold << ',' << repartitions << ','
+        << s.max_imbalance << ',' << assign << ',' << repartition << '\n';
   }
   return 0;
 }

@@ -129,9 +129,49 @@ void join(std::vector<int>& parent, int a, int b) {
 
 }  // namespace
 
-std::vector<int> partition_particles(const Particles& particles, int comm_handle) {
-  require_mpi("partition_particles");
+std::vector<int> partition_particles(const Particles& particles, int comm) {
+  RcbPartition partition(comm);
+  return partition.repartition(particles);
+}
+
+double load_imbalance(std::size_t load, int comm_handle) {
+  require_mpi("load_imbalance");
   const MPI_Comm comm = to_comm(comm_handle);
+  unsigned long long largest = load, sum = load;
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm);
+  if (sum == 0) return 1.0;
+  return static_cast<double>(largest) * size_of(comm) / static_cast<double>(sum);
+}
+
+struct RcbPartition::Zoltan {
+  Zoltan_Struct* zz = nullptr;
+  ZoltanInput input{nullptr};
+};
+
+RcbPartition::RcbPartition(int comm_handle) : comm_(comm_handle) { require_mpi("RcbPartition"); }
+
+RcbPartition::~RcbPartition() {
+  if (zoltan_ == nullptr) return;
+  // Zoltan_Destroy frees its communicator: only while MPI runs (a partition outliving MPI_Finalize leaks instead).
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized) Zoltan_Destroy(&zoltan_->zz);
+  delete zoltan_;
+}
+
+RcbPartition::RcbPartition(RcbPartition&& other) noexcept
+    : comm_(other.comm_), has_cuts_(std::exchange(other.has_cuts_, false)),
+      zoltan_(std::exchange(other.zoltan_, nullptr)) {}
+
+RcbPartition& RcbPartition::operator=(RcbPartition&& other) noexcept {
+  std::swap(comm_, other.comm_);
+  std::swap(has_cuts_, other.has_cuts_);
+  std::swap(zoltan_, other.zoltan_);
+  return *this;
+}
+
+std::vector<int> RcbPartition::repartition(const Particles& particles) {
   for (int id : particles.id)
     if (id < 0)
       throw std::invalid_argument("partition_particles: particle id " + std::to_string(id) +
@@ -141,35 +181,78 @@ std::vector<int> partition_particles(const Particles& particles, int comm_handle
     float version = 0;
     if (Zoltan_Initialize(0, nullptr, &version) != ZOLTAN_OK) throw std::runtime_error("Zoltan_Initialize failed");
   });
-  Zoltan_Struct* zz = Zoltan_Create(comm);
-  if (zz == nullptr) throw std::runtime_error("partition_particles: Zoltan_Create failed");
-  ZoltanInput input{&particles};
-  // RCB, one part per rank; rectilinear blocks keep every particle on a cut line on one side, so the partition is a
-  // function of the positions alone (a lattice has many particles on each line).
-  const char* params[][2] = {{"DEBUG_LEVEL", "0"},          {"LB_METHOD", "RCB"},
-                             {"NUM_GID_ENTRIES", "1"},      {"NUM_LID_ENTRIES", "1"},
-                             {"OBJ_WEIGHT_DIM", "0"},       {"RETURN_LISTS", "EXPORT"},
-                             {"RCB_RECTILINEAR_BLOCKS", "1"}, {"KEEP_CUTS", "0"},
-                             {"IMBALANCE_TOL", "1.05"}};
-  for (const auto& kv : params) Zoltan_Set_Param(zz, kv[0], kv[1]);
-  Zoltan_Set_Num_Obj_Fn(zz, zoltan_count, &input);
-  Zoltan_Set_Obj_List_Fn(zz, zoltan_objects, &input);
-  Zoltan_Set_Num_Geom_Fn(zz, zoltan_dimension, &input);
-  Zoltan_Set_Geom_Multi_Fn(zz, zoltan_positions, &input);
+  if (zoltan_ == nullptr) {
+    Zoltan_Struct* zz = Zoltan_Create(to_comm(comm_));
+    if (zz == nullptr) throw std::runtime_error("partition_particles: Zoltan_Create failed");
+    zoltan_ = new Zoltan{zz, {nullptr}};
+    // RCB, one part per rank; rectilinear blocks keep every particle on a cut line on one side, so the partition is
+    // a function of the positions alone (a lattice has many particles on each line). The cuts are kept for assign().
+    // No remapping of parts to the ranks holding most of their particles: on 3 ranks that gave the same boxes other
+    // ranks depending on who held what.
+    const char* params[][2] = {{"DEBUG_LEVEL", "0"},          {"LB_METHOD", "RCB"},
+                               {"NUM_GID_ENTRIES", "1"},      {"NUM_LID_ENTRIES", "1"},
+                               {"OBJ_WEIGHT_DIM", "0"},       {"RETURN_LISTS", "NONE"},
+                               {"RCB_RECTILINEAR_BLOCKS", "1"}, {"KEEP_CUTS", "1"},
+                               {"REMAP", "0"},                {"IMBALANCE_TOL", "1.05"}};
+    for (const auto& kv : params) Zoltan_Set_Param(zz, kv[0], kv[1]);
+    Zoltan_Set_Num_Obj_Fn(zz, zoltan_count, &zoltan_->input);
+    Zoltan_Set_Obj_List_Fn(zz, zoltan_objects, &zoltan_->input);
+    Zoltan_Set_Num_Geom_Fn(zz, zoltan_dimension, &zoltan_->input);
+    Zoltan_Set_Geom_Multi_Fn(zz, zoltan_positions, &zoltan_->input);
+  }
+  zoltan_->input.particles = &particles;
   int changes = 0, gid_entries = 0, lid_entries = 0, imports = 0, exports = 0;
   ZOLTAN_ID_PTR import_gid = nullptr, import_lid = nullptr, export_gid = nullptr, export_lid = nullptr;
   int *import_procs = nullptr, *import_parts = nullptr, *export_procs = nullptr, *export_parts = nullptr;
-  const int code = Zoltan_LB_Partition(zz, &changes, &gid_entries, &lid_entries, &imports, &import_gid, &import_lid,
-                                       &import_procs, &import_parts, &exports, &export_gid, &export_lid, &export_procs,
-                                       &export_parts);
-  std::vector<int> destination(particles.size(), rank_of(comm));
-  if (code == ZOLTAN_OK)
-    for (int k = 0; k < exports; ++k) destination[static_cast<std::size_t>(export_lid[k])] = export_procs[k];
+  const int code = Zoltan_LB_Partition(zoltan_->zz, &changes, &gid_entries, &lid_entries, &imports, &import_gid,
+                                       &import_lid, &import_procs, &import_parts, &exports, &export_gid, &export_lid,
+                                       &export_procs, &export_parts);
   Zoltan_LB_Free_Part(&import_gid, &import_lid, &import_procs, &import_parts);
   Zoltan_LB_Free_Part(&export_gid, &export_lid, &export_procs, &export_parts);
-  Zoltan_Destroy(&zz);
+  zoltan_->input.particles = nullptr;
   if (code != ZOLTAN_OK) throw std::runtime_error("partition_particles: Zoltan_LB_Partition failed");
+  has_cuts_ = true;
+  // The ranks from the cuts (not from Zoltan's export lists): the same rule assign() applies on later steps.
+  return assign(particles);
+}
+
+std::vector<int> RcbPartition::assign(const Particles& particles) const {
+  if (!has_cuts_)
+    throw std::logic_error("RcbPartition::assign: no cuts yet; call repartition() (or place()) first");
+  std::vector<int> destination(particles.size());
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    std::array<double, 2> xy{particles.x[i], particles.y[i]};
+    if (Zoltan_LB_Point_Assign(zoltan_->zz, xy.data(), &destination[i]) != ZOLTAN_OK)
+      throw std::runtime_error("RcbPartition::assign: Zoltan_LB_Point_Assign failed");
+  }
   return destination;
+}
+
+double RcbPartition::imbalance_of(const std::vector<int>& destination) const {
+  const MPI_Comm comm = to_comm(comm_);
+  std::vector<unsigned long long> count(static_cast<std::size_t>(size_of(comm)), 0);
+  for (int d : destination) ++count[static_cast<std::size_t>(d)];
+  MPI_Allreduce(MPI_IN_PLACE, count.data(), static_cast<int>(count.size()), MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm);
+  const unsigned long long sum = std::accumulate(count.begin(), count.end(), 0ULL);
+  if (sum == 0) return 1.0;
+  return static_cast<double>(*std::max_element(count.begin(), count.end())) * static_cast<double>(count.size()) /
+         static_cast<double>(sum);
+}
+
+RcbPartition::Placement RcbPartition::place(const Particles& particles, double threshold) {
+  if (std::isnan(threshold))
+    throw std::invalid_argument("RcbPartition::place: the rebalance threshold is NaN; give the largest load over the "
+                                "mean to tolerate, e.g. 1.1");
+  Placement out;
+  if (has_cuts_) {
+    out.destination = assign(particles);
+    out.kept_imbalance = out.imbalance = imbalance_of(out.destination);
+    if (out.kept_imbalance <= threshold && threshold > 1.0) return out;
+  }
+  out.destination = repartition(particles);
+  out.imbalance = imbalance_of(out.destination);
+  out.repartitioned = true;
+  return out;
 }
 
 ExchangeStats migrate_particles(Particles& particles, std::span<const int> destination, int comm_handle) {

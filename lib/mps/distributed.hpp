@@ -31,8 +31,56 @@ struct ExchangeStats {
 /// The rank each of this rank's particles belongs to: Zoltan's recursive coordinate bisection over all ranks'
 /// positions (one part per rank, cuts between particles so that a part is a box). The same particles give the same
 /// partition. Throws std::invalid_argument for a negative id and std::runtime_error if MPI is not running or Zoltan
-/// fails.
+/// fails. A one-off RcbPartition::repartition.
 std::vector<int> partition_particles(const Particles& particles, int comm);
+
+/// The load imbalance of a distribution: the largest rank's `load` over the mean of all ranks' (1 when every rank
+/// has the same; 1 when all are zero). Collective.
+double load_imbalance(std::size_t load, int comm);
+
+/// An RCB partition whose cuts are kept between steps (Zoltan's KEEP_CUTS): repartition() finds new cuts over all
+/// ranks' particles; assign() puts particles into the kept boxes without any communication
+/// (Zoltan_LB_Point_Assign). Either way a particle's rank is a function of its position and the cuts alone, not of
+/// which rank holds it. The load balanced is the particle count, every kind alike (what RCB without weights
+/// balances).
+class RcbPartition {
+ public:
+  /// No cuts yet: the first place() or repartition() makes them. Throws std::runtime_error if MPI is not running.
+  explicit RcbPartition(int comm);
+  ~RcbPartition();
+  RcbPartition(RcbPartition&& other) noexcept;
+  RcbPartition& operator=(RcbPartition&& other) noexcept;
+  RcbPartition(const RcbPartition&) = delete;
+  RcbPartition& operator=(const RcbPartition&) = delete;
+
+  /// New cuts over every rank's particles and each of this rank's particles' rank under them. Collective. Throws
+  /// std::invalid_argument for a negative id, std::runtime_error if Zoltan fails.
+  std::vector<int> repartition(const Particles& particles);
+  /// Each particle's rank under the kept cuts. Local. Throws std::logic_error before the first repartition().
+  [[nodiscard]] std::vector<int> assign(const Particles& particles) const;
+  [[nodiscard]] bool has_cuts() const { return has_cuts_; }  ///< a repartition() has been made
+  [[nodiscard]] int comm() const { return comm_; }            ///< the communicator's Fortran handle
+
+  /// Where each particle goes for the next step, and whether the cuts were renewed for it.
+  struct Placement {
+    std::vector<int> destination;  ///< this rank's particles' ranks
+    double kept_imbalance = 1;     ///< load_imbalance the kept cuts would give (1 when there were none)
+    double imbalance = 1;          ///< load_imbalance of `destination`: after the repartition if there was one
+    bool repartitioned = false;    ///< new cuts were made (no cuts yet, or kept_imbalance > threshold)
+  };
+  /// The kept cuts' assignment, or a repartition when there are no cuts yet or the kept cuts would leave the largest
+  /// rank more than `threshold` times the mean particle count. Collective (one MPI_Allreduce of P counts, plus the
+  /// repartition when made); every rank takes the same decision. A threshold of 1 or below repartitions every
+  /// time, +infinity never after the first. Throws std::invalid_argument for a NaN threshold.
+  Placement place(const Particles& particles, double threshold);
+
+ private:
+  struct Zoltan;  // the Zoltan_Struct holding the cuts
+  [[nodiscard]] double imbalance_of(const std::vector<int>& destination) const;
+  int comm_ = 0;
+  bool has_cuts_ = false;
+  Zoltan* zoltan_ = nullptr;
+};
 
 /// Sends particle i, every array of it, to rank destination[i]; afterwards this rank holds the particles sent to it,
 /// sorted by id (ids are global: a particle keeps its id whichever rank holds it). Particles must hold no halo copies

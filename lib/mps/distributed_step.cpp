@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -41,13 +42,17 @@ class ZeroSolution : public LinearSolver {
 
 }  // namespace
 
-DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm)
+DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm,
+                                             DistributedOptions options)
     : Simulation(std::move(scene), domain, without_reordering(config), make_solver(config.solver, on(comm))),
-      comm_(comm) {
+      comm_(comm), options_(options) {
   const MPI_Comm c = MPI_Comm_f2c(comm_);
   MPI_Comm_rank(c, &rank_);
   MPI_Comm_size(c, &ranks_);
   refuse_unsupported();
+  if (std::isnan(options_.rebalance_threshold))
+    throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
+                                "count over the mean to tolerate before new cuts (default 1.01)");
   const SimulationConfig& cfg = this->config();
   halo_radius_ = cfg.l0 * (std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient,
                                      cfg.radius_laplacian}) + 2.0 * cfg.max_displacement);
@@ -55,7 +60,10 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   Particles& p = particles_;
   if (rank_ != 0) p = Particles{};
   const auto start = Clock::now();
-  count(distribute_particles(p, comm_));
+  partition_.emplace(comm_);
+  const RcbPartition::Placement placed = partition_->place(p, options_.rebalance_threshold);
+  stats_.kept_imbalance = stats_.imbalance = stats_.max_imbalance = placed.imbalance;
+  count(migrate_particles(p, placed.destination, comm_));
   stats_.migrate_seconds += seconds_since(start);
 }
 
@@ -83,16 +91,32 @@ void DistributedSimulation::check_components() const { refuse_unsupported(); }
 
 void DistributedSimulation::begin_step() {
   ++stats_.steps;
-  auto start = Clock::now();
-  const ExchangeStats moved = distribute_particles(particles_, comm_);
-  stats_.migrated += moved.particles_sent;
-  count(moved);
-  stats_.migrate_seconds += seconds_since(start);
-  start = Clock::now();
+  migrate_to_partition();
+  const auto start = Clock::now();
   halo_.emplace(particles_, domain(), halo_radius_, comm_);
   stats_.halo_copies += halo_->copies();
   count(halo_->setup());
   stats_.halo_seconds += seconds_since(start);
+}
+
+// The kept cuts' boxes, or new cuts when the load has drifted past the threshold; one migration either way.
+void DistributedSimulation::migrate_to_partition() {
+  const auto start = Clock::now();
+  const RcbPartition::Placement placed = partition_->place(particles_, options_.rebalance_threshold);
+  const double placing = seconds_since(start);
+  if (placed.repartitioned) {
+    ++stats_.repartitions;
+    stats_.repartition_seconds += placing;
+  } else {
+    stats_.assign_seconds += placing;
+  }
+  stats_.kept_imbalance = placed.kept_imbalance;
+  stats_.imbalance = placed.imbalance;
+  stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
+  const ExchangeStats moved = migrate_particles(particles_, placed.destination, comm_);
+  stats_.migrated += moved.particles_sent;
+  count(moved);
+  stats_.migrate_seconds += seconds_since(start);
 }
 
 double DistributedSimulation::max_over_ranks(double value) const {

@@ -21,13 +21,30 @@ struct DistributedStepStats {
   std::size_t refreshes = 0;        ///< the step's own halo refreshes (the PPE's and hypre's not counted)
   std::size_t messages_sent = 0;    ///< point-to-point messages of the migrations, halos and refreshes
   std::size_t bytes_sent = 0;       ///< their payload bytes
-  double migrate_seconds = 0;       ///< wall-clock time in the partition and migration
+  double migrate_seconds = 0;       ///< wall-clock time in the partition (assignment or repartition) and migration
   double halo_seconds = 0;          ///< wall-clock time building halos
+  std::size_t repartitions = 0;     ///< new RCB cuts made at the start of a step (the constructor's not counted)
+  double assign_seconds = 0;        ///< of migrate_seconds: placing particles in the kept boxes, imbalance measured
+  double repartition_seconds = 0;   ///< of migrate_seconds: the new cuts (Zoltan's RCB) and their imbalance
+  double kept_imbalance = 1;        ///< this step's load imbalance had the cuts been kept (before any repartition)
+  double imbalance = 1;             ///< this step's load imbalance (largest rank's particles / mean), all ranks alike
+  double max_imbalance = 1;         ///< the largest `imbalance` over the steps so far
+};
+
+/// How the distributed step spreads its particles.
+struct DistributedOptions {
+  /// New RCB cuts when the kept ones would give the largest rank more than this many times the mean particle count.
+  /// 1 or below: new cuts every step; +infinity: never after the constructor's. Chosen from the classic dam break on
+  /// 2 ranks (docs/scaling.md, "Keeping the cuts"): new cuts cost about 1 % of a step, 1 % of imbalance costs up to
+  /// 1 % of a step, every step; of the thresholds tried (1 to 1.10) this one cost least, about half what new cuts
+  /// every step did.
+  double rebalance_threshold = 1.01;
 };
 
 /// A Simulation whose particles are spread over the ranks of `comm` (MPI_Comm_c2f of the communicator). Each step
-/// starts with a new RCB partition (partition_particles) and the migration to it, then a halo at the largest kernel
-/// radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
+/// starts by placing the particles in the kept RCB boxes (RcbPartition::place: new cuts when the load imbalance
+/// exceeds options.rebalance_threshold) and the migration of those that crossed a cut, then a halo at the largest
+/// kernel radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
 /// stages then run over owned and halo particles, the copies refreshed after the predictor (whole particles), after
 /// the free surface (flags), by the distributed PPE, after the pressure boundary values (pressures, carriers) and
 /// after the corrector (whole particles, for particle shifting).
@@ -41,7 +58,8 @@ class DistributedSimulation : public Simulation {
  public:
   /// Every rank passes the same scene: every rank validates it as Simulation does, rank 0's particles are then
   /// distributed. config.reorder_every is set to 0 (the migration orders each rank's particles by id). Collective.
-  DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm);
+  DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm,
+                        DistributedOptions options = {});
 
   /// Every rank's particles, on rank 0 sorted by id (empty on the other ranks). Collective; call between steps.
   [[nodiscard]] Particles gather() const;
@@ -51,11 +69,12 @@ class DistributedSimulation : public Simulation {
   /// The halo's radius: the largest kernel radius plus twice config().max_displacement, both in l0 [m].
   [[nodiscard]] double halo_radius() const { return halo_radius_; }
   [[nodiscard]] const DistributedStepStats& stats() const { return stats_; }  ///< exchanges so far
+  [[nodiscard]] const DistributedOptions& options() const { return options_; }  ///< as constructed
   [[nodiscard]] double max_over_ranks(double value) const override;  ///< MPI_Allreduce(MAX)
 
  protected:
   void check_components() const override;           ///< refuses what does not run on ranks (added since)
-  void begin_step() override;                       ///< new partition, migration, halo
+  void begin_step() override;                       ///< placement in the kept boxes (or new cuts), migration, halo
   void share_predicted() override;                  ///< copies take their owners' r*, u*
   void share_surface() override;                    ///< copies take their owners' free-surface flags
   void assemble() override;                         ///< assemble_distributed_ppe
@@ -69,12 +88,15 @@ class DistributedSimulation : public Simulation {
  private:
   void count(const ExchangeStats& e);
   void refuse_unsupported() const;
+  void migrate_to_partition();
 
   int comm_ = 0, rank_ = 0, ranks_ = 1;
   double halo_radius_ = 0;
   std::optional<Halo> halo_;
   DistributedPpe distributed_ppe_;
   DistributedStepStats stats_;
+  DistributedOptions options_;
+  std::optional<RcbPartition> partition_;  // the kept cuts
 };
 
 }  // namespace mps

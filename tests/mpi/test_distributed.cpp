@@ -342,4 +342,121 @@ TEST(Distributed, SerialBackendsRefuseMoreThanOneRank) {
   for (const char* name : {"hypre-pcg", "hypre-amg", "auto"}) EXPECT_NO_THROW(mps::make_solver(name, context)) << name;
 }
 
+// The kept cuts (RcbPartition): particles go to the boxes of the last repartition without communication, so only a
+// particle that crossed a cut changes rank, and its rank follows from its position whichever rank held it.
+mps::Particles distributed_with(mps::RcbPartition& partition, const Scene& scene) {
+  mps::Particles p;
+  if (rank() == 0) p = scene.p;
+  mps::migrate_particles(p, partition.repartition(p), comm());
+  return p;
+}
+
+TEST(Distributed, KeptCutsMigrateOnlyTheParticleThatCrossedACut) {
+  const Scene scene(false);
+  mps::RcbPartition partition(comm());
+  mps::Particles p = distributed_with(partition, scene);
+  const std::vector<int> unmoved = partition.assign(p);
+  EXPECT_TRUE(std::all_of(unmoved.begin(), unmoved.end(), [](int r) { return r == rank(); }));
+  // Rank 0's lowest-id particle jumps onto a particle of the last rank: across one cut or more (P > 1).
+  const int last = ranks() - 1;
+  std::array<double, 2> target{};
+  if (rank() == last) target = {p.x[0], p.y[0]};
+  MPI_Bcast(target.data(), 2, MPI_DOUBLE, last, kComm);
+  int moved_id = -1;
+  if (rank() == 0) {
+    moved_id = p.id[0];
+    p.x[0] = target[0];
+    p.y[0] = target[1];
+  }
+  MPI_Bcast(&moved_id, 1, MPI_INT, 0, kComm);
+  const std::vector<int> destination = partition.assign(p);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    EXPECT_EQ(destination[i], p.id[i] == moved_id ? last : rank()) << "particle " << p.id[i];
+  const std::size_t before = p.size();
+  const mps::ExchangeStats moved = mps::migrate_particles(p, destination, comm());
+  const bool holds_it = std::find(p.id.begin(), p.id.end(), moved_id) != p.id.end();
+  EXPECT_EQ(holds_it, rank() == last);
+  if (ranks() > 1) {
+    EXPECT_EQ(moved.particles_sent, rank() == 0 ? 1U : 0U);
+    EXPECT_EQ(p.size(), before + (rank() == last) - (rank() == 0));
+  }
+}
+
+TEST(Distributed, KeptCutsGiveEachParticleTheSameRankWhicheverRankHeldIt) {
+  const Scene scene(false);
+  mps::RcbPartition partition(comm());
+  mps::Particles p = distributed_with(partition, scene);
+  for (std::size_t i = 0; i < p.size(); ++i) p.group[i] = rank();  // the group field carries the owner along
+  // Scattered over the ranks by id, then placed again: by the kept cuts, and by new cuts from the scattered holders
+  // (with Zoltan's default REMAP the new cuts were the same boxes, numbered after their holders on 3 ranks).
+  std::vector<int> scatter(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) scatter[i] = (p.id[i] * 7919) % ranks();
+  mps::migrate_particles(p, scatter, comm());
+  const std::vector<int> kept = partition.assign(p);
+  mps::RcbPartition fresh(comm());
+  const std::vector<int> renewed = fresh.repartition(p);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_EQ(kept[i], p.group[i]) << "particle " << p.id[i];
+    EXPECT_EQ(renewed[i], p.group[i]) << "particle " << p.id[i];
+  }
+}
+
+TEST(Distributed, PlacementKeepsTheCutsBelowTheThresholdAndRepartitionsAboveIt) {
+  const Scene scene(false);
+  constexpr double threshold = 1.1;
+  mps::RcbPartition partition(comm());
+  mps::Particles p;
+  if (rank() == 0) p = scene.p;
+  const mps::RcbPartition::Placement first = partition.place(p, threshold);
+  EXPECT_TRUE(first.repartitioned) << "no cuts yet: the first placement makes them";
+  mps::migrate_particles(p, first.destination, comm());
+  const mps::RcbPartition::Placement again = partition.place(p, threshold);
+  EXPECT_FALSE(again.repartitioned);
+  EXPECT_DOUBLE_EQ(again.imbalance, first.imbalance);
+  EXPECT_LE(again.imbalance, threshold);
+  EXPECT_TRUE(std::all_of(again.destination.begin(), again.destination.end(), [](int r) { return r == rank(); }));
+
+  // Every even-numbered particle squeezed into the middle 90 % of rank 0's box (an affine map of the scene's bounding
+  // box: positions stay distinct), so that rank 0's box holds (1 + (P - 1) / 2) N / P: 1.5 N / 2, 2 N / 3.
+  std::array<double, 4> box{1e300, -1e300, 1e300, -1e300};
+  for (std::size_t i = 0; i < p.size(); ++i)
+    box = {std::min(box[0], p.x[i]), std::max(box[1], p.x[i]), std::min(box[2], p.y[i]), std::max(box[3], p.y[i])};
+  MPI_Bcast(box.data(), 4, MPI_DOUBLE, 0, kComm);
+  std::array<double, 4> scene_box{1e300, -1e300, 1e300, -1e300};
+  for (std::size_t i = 0; i < scene.p.size(); ++i)
+    scene_box = {std::min(scene_box[0], scene.p.x[i]), std::max(scene_box[1], scene.p.x[i]),
+                 std::min(scene_box[2], scene.p.y[i]), std::max(scene_box[3], scene.p.y[i])};
+  auto squeeze = [](double v, double from_lo, double from_hi, double lo, double hi) {
+    const double margin = 0.05 * (hi - lo);
+    return lo + margin + (v - from_lo) / (from_hi - from_lo) * (hi - lo - 2 * margin);
+  };
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.id[i] % 2 != 0) continue;
+    p.x[i] = squeeze(p.x[i], scene_box[0], scene_box[1], box[0], box[1]);
+    p.y[i] = squeeze(p.y[i], scene_box[2], scene_box[3], box[2], box[3]);
+  }
+  const mps::RcbPartition::Placement crowded = partition.place(p, threshold);
+  const mps::ExchangeStats moved = mps::migrate_particles(p, crowded.destination, comm());
+  const double share = static_cast<double>(scene.p.size()) / ranks();
+  EXPECT_EQ(crowded.repartitioned, ranks() > 1) << "kept cuts' imbalance " << crowded.kept_imbalance;
+  if (ranks() > 1) {
+    EXPECT_GT(crowded.kept_imbalance, 1.4);
+  }
+  EXPECT_LE(crowded.imbalance, threshold);
+  EXPECT_GT(static_cast<double>(p.size()), 0.9 * share);
+  EXPECT_LT(static_cast<double>(p.size()), 1.1 * share);
+  EXPECT_DOUBLE_EQ(crowded.imbalance, mps::load_imbalance(p.size(), comm()));
+  if (rank() == 0)
+    std::printf("[ placement on %d ranks ] imbalance %.4f after the first cuts; crowded: %.4f with the kept cuts, "
+                "%.4f after repartitioning (%zu particles sent by rank 0)\n",
+                ranks(), first.imbalance, crowded.kept_imbalance, crowded.imbalance, moved.particles_sent);
+}
+
+TEST(Distributed, PlacementRefusesANanThreshold) {
+  mps::RcbPartition partition(comm());
+  mps::Particles p;
+  EXPECT_THROW(partition.place(p, std::nan("")), std::invalid_argument);
+  EXPECT_THROW((void)partition.assign(p), std::logic_error);
+}
+
 }  // namespace

@@ -1,0 +1,190 @@
+#!/usr/bin/python3
+"""A communication model of the distributed step, fitted to this machine's measurements, and its projection to 1e8
+particles on 1,000 ranks (issue 27, item 5; docs/scaling.md#the-model-and-the-projection).
+
+Per rank and step, for n particles per rank on P ranks (2D, RCB boxes):
+
+  T(n, P) = T1(n) + T_ppe_loss(n, P) + T_halo(n, P) + T_collective(P)
+
+  T1(n)          the step on one rank (no exchanges): a power law a n^b through the measured 1-rank steps;
+  T_ppe_loss     what the PPE (AMG setup and PCG) loses to parallel inefficiency: T1's PPE share (1/e - 1) for a
+                 parallel efficiency e of the pressure solve (an assumption at 1,000 ranks: see ASSUMED);
+  T_halo         per neighbour rank and step, E exchanges of one message each; per side of the box k sqrt(n) copies
+                 (k fitted to the measured copies on 2 ranks), each carrying BYTES_PER_COPY bytes over the step's
+                 exchanges; 8 neighbours for an interior box (4 sides, 4 corners of ~w^2 copies): messages alpha each,
+                 bytes at beta (the network's) plus the packing measured here;
+  T_collective   the step's allreduces and the PCG's two per iteration, each 2 log2(P) alpha.
+
+alpha and beta of this machine (shared memory, OpenMPI's vader) are fitted to the distributed PPE bench's timed
+refreshes of one field (bench/results/distributed_ppe.csv, the idle runs): they include packing and unpacking.
+The network's are assumed (ASSUMED below): a cluster was not available to measure them.
+
+  /usr/bin/python3 bench/scaling_model.py [--step-csv bench/results/distributed_scaling.csv]
+      [--ppe-csv bench/results/distributed_ppe.csv] [--png bench/results/scaling_model.png]
+"""
+import argparse
+import csv
+import math
+import sys
+from pathlib import Path
+
+# Not measured here: a cluster's interconnect and AMG's efficiency at 1,000 ranks.
+ASSUMED = {
+    "network_latency_s": 2e-6,          # one point-to-point message, InfiniBand-class
+    "network_bandwidth_bytes_per_s": 10e9,
+    "ppe_efficiency_1000_ranks": 0.90,  # Guo et al. (CPC 2018): > 90 % in the pressure solve to 6,144 partitions
+}
+NEIGHBOURS_INTERIOR = 8
+IDLE_LOAD = 1.2  # rows measured at a 1-minute load average above this are left out (another job on a core)
+
+
+def rows(path: Path) -> list:
+    with open(path) as f:
+        return [r for r in csv.DictReader(f)]
+
+
+def fit_power(points: list) -> tuple:
+    """Least squares of log t = log a + b log n."""
+    xs = [math.log(n) for n, _ in points]
+    ys = [math.log(t) for _, t in points]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    sxx = sum((x - mx) ** 2 for x in xs)
+    b = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx > 0 else 1.0
+    return math.exp(my - b * mx), b
+
+
+def median(values: list) -> float:
+    v = sorted(values)
+    return v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--step-csv", default="bench/results/distributed_scaling.csv")
+    ap.add_argument("--ppe-csv", default="bench/results/distributed_ppe.csv")
+    ap.add_argument("--png", default="bench/results/scaling_model.png")
+    args = ap.parse_args()
+
+    steps = [r for r in rows(Path(args.step_csv)) if float(r["loadavg_1min"]) <= IDLE_LOAD]
+    one = [r for r in steps if int(r["ranks"]) == 1]
+    two = [r for r in steps if int(r["ranks"]) == 2]
+    if len({r["particles"] for r in one}) < 2 or not two:
+        print("need idle 1-rank runs at two sizes or more and 2-rank runs", file=sys.stderr)
+        return 1
+
+    # T1(n): the 1-rank step, median per size.
+    by_size = {}
+    for r in one:
+        by_size.setdefault(int(r["particles"]), []).append(r)
+    t1_points = [(n, median([float(r["step_s"]) for r in rs])) for n, rs in sorted(by_size.items())]
+    ppe_share = [(n, median([(float(r["setup_s"]) + float(r["solve_s"])) / float(r["step_s"]) for r in rs]))
+                 for n, rs in sorted(by_size.items())]
+    a, b = fit_power(t1_points)
+
+    # Halo: copies on the larger rank per sqrt(owned), and bytes per copy over a step's counted exchanges.
+    k = median([float(r["halo_copies_max"]) / math.sqrt(float(r["owned_max"])) for r in two])
+    bytes_per_copy = median([float(r["bytes_per_step"]) / float(r["halo_copies_sum"]) for r in two])
+    messages_per_neighbour = median([float(r["messages_per_step"]) / 2.0 for r in two])  # 2 ranks, 1 neighbour each
+    # The PPE's own exchanges, not counted by the step bench: flags (1 B), held values (8), numbers and labels
+    # (4 + 4), pressures after the solve (8); five messages.
+    bytes_per_copy += 25.0
+    messages_per_neighbour += 5.0
+    iterations = median([float(r["iterations"]) for r in two])
+
+    # alpha, beta of this machine from one-field refreshes (8 bytes a copy) on 2 ranks.
+    ppe = [r for r in rows(Path(args.ppe_csv)) if int(r["ranks"]) == 2 and float(r["loadavg_1min"]) <= IDLE_LOAD]
+    sizes = {}
+    for r in ppe:
+        sizes.setdefault(int(r["halo_copies_max"]), []).append(float(r["refresh_s"]))
+    (c1, t1s), (c2, t2s) = sorted(sizes.items())[0], sorted(sizes.items())[-1]
+    r1, r2 = median(t1s), median(t2s)
+    beta_local = (r2 - r1) / (8.0 * (c2 - c1))
+    alpha_local = r1 - beta_local * 8.0 * c1
+
+    def t1(n: float) -> float:
+        return a * n ** b
+
+    def ppe_fraction(n: float) -> float:
+        # nearest measured size's share
+        return min(ppe_share, key=lambda p: abs(math.log(p[0] / n)))[1]
+
+    def model(n: float, P: int, alpha: float, beta: float, ppe_eff: float) -> dict:
+        if P == 1:
+            return {"compute": t1(n), "ppe_loss": 0.0, "halo": 0.0, "collective": 0.0}
+        width = k / 2.0  # copies per unit of cut length, one side: the halo's width in lattice rows
+        sides = 2 if P == 2 else 4
+        corners = 0 if P == 2 else 4
+        copies = sides * k * math.sqrt(n) + corners * width * width
+        neighbours = 1 if P == 2 else NEIGHBOURS_INTERIOR
+        halo = neighbours * messages_per_neighbour * alpha + copies * bytes_per_copy * beta
+        if P == 2:
+            halo = messages_per_neighbour * alpha + k * math.sqrt(n) * bytes_per_copy * beta
+        allreduces = 8 + 2 * iterations
+        collective = allreduces * 2 * math.log2(P) * alpha
+        ppe_loss = t1(n) * ppe_fraction(n) * (1.0 / ppe_eff - 1.0)
+        return {"compute": t1(n), "ppe_loss": ppe_loss, "halo": halo, "collective": collective}
+
+    net_alpha = ASSUMED["network_latency_s"]
+    net_beta = 1.0 / ASSUMED["network_bandwidth_bytes_per_s"] + beta_local  # the wire and the packing measured here
+
+    print(f"T1(n) = {a:.3g} n^{b:.3f} s (1-rank steps: " +
+          ", ".join(f"{n:.3g}: {t:.3f} s" for n, t in t1_points) + ")")
+    print(f"PPE share of the 1-rank step: " + ", ".join(f"{n:.3g}: {s:.2f}" for n, s in ppe_share))
+    print(f"halo: {k:.2f} copies per sqrt(owned) per cut on 2 ranks; {bytes_per_copy:.0f} bytes per copy per step; "
+          f"{messages_per_neighbour:.1f} messages per neighbour per step; PCG iterations {iterations:.0f}")
+    print(f"this machine: alpha = {alpha_local * 1e6:.2f} us, beta = {beta_local * 1e9:.3f} ns/byte "
+          f"({1 / beta_local / 1e9:.2f} GB/s) from refreshes of {c1} and {c2} copies ({r1 * 1e6:.1f}, {r2 * 1e6:.1f} us)")
+
+    # The model against the 2-rank measurements it was fitted around.
+    print("\nmeasured against the model on this machine (2 ranks; the PPE's efficiency as measured at 1e6):")
+    for r in sorted(two, key=lambda r: int(r["particles"])):
+        n = float(r["owned_max"])
+        m = model(n, 2, alpha_local, beta_local, 1.0)
+        print(f"  {int(r['particles']):>9} particles: measured {float(r['step_s']):.3f} s, model without PPE loss "
+              f"{sum(m.values()):.3f} s (compute {m['compute']:.3f}, halo {m['halo'] * 1e3:.2f} ms)")
+
+    print("\nprojection: 1e8 particles on 1,000 ranks (1e5 per rank), network " +
+          f"alpha {net_alpha * 1e6:.0f} us, {ASSUMED['network_bandwidth_bytes_per_s'] / 1e9:.0f} GB/s:")
+    n, P = 1e8 / 1000, 1000
+    for label, eff in (("PPE efficiency 90 % (Guo et al.)", ASSUMED["ppe_efficiency_1000_ranks"]),
+                       ("PPE efficiency 100 %", 1.0), ("PPE efficiency 50 %", 0.5)):
+        m = model(n, P, net_alpha, net_beta, eff)
+        total = sum(m.values())
+        print(f"  {label}: {total:.3f} s per step = compute {m['compute']:.3f} + PPE loss {m['ppe_loss']:.3f} + "
+              f"halo {m['halo'] * 1e3:.2f} ms + collectives {m['collective'] * 1e3:.2f} ms; "
+              f"efficiency {m['compute'] / total:.2f}")
+
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: no chart (use /usr/bin/python3)", file=sys.stderr)
+        return 0
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ranks = [1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1000]
+    for per_rank, colour in ((1e5, "tab:blue"), (5e5, "tab:orange")):
+        for eff, style in ((ASSUMED["ppe_efficiency_1000_ranks"], "-"), (0.5, ":")):
+            ts = [sum(model(per_rank, P, net_alpha, net_beta, 1.0 if P == 1 else eff).values()) for P in ranks]
+            ax.plot(ranks, ts, style, color=colour,
+                    label=f"model, {per_rank:.0e} per rank, PPE efficiency {eff:.0%}")
+        measured = [(int(r["ranks"]), float(r["step_s"])) for r in steps
+                    if abs(float(r["particles"]) / int(r["ranks"]) / per_rank - 1) < 0.15]
+        if measured:
+            ax.plot([p for p, _ in measured], [t for _, t in measured], "o", color=colour,
+                    label=f"measured here, ~{per_rank:.0e} per rank")
+    ax.set_xscale("log")
+    ax.set_xlabel("ranks (weak scaling: particles per rank fixed)")
+    ax.set_ylabel("time per step [s]")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("Dam-break step: measured on 1-2 ranks, modelled to 1,000", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(args.png, dpi=120)
+    print(f"\nchart: {args.png}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

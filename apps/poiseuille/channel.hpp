@@ -10,9 +10,11 @@
 // Walls are one wall layer and four dummy layers with mirror velocities (mps::MirrorWall). The periodic
 // channels are closed (no free surface): the PPE takes the library's all-Neumann treatment; the inlet
 // channel's outlet is free surface (P = 0).
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "mps/boundary.hpp"
 #include "mps/step.hpp"
 
 namespace poiseuille {
@@ -61,7 +63,13 @@ double exact_velocity(const Params& p, double y, double t);
 
 // Fluid group 0, bottom wall group 1, top wall group 2; inlet: plate group 3 and a pool of ghosts.
 mps::Particles make_particles(const Params& p);
-mps::Simulation make_simulation(const Params& p);
+mps::Domain make_domain(const Params& p);
+mps::SimulationConfig make_config(const Params& p);
+// The mode's components (inlet: the pushing plate, returned so that its counts can be read; else nullptr), added to a
+// simulation of make_particles(p) (`initial`), serial or distributed.
+std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Particles& initial,
+                                                  mps::Simulation& sim);
+mps::Simulation make_simulation(const Params& p);  // the three above together
 // Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for
 // refusing runs too large to be meant).
 double estimated_particles(const Params& p);

@@ -2,6 +2,7 @@
 // runs (20 particles across) of the scene the poiseuille app runs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <iostream>
@@ -175,6 +176,41 @@ TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
   EXPECT_EQ(plate.columns_added(), 2);
   EXPECT_THROW(plate(p, 0.65), mps::SimulationError);  // the pool is empty now
   EXPECT_THROW(mps::PushingPlate(p, 7, U, l0, 1.0), std::invalid_argument);  // no such plate group
+}
+
+// On ranks the plate is handed its process's own particles first and halo copies after (owned = their count): the
+// column comes from the owned ghosts of lowest id whatever their order, the outflow is parked behind the plate and
+// counted only where owned, and a process holding part of the plate refuses to add a column.
+TEST(PushingPlate, TakesTheLowestIdsOwnedGhostsAndCountsOwnedOutflowOnly) {
+  const double l0 = 0.1, U = 0.5;
+  mps::Particles p;
+  for (double y : {0.05, 0.15}) {
+    p.add(-0.05, y, mps::Kind::wall, 3);
+    p.add(-0.15, y, mps::Kind::dummy, 3);
+  }
+  for (int k = 0; k < 4; ++k) p.add(3.0, 0.05 * k, mps::Kind::ghost);  // ids 4-7
+  p.add(0.95, 0.05, mps::Kind::fluid, 0, U);                            // id 8: leaves, owned
+  p.add(0.95, 0.15, mps::Kind::fluid, 0, U);                            // id 9: leaves, a halo copy below
+  mps::PushingPlate plate(p, 3, U, l0, 1.0);
+  EXPECT_NEAR(plate.parking_x(), -0.25, 1e-12);
+  // Owned: the plate, ghosts 7, 6, 5 (reversed order), fluid 8; copies after: ghost 4 and fluid 9.
+  p.permute(std::vector<int>{0, 1, 2, 3, 7, 6, 5, 8, 4, 9});
+  const std::size_t owned = 8;
+  p.x[7] = p.x[9] = 1.01;
+  plate(p, 0.25, owned);
+  EXPECT_EQ(plate.columns_added(), 1);
+  EXPECT_EQ(plate.particles_removed(), 1) << "the copy's owner counts it";
+  std::vector<int> filled;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == mps::Kind::fluid && std::abs(p.x[i] - 0.075) < 1e-12) filled.push_back(p.id[i]);
+  std::sort(filled.begin(), filled.end());
+  EXPECT_EQ(filled, (std::vector<int>{5, 6})) << "the owned ghosts of lowest id (not the copy's 4)";
+  EXPECT_EQ(p.kind[9], mps::Kind::ghost) << "a copy past the outlet turns to a ghost as its owner does";
+  EXPECT_NEAR(p.x[7], -0.25, 1e-12);
+  EXPECT_NEAR(p.x[9], -0.25, 1e-12);
+  // A process owning one of the plate's two wall particles refuses the next column.
+  p.permute(std::vector<int>{0, 4, 5, 6, 7, 8, 9, 1, 2, 3});
+  EXPECT_THROW(plate(p, 0.45, 2), mps::SimulationError);
 }
 
 TEST(OutflowBuffer, BufferFluidLeavesAlongTheNormalAtTheVelocityUpstreamLevelWithIt) {

@@ -36,6 +36,7 @@ constexpr int kBottomConveyorGroup = 4, kTopConveyorGroup = 5;
 // the plate.
 constexpr double kStationMarginL0 = 8;
 constexpr double kLargestRadiusL0 = 4.1;  // the Laplacian's and the PPE source's
+constexpr double kPlateParkingL0 = -5.5;  // one spacing behind the plate's last dummy layer (PushingPlate::parking_x)
 }  // namespace
 
 void Params::validate() const {
@@ -124,11 +125,11 @@ mps::Particles make_particles(const Params& p) {
     for (std::size_t i = 0; i < particles.size(); ++i)
       if (particles.kind[i] == mps::Kind::fluid) particles.u[i] = p.U();
     mps::add_rectangle_walls(particles, {0.0, 0.0, L, p.D}, l0, mps::left, 1, 4, kPlateGroup);
-    // Ghosts, parked beyond the outlet: outflow and inflow balance on average, and three columns cover the
-    // column the plate adds at once while the outlet drains continuously.
-    for (int c = 0; c < 3; ++c)
-      for (int k = 0; k < static_cast<int>(std::lround(p.across)); ++k)
-        particles.add(L + (c + 1.5) * l0, (k + 0.5) * l0, mps::Kind::ghost, 0);
+    // Ghosts, parked behind the plate where PushingPlate parks the outflow (a partition by position then keeps the
+    // pool with the plate): outflow and inflow balance on average, and three columns cover the column the plate adds
+    // at once while the outlet drains continuously. Three to a row's height, so that no two coincide.
+    const int pool = 3 * static_cast<int>(std::lround(p.across));
+    for (int k = 0; k < pool; ++k) particles.add(kPlateParkingL0 * l0, (k + 0.5) * p.D / pool, mps::Kind::ghost, 0);
   }
   return particles;
 }
@@ -143,14 +144,13 @@ double initial_dt(const Params& p) {
   return p.dt_factor * (p.implicit_viscosity ? cfl_dt : std::min(cfl_dt, viscous_dt));
 }
 
-namespace {
-mps::Domain channel_domain(const Params& p) {
+mps::Domain make_domain(const Params& p) {
   const double l0 = p.l0(), L = channel_length(p);
   return p.periodic() ? mps::Domain{0.0, L, -6.0 * l0, p.D + 6.0 * l0, true, false}
                       : mps::Domain{-6.0 * l0, L + 6.0 * l0, -6.0 * l0, p.D + 6.0 * l0};
 }
 
-mps::SimulationConfig channel_config(const Params& p) {
+mps::SimulationConfig make_config(const Params& p) {
   const double l0 = p.l0();
   mps::SimulationConfig c;
   c.l0 = l0;
@@ -179,14 +179,14 @@ mps::SimulationConfig channel_config(const Params& p) {
   return c;
 }
 
-std::shared_ptr<mps::PushingPlate> make_plate(const Params& p, const mps::Particles& particles) {
-  if (p.periodic()) return nullptr;
-  return std::make_shared<mps::PushingPlate>(particles, kPlateGroup, p.U(), p.l0(), channel_length(p));
-}
-
-void add_channel_components(mps::Simulation& sim, const Params& p, std::shared_ptr<mps::PushingPlate> plate) {
+std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Particles& initial,
+                                                  mps::Simulation& sim) {
   const double l0 = p.l0(), L = channel_length(p);
-  if (plate) sim.add<mps::BoundaryMotion>([plate](mps::Particles& s, double t) { (*plate)(s, t); });
+  std::shared_ptr<mps::PushingPlate> plate;
+  if (!p.periodic()) plate = std::make_shared<mps::PushingPlate>(initial, kPlateGroup, p.U(), l0, L);
+  if (plate)
+    sim.add<mps::BoundaryMotion>(
+        [plate](mps::Particles& s, double t, std::size_t owned) { (*plate)(s, t, owned); });
   // The liquid is confined but for its open outlet (and the dry wall ends behind the plate). A void opened by
   // the shear elsewhere, read as free surface, stayed open at P = 0 and was carried downstream until the
   // inrush blew up (15 D at Re 40, 20 across: stopped at 4.5 D/U); left to the source term, it closes.
@@ -208,23 +208,22 @@ void add_channel_components(mps::Simulation& sim, const Params& p, std::shared_p
     sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, 0.0, 0.0, 1.0, p.U(), 0.0, kBottomConveyorGroup});
     sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, p.D, 0.0, -1.0, p.U(), 0.0, kTopConveyorGroup});
   }
+  return plate;
 }
-}  // namespace
 
 mps::Simulation make_simulation(const Params& p) {
   mps::Particles particles = make_particles(p);
-  const auto plate = make_plate(p, particles);
-  mps::Simulation sim(std::move(particles), channel_domain(p), channel_config(p));
-  add_channel_components(sim, p, plate);
+  const mps::Particles initial = particles;
+  mps::Simulation sim(std::move(particles), make_domain(p), make_config(p));
+  add_components(p, initial, sim);
   return sim;
 }
 
 std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm) {
   mps::Particles particles = make_particles(p);
-  const auto plate = make_plate(p, particles);
-  auto sim = std::make_unique<mps::DistributedSimulation>(std::move(particles), channel_domain(p), channel_config(p),
-                                                          comm);
-  add_channel_components(*sim, p, plate);
+  const mps::Particles initial = particles;
+  auto sim = std::make_unique<mps::DistributedSimulation>(std::move(particles), make_domain(p), make_config(p), comm);
+  add_components(p, initial, *sim);
   return sim;
 }
 

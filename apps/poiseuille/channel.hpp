@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mps/boundary.hpp"
 #include "mps/distributed_step.hpp"
 #include "mps/step.hpp"
 
@@ -63,7 +64,13 @@ double exact_velocity(const Params& p, double y, double t);
 
 // Fluid group 0, bottom wall group 1, top wall group 2; inlet: plate group 3 and a pool of ghosts.
 mps::Particles make_particles(const Params& p);
-mps::Simulation make_simulation(const Params& p);
+mps::Domain make_domain(const Params& p);
+mps::SimulationConfig make_config(const Params& p);
+// The mode's components (inlet: the pushing plate, returned so that its counts can be read; else nullptr), added to a
+// simulation of make_particles(p) (`initial`), serial or distributed.
+std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Particles& initial,
+                                                  mps::Simulation& sim);
+mps::Simulation make_simulation(const Params& p);  // the three above together
 // The same scene on the ranks of an MPI communicator (its Fortran handle); every rank passes the same p.
 std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm);
 // Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for

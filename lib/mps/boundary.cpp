@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -158,25 +159,23 @@ PushingPlate::PushingPlate(const Particles& initial, int plate_group, double spe
   if (!(speed > 0.0) || !std::isfinite(speed)) throw std::invalid_argument("pushing plate: speed must be positive");
   if (!(l0 > 0.0) || !std::isfinite(l0)) throw std::invalid_argument("pushing plate: spacing l0 must be positive");
   if (!std::isfinite(outlet_x)) throw std::invalid_argument("pushing plate: outlet_x must be finite");
-  int max_id = -1, walls = 0;
+  int max_id = -1;
   for (std::size_t i = 0; i < initial.size(); ++i) max_id = std::max(max_id, initial.id[i]);
   start_x_.assign(static_cast<std::size_t>(max_id + 1), std::nan(""));
+  double rearmost = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < initial.size(); ++i) {
     if (initial.group[i] != plate_group || (initial.kind[i] != Kind::wall && initial.kind[i] != Kind::dummy)) continue;
     start_x_[static_cast<std::size_t>(initial.id[i])] = initial.x[i];
-    walls += initial.kind[i] == Kind::wall;
+    walls_ += initial.kind[i] == Kind::wall;
+    rearmost = std::min(rearmost, initial.x[i]);
   }
-  if (walls == 0)
+  if (walls_ == 0)
     throw std::invalid_argument("pushing plate: group " + std::to_string(plate_group) + " has no wall particles");
+  parking_x_ = rearmost - l0;
 }
 
-void PushingPlate::operator()(Particles& p, double time) {
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::fluid && p.x[i] > outlet_x_) {
-      p.kind[i] = Kind::ghost;
-      p.u[i] = p.v[i] = p.p[i] = 0.0;
-      ++removed_;
-    }
+void PushingPlate::operator()(Particles& p, double time, std::size_t owned) {
+  owned = std::min(owned, p.size());
   // The plate has stepped back floor(U t / l0) times; each step back leaves a gap of one column.
   const int steps_back = static_cast<int>(std::floor(speed_ * time / l0_));
   const double advance = speed_ * time - steps_back * l0_;
@@ -187,30 +186,48 @@ void PushingPlate::operator()(Particles& p, double time) {
     p.x[i] = start_x_[id] + advance;
     p.u[i] = speed_;
     p.v[i] = 0.0;
-    if (p.kind[i] == Kind::wall) plate_walls.push_back(i);
+    if (p.kind[i] == Kind::wall && i < owned) plate_walls.push_back(i);
   }
   const int new_columns = steps_back - columns_;
-  if (new_columns <= 0) return;
-  std::vector<std::size_t> ghosts;
+  // The columns come from the pool as the step found it (before this step's outflow joins it), the lowest ids first:
+  // the same ghosts whichever process holds the plate and whatever the particles' order.
+  if (new_columns > 0 && !plate_walls.empty()) {
+    if (plate_walls.size() != static_cast<std::size_t>(walls_))
+      throw SimulationError("pushing plate: this process owns " + std::to_string(plate_walls.size()) + " of the plate's " +
+                            std::to_string(walls_) + " wall particles; the partition must keep the plate (and the " +
+                            "ghosts parked behind it) on one process");
+    auto by_id = [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; };
+    std::sort(plate_walls.begin(), plate_walls.end(), by_id);
+    std::vector<std::size_t> ghosts;
+    for (std::size_t i = 0; i < owned; ++i)
+      if (p.kind[i] == Kind::ghost) ghosts.push_back(i);
+    const std::size_t needed = plate_walls.size() * static_cast<std::size_t>(new_columns);
+    if (ghosts.size() < needed)
+      throw SimulationError("pushing plate: the inlet needs " + std::to_string(needed) + " ghost particles for its " +
+                            "new column but only " + std::to_string(ghosts.size()) + " are left; start the scene " +
+                            "with a larger ghost pool");
+    std::partial_sort(ghosts.begin(), ghosts.begin() + static_cast<std::ptrdiff_t>(needed), ghosts.end(), by_id);
+    std::size_t next = 0;
+    for (int c = 1; c <= new_columns; ++c)
+      for (std::size_t w : plate_walls) {
+        const std::size_t g = ghosts[next++];
+        p.x[g] = p.x[w] + c * l0_;
+        p.y[g] = p.y[w];
+        p.u[g] = speed_;
+        p.v[g] = p.p[g] = 0.0;
+        p.kind[g] = Kind::fluid;
+        p.group[g] = fluid_group_;
+      }
+  }
+  columns_ = std::max(columns_, steps_back);
+  // Copies are removed alike (their owners do the same), but counted by their owners only.
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::ghost) ghosts.push_back(i);
-  const std::size_t needed = plate_walls.size() * static_cast<std::size_t>(new_columns);
-  if (ghosts.size() < needed)
-    throw SimulationError("pushing plate: the inlet needs " + std::to_string(needed) + " ghost particles for its new " +
-                          "column but only " + std::to_string(ghosts.size()) + " are left; start the scene with a " +
-                          "larger ghost pool");
-  std::size_t next = 0;
-  for (int c = 1; c <= new_columns; ++c)
-    for (std::size_t w : plate_walls) {
-      const std::size_t g = ghosts[next++];
-      p.x[g] = p.x[w] + c * l0_;
-      p.y[g] = p.y[w];
-      p.u[g] = speed_;
-      p.v[g] = p.p[g] = 0.0;
-      p.kind[g] = Kind::fluid;
-      p.group[g] = fluid_group_;
+    if (p.kind[i] == Kind::fluid && p.x[i] > outlet_x_) {
+      p.kind[i] = Kind::ghost;
+      p.x[i] = parking_x_;
+      p.u[i] = p.v[i] = p.p[i] = 0.0;
+      removed_ += i < owned;
     }
-  columns_ = steps_back;
 }
 
 }  // namespace mps

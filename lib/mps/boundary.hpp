@@ -3,6 +3,7 @@
 /// Boundary conditions beyond "wall particles at the wall's velocity": mirror no-slip walls, rigidly moving
 /// wall groups, and the pushing-plate inlet with its open outlet.
 #include <array>
+#include <cstddef>
 #include <functional>
 #include <span>
 #include <stdexcept>
@@ -112,22 +113,33 @@ class RigidMotion {
 /// The constant-flow inlet and open outlet of a channel along +x (seed 004, Fig. 1). The plate, the wall and
 /// dummy particles of `plate_group`, moves at `speed` from its starting position; whenever it has advanced one
 /// spacing l0 it steps back by l0 and, one spacing ahead of its wall layer, a column of ghosts becomes fluid
-/// moving at `speed` (one particle per plate wall particle, at its height). Fluid past `outlet_x` becomes ghosts,
-/// the pool the inlet draws from. With the outlet open, the fluid next to it is free surface (P = 0).
+/// moving at `speed` (one particle per plate wall particle, at its height: the ghosts of lowest id, taken in the wall
+/// particles' id order, so that the choice does not depend on the particles' order). Fluid past `outlet_x` then
+/// becomes a ghost parked one spacing behind the plate's last layer, at its height: the pool the inlet draws from in
+/// later steps, kept beside the plate so that a partition by position keeps both on one process.
+/// With the outlet open, the fluid next to it is free surface (P = 0).
 /// Call it from a BoundaryMotion component (after the predictor, with the new time).
 class PushingPlate {
  public:
   /// The plate is the wall and dummy particles of `plate_group` in `initial`; fluid it adds joins `fluid_group`.
   PushingPlate(const Particles& initial, int plate_group, double speed, double l0, double outlet_x, int fluid_group = 0);
-  /// Throws SimulationError if the ghost pool runs dry (the scene must start with more ghosts).
-  void operator()(Particles& particles, double time);
-  [[nodiscard]] int columns_added() const { return columns_; }         ///< fluid columns added so far
-  [[nodiscard]] long particles_removed() const { return removed_; }  ///< fluid particles turned to ghosts so far
+  /// Moves the plate, adds the columns due and removes the outflow. Particles [0, owned) are this process's own, the
+  /// rest halo copies of other processes' (a distributed step): copies are moved alike, but only owned ghosts fill a
+  /// column, and only owned particles are counted. Throws SimulationError if the ghost pool runs dry (the scene must
+  /// start with more ghosts) or if this process owns some of the plate's wall particles but not all.
+  void operator()(Particles& particles, double time, std::size_t owned = static_cast<std::size_t>(-1));
+  /// Fluid columns added so far: the plate's steps back, the same on every process.
+  [[nodiscard]] int columns_added() const { return columns_; }
+  /// Fluid particles turned to ghosts so far: this process's own only, so the sum over processes is the total.
+  [[nodiscard]] long particles_removed() const { return removed_; }
+  /// Where a ghost is parked: one spacing behind the plate's rearmost particle at the start [m].
+  [[nodiscard]] double parking_x() const { return parking_x_; }
 
  private:
   int fluid_group_;
-  double speed_, l0_, outlet_x_;
+  double speed_, l0_, outlet_x_, parking_x_ = 0;
   std::vector<double> start_x_;  // by particle id: the plate's particles' starting x (NaN for others)
+  int walls_ = 0;                // the plate's wall particles
   int columns_ = 0;
   long removed_ = 0;
 };

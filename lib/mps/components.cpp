@@ -7,7 +7,10 @@
 
 namespace mps {
 
-void BoundaryMotion::after_predictor(StepContext& c) { motion_(c.particles, c.fields.time); }
+BoundaryMotion::BoundaryMotion(Motion motion)
+    : motion_([motion = std::move(motion)](Particles& p, double time, std::size_t) { motion(p, time); }) {}
+
+void BoundaryMotion::after_predictor(StepContext& c) { motion_(c.particles, c.fields.time, c.sim.owned_particles()); }
 
 MirrorNoSlip::MirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }
 
@@ -39,10 +42,15 @@ void OpenOutlet::before_predictor(StepContext& c) {
     if (in_buffer_[i]) c.fields.prescribed[i] = 1;
 }
 
-// A pushing plate may recycle buffer fluid that crossed the outlet into a fresh inlet particle within the step:
-// left flagged, it was held at P = 0 beside the plate and sucked its neighbours in.
-void OpenOutlet::before_projection(StepContext& c) {
+double OpenOutlet::reach(const Simulation& sim) const { return buffer_.thickness + 2.0 * sim.gradient_kernel().re; }
+
+// Buffer fluid that crossed the outlet may have become a ghost (and a pushing plate may recycle it): left flagged, it
+// was held at P = 0 and read as a carrier. Decided after the predictor's exchange, so that halo copies decide from
+// their owners' r* and kinds as their owners do; copies appended after before_predictor (of particles that were
+// ghosts at the step's start) were in no buffer.
+void OpenOutlet::before_source(StepContext& c) {
   const Particles& p = c.particles;
+  in_buffer_.resize(p.size(), 0);
   for (std::size_t i = 0; i < p.size(); ++i)
     if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !buffer_.contains(p.x[i], p.y[i]))) {
       in_buffer_[i] = 0;

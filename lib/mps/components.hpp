@@ -3,6 +3,7 @@
 /// Components a scene adds to the step (Simulation::add), each a self-contained treatment hooked in at named
 /// points; the last three the simulation adds itself from its configuration. docs/step.md says which hooks each
 /// uses and why each exists.
+#include <cstddef>
 #include <functional>
 #include <vector>
 
@@ -15,11 +16,14 @@ namespace mps {
 class BoundaryMotion : public StepComponent {
  public:
   using Motion = std::function<void(Particles&, double time)>;  ///< moves particles to their place at `time`
-  explicit BoundaryMotion(Motion motion) : motion_(std::move(motion)) {}  ///< calls `motion` every step
+  /// Same, told that particles [0, owned) are this process's own (Simulation::owned_particles; PushingPlate)
+  using OwnedMotion = std::function<void(Particles&, double time, std::size_t owned)>;
+  explicit BoundaryMotion(Motion motion);                                      ///< calls `motion` every step
+  explicit BoundaryMotion(OwnedMotion motion) : motion_(std::move(motion)) {}  ///< calls `motion` every step
   void after_predictor(StepContext& c) override;
 
  private:
-  Motion motion_;
+  OwnedMotion motion_;
 };
 
 /// No-slip by mirror velocities (see MirrorWall): the wall's particles take the mirrored fluid velocity for the
@@ -41,9 +45,12 @@ class OpenOutlet : public StepComponent {
  public:
   explicit OpenOutlet(const OutflowBuffer& buffer);  ///< throws std::invalid_argument for a bad buffer
   void before_predictor(StepContext& c) override;
-  void before_projection(StepContext& c) override;
+  void before_source(StepContext& c) override;
   void before_assembly(StepContext& c) override;
   void after_pressure(StepContext& c) override;
+  /// The buffer's thickness plus twice the gradient kernel's radius: a buffer particle's velocity is sampled that far
+  /// upstream (apply_outflow_velocity).
+  [[nodiscard]] double reach(const Simulation& sim) const override;
   [[nodiscard]] const OutflowBuffer& buffer() const { return buffer_; }  ///< the buffer it applies
 
  private:

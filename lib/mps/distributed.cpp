@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -347,8 +348,11 @@ Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_h
     box = {std::min(box[0], particles.x[i]), std::max(box[1], particles.x[i]), std::min(box[2], particles.y[i]),
            std::max(box[3], particles.y[i])};
   }
-  std::vector<double> boxes(4 * static_cast<std::size_t>(ranks));
+  std::vector<double>& boxes = boxes_;
+  boxes.resize(4 * static_cast<std::size_t>(ranks));
   MPI_Allgather(box.data(), 4, MPI_DOUBLE, boxes.data(), 4, MPI_DOUBLE, comm);
+  for (std::size_t i = 0; i < owned_; ++i)
+    if (particles.kind[i] == Kind::ghost) ghosts_.push_back(static_cast<int>(i));
 
   std::vector<int> send_count(static_cast<std::size_t>(ranks), 0), receive_count(send_count.size(), 0);
   for (int q = 0; q < ranks; ++q) {
@@ -468,6 +472,66 @@ void Halo::refresh(Particles& particles) {
 void Halo::remove(Particles& particles) const {
   check_size(particles.size());
   resize(particles, owned_);
+}
+
+// New links, each after the earlier ones to the same rank: both sides post their messages in link order, and MPI keeps
+// the order of messages between two ranks, so refreshes match them as they match the first.
+std::size_t Halo::add_activated(Particles& particles) {
+  check_size(particles.size());
+  const MPI_Comm comm = to_comm(comm_);
+  const int ranks = size_of(comm), me = rank_of(comm);
+  std::vector<int> activated;
+  std::erase_if(ghosts_, [&](int i) {
+    if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) return false;
+    activated.push_back(i);
+    return true;
+  });
+  std::vector<int> send_count(static_cast<std::size_t>(ranks), 0), receive_count(send_count.size(), 0);
+  std::vector<Link> new_sends;
+  for (int q = 0; q < ranks; ++q) {
+    if (q == me) continue;
+    const double* b = boxes_.data() + 4 * q;
+    Link link{q, {}, 0, 0};
+    for (int i : activated) {
+      const double x = particles.x[static_cast<std::size_t>(i)], y = particles.y[static_cast<std::size_t>(i)];
+      if (x >= b[0] - radius_ && x <= b[1] + radius_ && y >= b[2] - radius_ && y <= b[3] + radius_)
+        link.particles.push_back(i);
+    }
+    send_count[static_cast<std::size_t>(q)] = static_cast<int>(link.particles.size());
+    if (!link.particles.empty()) new_sends.push_back(std::move(link));
+  }
+  MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, comm);
+  const std::size_t before = owned_ + copies_;
+  std::size_t next = before;
+  std::vector<Link> new_receives;
+  for (int q = 0; q < ranks; ++q) {
+    const auto c = static_cast<std::size_t>(receive_count[static_cast<std::size_t>(q)]);
+    if (c == 0) continue;
+    new_receives.push_back({q, {}, next, c});
+    next += c;
+  }
+  std::vector<std::vector<Record>> out(new_sends.size());
+  std::vector<Record> in(next - before);
+  std::vector<MPI_Request> requests;
+  constexpr int tag = 2704;
+  for (const Link& link : new_receives) {
+    requests.emplace_back();
+    MPI_Irecv(in.data() + (link.first - before), static_cast<int>(link.count * sizeof(Record)), MPI_BYTE, link.rank,
+              tag, comm, &requests.back());
+  }
+  for (std::size_t k = 0; k < new_sends.size(); ++k) {
+    for (int i : new_sends[k].particles) out[k].push_back(record_of(particles, static_cast<std::size_t>(i)));
+    requests.emplace_back();
+    MPI_Isend(out[k].data(), static_cast<int>(out[k].size() * sizeof(Record)), MPI_BYTE, new_sends[k].rank, tag, comm,
+              &requests.back());
+  }
+  MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+  resize(particles, next);
+  for (std::size_t k = 0; k < in.size(); ++k) put(particles, before + k, in[k]);
+  copies_ = next - owned_;
+  send_.insert(send_.end(), std::make_move_iterator(new_sends.begin()), std::make_move_iterator(new_sends.end()));
+  receive_.insert(receive_.end(), new_receives.begin(), new_receives.end());
+  return in.size();
 }
 
 // ---------------------------------------------------------------------------------------------------------------------

@@ -122,6 +122,10 @@ class Halo {
   void refresh(Particles& particles);
   /// Drops the copies from `particles` (before a migration or a new halo).
   void remove(Particles& particles) const;
+  /// Copies, appended after the others, of the owned particles that were ghosts when the halo was built and are not
+  /// now (a pushing plate's new column), to the ranks whose box widened by the radius holds them (the boxes of the
+  /// halo's construction). Returns the copies this rank received; later refreshes include them.
+  std::size_t add_activated(Particles& particles);
 
  private:
   struct Link {
@@ -136,6 +140,8 @@ class Halo {
   double radius_ = 0;
   std::size_t owned_ = 0, copies_ = 0;
   std::vector<Link> send_, receive_;
+  std::vector<double> boxes_;   // every rank's box of its non-ghost particles at construction: xmin, xmax, ymin, ymax
+  std::vector<int> ghosts_;     // owned particles that were ghosts at construction and have not been sent since
   ExchangeStats setup_, last_;
 };
 

@@ -54,8 +54,8 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
     throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
                                 "count over the mean to tolerate before new cuts (default 1.01)");
   const SimulationConfig& cfg = this->config();
-  halo_radius_ = cfg.l0 * (std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient,
-                                     cfg.radius_laplacian}) + 2.0 * cfg.max_displacement);
+  kernel_reach_ = cfg.l0 * std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient, cfg.radius_laplacian});
+  halo_radius_ = kernel_reach_ + 2.0 * cfg.max_displacement * cfg.l0;
   // Every rank validated the whole scene; rank 0's copy is the one distributed.
   Particles& p = particles_;
   if (rank_ != 0) p = Particles{};
@@ -77,7 +77,6 @@ void DistributedSimulation::refuse_unsupported() const {
   if (d.periodic_x || d.periodic_y) refuse("a periodic domain (a halo copy would need its periodic image's shift)");
   if (c.implicit_viscosity) refuse("implicit viscosity (its viscous system is solved over all particles at once)");
   if (c.initial_reference_density) refuse("initial_reference_density (a t = 0 mean over the whole domain)");
-  if (find<OpenOutlet>()) refuse("OpenOutlet (its buffers reach across the domain)");
   if (find<InitialReferenceDensity>()) refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
 }
 
@@ -93,6 +92,8 @@ void DistributedSimulation::begin_step() {
   ++stats_.steps;
   migrate_to_partition();
   const auto start = Clock::now();
+  // Components are added after construction: their reach is read each step.
+  halo_radius_ = std::max(kernel_reach_, components_reach()) + 2.0 * config().max_displacement * config().l0;
   halo_.emplace(particles_, domain(), halo_radius_, comm_);
   stats_.halo_copies += halo_->copies();
   count(halo_->setup());
@@ -124,8 +125,22 @@ double DistributedSimulation::max_over_ranks(double value) const {
   return value;
 }
 
+std::size_t DistributedSimulation::owned_particles() const {
+  return halo_ ? halo_->owned() : particles_.size();
+}
+
+// A ghost turned fluid after the predictor (a pushing plate's column) was in no halo: its copies join now, and the
+// per-particle fields already sized take their owners' entries for them.
 void DistributedSimulation::share_predicted() {
+  const std::size_t added = halo_->add_activated(particles_);
+  stats_.activated_copies += added;
+  const bool any_added = max_over_ranks(static_cast<double>(added)) > 0.0;
   halo_->refresh(particles_);
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
+  if (!any_added) return;
+  fields_.prescribed.resize(particles_.size(), 0);
+  halo_->refresh(std::span<char>(fields_.prescribed));
   ++stats_.refreshes;
   count(halo_->last_refresh());
 }

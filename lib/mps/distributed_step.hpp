@@ -18,6 +18,7 @@ struct DistributedStepStats {
   std::size_t steps = 0;            ///< steps begun
   std::size_t migrated = 0;         ///< particles this rank sent to another at the start of a step
   std::size_t halo_copies = 0;      ///< halo copies this rank received when building each step's halo
+  std::size_t activated_copies = 0; ///< copies it received of particles turned from ghosts to fluid within a step
   std::size_t refreshes = 0;        ///< the step's own halo refreshes (the PPE's and hypre's not counted)
   std::size_t messages_sent = 0;    ///< point-to-point messages of the migrations, halos and refreshes
   std::size_t bytes_sent = 0;       ///< their payload bytes
@@ -44,16 +45,19 @@ struct DistributedOptions {
 /// A Simulation whose particles are spread over the ranks of `comm` (MPI_Comm_c2f of the communicator). Each step
 /// starts by placing the particles in the kept RCB boxes (RcbPartition::place: new cuts when the load imbalance
 /// exceeds options.rebalance_threshold) and the migration of those that crossed a cut, then a halo at the largest
-/// kernel radius plus twice the guard's max_displacement (both particles of a pair may move that far in the step); the
-/// stages then run over owned and halo particles, the copies refreshed after the predictor (whole particles), after
+/// kernel radius or component reach (StepComponent::reach: an OpenOutlet's upstream sampling) plus twice the guard's
+/// max_displacement (both particles of a pair may move that far in the step); the stages then run over owned and halo
+/// particles, the copies refreshed after the predictor (whole particles; particles the predictor's components turned
+/// from ghosts to fluid, a pushing plate's column, are first copied to the ranks whose halo they fall in, appended
+/// after the other copies: a component keeping per-particle state from before_predictor must allow for them), after
 /// the free surface (flags), by the distributed PPE, after the pressure boundary values (pressures, carriers) and
 /// after the corrector (whole particles, for particle shifting).
 /// The time step and the stability guard are taken over all ranks. Between steps particles() holds this rank's own
 /// particles only, sorted by id after each migration; gather() collects them all on rank 0.
 ///
-/// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve), the
-/// initial reference density (a t = 0 mean over the domain), and OpenOutlet (its buffers reach across the domain);
-/// also a pressure solver that does not run on the communicator (the serial backends on more than one rank).
+/// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve) and the
+/// initial reference density (a t = 0 mean over the domain); also a pressure solver that does not run on the
+/// communicator (the serial backends on more than one rank).
 class DistributedSimulation : public Simulation {
  public:
   /// Every rank passes the same scene: every rank validates it as Simulation does, rank 0's particles are then
@@ -66,8 +70,11 @@ class DistributedSimulation : public Simulation {
   [[nodiscard]] int comm() const { return comm_; }  ///< the communicator's Fortran handle
   [[nodiscard]] int rank() const { return rank_; }  ///< this rank in the communicator
   [[nodiscard]] int ranks() const { return ranks_; }  ///< ranks in the communicator
-  /// The halo's radius: the largest kernel radius plus twice config().max_displacement, both in l0 [m].
+  /// The halo's radius of the latest step: the largest kernel radius or component reach, plus twice
+  /// config().max_displacement l0 [m].
   [[nodiscard]] double halo_radius() const { return halo_radius_; }
+  /// Between begin_step and end_corrector this rank's own particles, before the halo copies; else all it holds.
+  [[nodiscard]] std::size_t owned_particles() const override;
   [[nodiscard]] const DistributedStepStats& stats() const { return stats_; }  ///< exchanges so far
   [[nodiscard]] const DistributedOptions& options() const { return options_; }  ///< as constructed
   [[nodiscard]] double max_over_ranks(double value) const override;  ///< MPI_Allreduce(MAX)
@@ -91,6 +98,7 @@ class DistributedSimulation : public Simulation {
   void migrate_to_partition();
 
   int comm_ = 0, rank_ = 0, ranks_ = 1;
+  double kernel_reach_ = 0;  // the largest kernel radius [m]
   double halo_radius_ = 0;
   std::optional<Halo> halo_;
   DistributedPpe distributed_ppe_;

@@ -94,6 +94,12 @@ void Simulation::run(void (StepComponent::*hook)(StepContext&)) {
   for (const auto& component : components_) ((*component).*hook)(context);
 }
 
+double Simulation::components_reach() const {
+  double reach = 0.0;
+  for (const auto& component : components_) reach = std::max(reach, component->reach(*this));
+  return reach;
+}
+
 double max_fluid_speed_squared(const Particles& p) {
   double umax2 = 0.0;
   const auto n = static_cast<Index>(p.size());

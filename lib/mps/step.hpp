@@ -147,6 +147,9 @@ class StepComponent {
   /// n+1): where particle shifting moves particles by their neighbours.
   virtual void shift_positions(StepContext&) {}
   virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1, final (on ranks: own only)
+  /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
+  /// [m] (0: within them): a distributed step's halo must reach as far.
+  [[nodiscard]] virtual double reach(const Simulation&) const { return 0.0; }
 };
 
 /// A run: particles in a domain, stepped by the semi-implicit MPS step with the components added to it.
@@ -178,6 +181,9 @@ class Simulation {
   }
 
   [[nodiscard]] const Particles& particles() const { return particles_; }  ///< the particles now
+  /// Particles [0, owned) are this process's own; during a distributed step the rest are halo copies of other
+  /// processes' particles (serially: all).
+  [[nodiscard]] virtual std::size_t owned_particles() const { return particles_.size(); }
   [[nodiscard]] const Domain& domain() const { return domain_; }           ///< the domain
   [[nodiscard]] const SimulationConfig& config() const { return config_; }  ///< the configuration
   [[nodiscard]] const LinearSolver& solver() const { return *solver_; }    ///< the pressure solver
@@ -225,6 +231,9 @@ class Simulation {
   /// Throws SimulationError if a particle broke the stability guard.
   virtual void check_guard() const;
   /// @}
+
+  /// The largest StepComponent::reach of the components [m] (0 if none reads beyond the kernels).
+  [[nodiscard]] double components_reach() const;
 
   /// @{ The state a derived simulation's stages work on (see the members of the same names above).
   Particles particles_;

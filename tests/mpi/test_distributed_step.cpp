@@ -7,10 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "channel.hpp"
 #include "column.hpp"
 #include "mpi_test.hpp"
 #include "mps/components.hpp"
@@ -42,7 +45,7 @@ struct Scene {
   mps::Domain domain;
   mps::SimulationConfig config;
   // The components the scene adds (the dam break's collisions, asymmetry test and spray removal).
-  void (*add_components)(mps::Simulation&, const Scene&) = nullptr;
+  std::function<void(mps::Simulation&, const Scene&)> add_components = nullptr;
   double ceiling = 0, top = 0, length = 0;
 };
 
@@ -92,6 +95,44 @@ Scene dam_break(double nu, double shifting) {
   return s;
 }
 
+// The inlet channel of apps/poiseuille (pushing plate, ghost pool, outflow buffer, mirror walls), 10 particles across
+// and 3 D long: on 3 ranks the cut nearest the plate falls within the kernels' reach of the columns it adds, so that
+// their copies must be sent within the step (Halo::add_activated: without it 3.0 l0 and 1.0 of the largest pressure
+// off); the fluid crosses cuts, and the plate adds a column every 7.5 steps while the buffer drains as much. The
+// plates of the runs (distributed, then serial) are kept for their counts.
+struct Channel {
+  poiseuille::Params params;
+  std::shared_ptr<std::vector<std::shared_ptr<mps::PushingPlate>>> plates =
+      std::make_shared<std::vector<std::shared_ptr<mps::PushingPlate>>>();
+};
+
+Channel inlet_channel_params() {
+  Channel c;
+  c.params.mode = poiseuille::Mode::inlet;
+  c.params.across = 10;
+  c.params.length_D = 3;
+  c.params.station_D = 1;
+  c.params.solver = kSolver;
+  return c;
+}
+
+Scene inlet_channel(const Channel& channel) {
+  const poiseuille::Params& p = channel.params;
+  Scene s{poiseuille::make_particles(p), poiseuille::make_domain(p), poiseuille::make_config(p)};
+  // Three more ghosts at each of the pool's places behind the plate: their weight brings the first RCB cut within
+  // the kernels' reach of the new columns on 3 ranks (about 3 l0 from the plate), while the two parts beside the
+  // other cut stay longer than the channel is high (else RCB cuts along the channel and splits the plate).
+  const std::size_t scene_size = s.particles.size();
+  for (int copy = 0; copy < 3; ++copy)
+    for (std::size_t i = 0; i < scene_size; ++i)
+      if (s.particles.kind[i] == mps::Kind::ghost)
+        s.particles.add(s.particles.x[i], s.particles.y[i], mps::Kind::ghost, 0);
+  s.add_components = [p, plates = channel.plates](mps::Simulation& sim, const Scene& scene) {
+    plates->push_back(poiseuille::add_components(p, scene.particles, sim));
+  };
+  return s;
+}
+
 struct Comparison {
   double max_position_l0 = 0;     // largest |r - r_serial| / l0 over all particles, at the end
   double max_pressure_rel = 0;    // largest |p - p_serial| / max |p_serial|, at the end
@@ -103,6 +144,7 @@ struct Comparison {
   double max_imbalance = 0;       // the largest rank's particles over the mean, worst step
   double max_kept_imbalance = 0;  // the same had the cuts been kept every step
   int wrong_decisions = 0;        // steps that repartitioned at or below the threshold, or kept the cuts above it
+  std::size_t activated_copies = 0;  // copies sent within a step of particles turned from ghosts to fluid, all ranks
   bool same_ids = false;          // the gathered ids are exactly the serial run's
 };
 
@@ -147,6 +189,9 @@ Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::Distribu
   out.migrated = migrated;
   out.repartitions = distributed.stats().repartitions;
   out.max_imbalance = distributed.stats().max_imbalance;
+  unsigned long long activated = distributed.stats().activated_copies;
+  MPI_Allreduce(MPI_IN_PLACE, &activated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
+  out.activated_copies = activated;
   const mps::Particles gathered = distributed.gather();
   if (rank() != 0) return out;
   out.same_ids = gathered.id == ref.id;
@@ -219,6 +264,32 @@ TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
 TEST(DistributedStep, ViscousDamBreakWithStrongShiftingGivesTheSerialAnswer) {
   const Scene scene = dam_break(1e-2, 5.0);
   expect_same_answer("viscous dam break (nu = 1e-2, shifting 5)", scene, true, reference(scene));
+}
+
+// Ghosts recycled across ranks: the columns come from the pool parked behind the plate (the lowest ids, as serially),
+// and each particle leaving through the outlet is counted once, by its owner.
+TEST(DistributedStep, InletChannelGivesTheSerialAnswer) {
+  const Channel channel = inlet_channel_params();
+  const Scene scene = inlet_channel(channel);
+  const mps::Particles ref = reference(scene);  // rank 0's serial run: its plate first
+  const Comparison c = expect_same_answer("inlet channel", scene, true, ref);
+  const auto& plates = *channel.plates;
+  ASSERT_EQ(plates.size(), rank() == 0 ? 2U : 1U);
+  const mps::PushingPlate& plate = *plates.back();
+  long long removed = plate.particles_removed();
+  MPI_Allreduce(MPI_IN_PLACE, &removed, 1, MPI_LONG_LONG, MPI_SUM, kComm);
+  if (rank() == 0)
+    std::printf("[ inlet channel on %d ranks ] columns added %d, particles out through the outlet %lld, copies of new "
+                "fluid sent within a step %zu\n",
+                ranks(), plate.columns_added(), removed, c.activated_copies);
+  EXPECT_GE(plate.columns_added(), 10) << "the plate should add a column every 7.5 steps";
+  EXPECT_GE(removed, 100) << "the outlet should drain about as much as the plate adds";
+  if (ranks() == 3) {
+    EXPECT_GT(c.activated_copies, 0U) << "a cut should fall within the halo of the new columns";
+  }
+  if (rank() != 0) return;
+  EXPECT_EQ(plates.front()->columns_added(), plate.columns_added());
+  EXPECT_EQ(plates.front()->particles_removed(), removed) << "each particle out counted once over the ranks";
 }
 
 // A particle thrown at 1e3 m/s on the last rank after the corrector: that rank's guard trips, and every rank stops

@@ -8,7 +8,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -105,6 +105,19 @@ bench-distributed-step: deps build/release/CMakeCache.txt
 	    ./build/release/bench/bench_distributed_step --fluid $$n --steps $(DSTEP_STEPS) \
 	    --out bench/results/distributed_step.csv || exit 1; \
 	done; done
+
+# Strong (1e5, 1e6 on 1 and 2 ranks) and weak scaling (1e5 and 5e5 per rank) of the dam break's step, twice over,
+# into a fresh bench/results/distributed_scaling.csv; then the communication model fitted to it and the projection
+# to 1e8 particles on 1,000 ranks (bench/scaling_model.py, docs/scaling.md). About 5 minutes; run it on an idle machine.
+bench-distributed-scaling: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_step
+	rm -f bench/results/distributed_scaling.csv
+	for round in 1 2; do for run in "1 1e5 5" "2 1e5 5" "2 2e5 5" "1 5e5 3" "2 1e6 3" "1 1e6 3"; do set -- $$run; \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
+	    ./build/release/bench/bench_distributed_step --fluid $$2 --steps $$3 \
+	    --out bench/results/distributed_scaling.csv || exit 1; \
+	done; done
+	/usr/bin/python3 bench/scaling_model.py
 
 # The dam break's load imbalance on 2 ranks against time, one trace per rebalance threshold (docs/scaling.md, "Keeping
 # the cuts"): concatenated into bench/results/rebalance_trace.csv, the runs' rows appended to rebalance.csv, the figure.

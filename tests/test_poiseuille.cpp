@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <iostream>
 #include <vector>
 
@@ -142,16 +143,24 @@ TEST(ChannelParams, BadInputIsRejectedWithTheParameterNamed) {
   EXPECT_THROW(poiseuille::parse_mode("inlett"), std::invalid_argument);
 }
 
-TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
-  // A plate of two wall rows (plus a dummy behind), fluid ahead of it, two ghosts in the pool.
-  const double l0 = 0.1, U = 0.5;
+namespace {
+// Group 3: a plate of two wall rows at x = -0.05 with a dummy behind each (ids: wall, dummy per row, then `ahead`'s
+// particles at each row's height, moving at U).
+mps::Particles plate_of_two_rows(std::initializer_list<double> ahead, double U) {
   mps::Particles p;
   for (double y : {0.05, 0.15}) {
     p.add(-0.05, y, mps::Kind::wall, 3);
     p.add(-0.15, y, mps::Kind::dummy, 3);
-    p.add(0.05, y, mps::Kind::fluid, 0, U);
-    p.add(0.95, y, mps::Kind::fluid, 0, U);
+    for (double x : ahead) p.add(x, y, mps::Kind::fluid, 0, U);
   }
+  return p;
+}
+}  // namespace
+
+TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
+  // A plate of two wall rows (plus a dummy behind), fluid ahead of it, two ghosts in the pool.
+  const double l0 = 0.1, U = 0.5;
+  mps::Particles p = plate_of_two_rows({0.05, 0.95}, U);
   p.add(2.0, 0.05, mps::Kind::ghost);
   p.add(2.0, 0.15, mps::Kind::ghost);
   mps::PushingPlate plate(p, 3, U, l0, 1.0);
@@ -183,11 +192,7 @@ TEST(PushingPlate, MovesStepsBackFillsTheGapAndDrainsTheOutlet) {
 // counted only where owned, and a process holding part of the plate refuses to add a column.
 TEST(PushingPlate, TakesTheLowestIdsOwnedGhostsAndCountsOwnedOutflowOnly) {
   const double l0 = 0.1, U = 0.5;
-  mps::Particles p;
-  for (double y : {0.05, 0.15}) {
-    p.add(-0.05, y, mps::Kind::wall, 3);
-    p.add(-0.15, y, mps::Kind::dummy, 3);
-  }
+  mps::Particles p = plate_of_two_rows({}, U);
   for (int k = 0; k < 4; ++k) p.add(3.0, 0.05 * k, mps::Kind::ghost);  // ids 4-7
   p.add(0.95, 0.05, mps::Kind::fluid, 0, U);                            // id 8: leaves, owned
   p.add(0.95, 0.15, mps::Kind::fluid, 0, U);                            // id 9: leaves, a halo copy below

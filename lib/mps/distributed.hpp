@@ -47,9 +47,9 @@ class RcbPartition {
  public:
   /// No cuts yet: the first place() or repartition() makes them. Throws std::runtime_error if MPI is not running.
   explicit RcbPartition(int comm);
-  ~RcbPartition();
-  RcbPartition(RcbPartition&& other) noexcept;
-  RcbPartition& operator=(RcbPartition&& other) noexcept;
+  ~RcbPartition();  ///< frees Zoltan's structure
+  RcbPartition(RcbPartition&& other) noexcept;  ///< takes other's Zoltan structure and cuts (other has none after)
+  RcbPartition& operator=(RcbPartition&& other) noexcept;  ///< swaps the two (other frees this one's when it goes)
   RcbPartition(const RcbPartition&) = delete;
   RcbPartition& operator=(const RcbPartition&) = delete;
 

@@ -539,6 +539,14 @@ std::size_t Halo::add_activated(Particles& particles) {
 DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char> free_surface,
                                         std::span<const double> source, std::span<const double> dirichlet,
                                         double shift) {
+  DistributedPpe d;
+  assemble_distributed_ppe(halo, s, free_surface, source, dirichlet, shift, d);
+  return d;
+}
+
+void assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char> free_surface,
+                              std::span<const double> source, std::span<const double> dirichlet, double shift,
+                              DistributedPpe& d) {
   const std::size_t n = s.particles.size();
   if (n != halo.owned() + halo.copies() || free_surface.size() != n || source.size() != n ||
       (!dirichlet.empty() && dirichlet.size() != n))
@@ -558,7 +566,6 @@ DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<
   halo.refresh(surface);
   std::vector<double> held(dirichlet.begin(), dirichlet.end());
   if (!held.empty()) halo.refresh(held);
-  DistributedPpe d;
   assemble_ppe(s, surface, source, d.local, held, shift, ClosedGroups::leave);
   const PpeSystem& sys = d.local;
   const std::size_t m = sys.size();
@@ -717,7 +724,6 @@ DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<
     for (int k = a.row_ptr[r]; k < a.row_ptr[r + 1]; ++k)
       if (a.col[static_cast<std::size_t>(k)] == fg.pinned) a.val[static_cast<std::size_t>(k)] *= 2.0;
   }
-  return d;
 }
 
 SolveReport solve_distributed_ppe(Halo& halo, const DistributedPpe& ppe, LinearSolver& solver, Particles& particles,

@@ -155,9 +155,9 @@ void DistributedSimulation::assemble() {
   const StepFields& f = fields_;
   const double screening = config().sound_speed * f.dt;
   const Kernel& k = laplacian_kernel();
-  distributed_ppe_ = assemble_distributed_ppe(*halo_, {particles_, domain(), neighbors_at_star(k), k},
-                                              f.held.empty() ? f.surface : f.held, f.source, f.held_value,
-                                              screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
+  assemble_distributed_ppe(*halo_, {particles_, domain(), neighbors_at_star(k), k}, f.held.empty() ? f.surface : f.held,
+                           f.source, f.held_value, screening > 0.0 ? 1.0 / (screening * screening) : 0.0,
+                           distributed_ppe_);
   info_.unknowns = static_cast<std::size_t>(distributed_ppe_.global_rows);
   long long surface = 0;
   for (std::size_t i = 0; i < halo_->owned(); ++i) surface += f.surface[i];

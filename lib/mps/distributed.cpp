@@ -339,7 +339,7 @@ Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_h
     throw std::invalid_argument("Halo: the radius must be positive, got " + std::to_string(radius) +
                                 " (give the largest kernel radius)");
   const MPI_Comm comm = to_comm(comm_);
-  const int ranks = size_of(comm), me = rank_of(comm);
+  const int ranks = size_of(comm);
   // Each rank's bounding box of its active particles; an empty one stays inverted and catches nothing.
   constexpr double inf = std::numeric_limits<double>::infinity();
   std::array<double, 4> box{inf, -inf, inf, -inf};
@@ -351,58 +351,68 @@ Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_h
   std::vector<double>& boxes = boxes_;
   boxes.resize(4 * static_cast<std::size_t>(ranks));
   MPI_Allgather(box.data(), 4, MPI_DOUBLE, boxes.data(), 4, MPI_DOUBLE, comm);
+  std::vector<int> active;
   for (std::size_t i = 0; i < owned_; ++i)
-    if (particles.kind[i] == Kind::ghost) ghosts_.push_back(static_cast<int>(i));
+    (particles.kind[i] == Kind::ghost ? ghosts_ : active).push_back(static_cast<int>(i));
+  // The copies themselves, whole particles, in one message per neighbour rank.
+  setup_ = send_copies(particles, active, 2702);
+  last_ = setup_;
+}
 
+ExchangeStats Halo::send_copies(Particles& particles, const std::vector<int>& candidates, int tag) {
+  const MPI_Comm comm = to_comm(comm_);
+  const int ranks = size_of(comm), me = rank_of(comm);
   std::vector<int> send_count(static_cast<std::size_t>(ranks), 0), receive_count(send_count.size(), 0);
+  std::vector<Link> sends;
   for (int q = 0; q < ranks; ++q) {
     if (q == me) continue;
-    const double* b = boxes.data() + 4 * q;
+    const double* b = boxes_.data() + 4 * q;
     Link link{q, {}, 0, 0};
-    for (std::size_t i = 0; i < owned_; ++i) {
-      if (particles.kind[i] == Kind::ghost) continue;
-      const double x = particles.x[i], y = particles.y[i];
-      if (x >= b[0] - radius && x <= b[1] + radius && y >= b[2] - radius && y <= b[3] + radius)
-        link.particles.push_back(static_cast<int>(i));
+    for (int i : candidates) {
+      const double x = particles.x[static_cast<std::size_t>(i)], y = particles.y[static_cast<std::size_t>(i)];
+      if (x >= b[0] - radius_ && x <= b[1] + radius_ && y >= b[2] - radius_ && y <= b[3] + radius_)
+        link.particles.push_back(i);
     }
     send_count[static_cast<std::size_t>(q)] = static_cast<int>(link.particles.size());
-    if (!link.particles.empty()) send_.push_back(std::move(link));
+    if (!link.particles.empty()) sends.push_back(std::move(link));
   }
   MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, comm);
-  std::size_t next = owned_;
+  const std::size_t before = owned_ + copies_;
+  std::size_t next = before;
+  std::vector<Link> receives;
   for (int q = 0; q < ranks; ++q) {
     const auto c = static_cast<std::size_t>(receive_count[static_cast<std::size_t>(q)]);
     if (c == 0) continue;
-    receive_.push_back({q, {}, next, c});
+    receives.push_back({q, {}, next, c});
     next += c;
   }
-  copies_ = next - owned_;
-
-  // The copies themselves, whole particles, in one message per neighbour rank.
-  std::vector<std::vector<Record>> out(send_.size());
-  std::vector<Record> in(copies_);
+  ExchangeStats stats;
+  std::vector<std::vector<Record>> out(sends.size());
+  std::vector<Record> in(next - before);
   std::vector<MPI_Request> requests;
-  constexpr int tag = 2702;
-  for (const Link& link : receive_) {
+  for (const Link& link : receives) {
     requests.emplace_back();
-    MPI_Irecv(in.data() + (link.first - owned_), static_cast<int>(link.count * sizeof(Record)), MPI_BYTE, link.rank, tag,
-              comm, &requests.back());
-    ++setup_.messages_received;
-    setup_.particles_received += link.count;
+    MPI_Irecv(in.data() + (link.first - before), static_cast<int>(link.count * sizeof(Record)), MPI_BYTE, link.rank,
+              tag, comm, &requests.back());
+    ++stats.messages_received;
+    stats.particles_received += link.count;
   }
-  for (std::size_t k = 0; k < send_.size(); ++k) {
-    for (int i : send_[k].particles) out[k].push_back(record_of(particles, static_cast<std::size_t>(i)));
+  for (std::size_t k = 0; k < sends.size(); ++k) {
+    for (int i : sends[k].particles) out[k].push_back(record_of(particles, static_cast<std::size_t>(i)));
     requests.emplace_back();
-    MPI_Isend(out[k].data(), static_cast<int>(out[k].size() * sizeof(Record)), MPI_BYTE, send_[k].rank, tag, comm,
+    MPI_Isend(out[k].data(), static_cast<int>(out[k].size() * sizeof(Record)), MPI_BYTE, sends[k].rank, tag, comm,
               &requests.back());
-    ++setup_.messages_sent;
-    setup_.particles_sent += out[k].size();
-    setup_.bytes_sent += out[k].size() * sizeof(Record);
+    ++stats.messages_sent;
+    stats.particles_sent += out[k].size();
+    stats.bytes_sent += out[k].size() * sizeof(Record);
   }
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
-  resize(particles, owned_ + copies_);
-  for (std::size_t k = 0; k < copies_; ++k) put(particles, owned_ + k, in[k]);
-  last_ = setup_;
+  resize(particles, next);
+  for (std::size_t k = 0; k < in.size(); ++k) put(particles, before + k, in[k]);
+  copies_ = next - owned_;
+  send_.insert(send_.end(), std::make_move_iterator(sends.begin()), std::make_move_iterator(sends.end()));
+  receive_.insert(receive_.end(), receives.begin(), receives.end());
+  return stats;
 }
 
 int Halo::neighbour_ranks() const {
@@ -476,62 +486,15 @@ void Halo::remove(Particles& particles) const {
 
 // New links, each after the earlier ones to the same rank: both sides post their messages in link order, and MPI keeps
 // the order of messages between two ranks, so refreshes match them as they match the first.
-std::size_t Halo::add_activated(Particles& particles) {
+ExchangeStats Halo::add_activated(Particles& particles) {
   check_size(particles.size());
-  const MPI_Comm comm = to_comm(comm_);
-  const int ranks = size_of(comm), me = rank_of(comm);
   std::vector<int> activated;
   std::erase_if(ghosts_, [&](int i) {
     if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) return false;
     activated.push_back(i);
     return true;
   });
-  std::vector<int> send_count(static_cast<std::size_t>(ranks), 0), receive_count(send_count.size(), 0);
-  std::vector<Link> new_sends;
-  for (int q = 0; q < ranks; ++q) {
-    if (q == me) continue;
-    const double* b = boxes_.data() + 4 * q;
-    Link link{q, {}, 0, 0};
-    for (int i : activated) {
-      const double x = particles.x[static_cast<std::size_t>(i)], y = particles.y[static_cast<std::size_t>(i)];
-      if (x >= b[0] - radius_ && x <= b[1] + radius_ && y >= b[2] - radius_ && y <= b[3] + radius_)
-        link.particles.push_back(i);
-    }
-    send_count[static_cast<std::size_t>(q)] = static_cast<int>(link.particles.size());
-    if (!link.particles.empty()) new_sends.push_back(std::move(link));
-  }
-  MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, comm);
-  const std::size_t before = owned_ + copies_;
-  std::size_t next = before;
-  std::vector<Link> new_receives;
-  for (int q = 0; q < ranks; ++q) {
-    const auto c = static_cast<std::size_t>(receive_count[static_cast<std::size_t>(q)]);
-    if (c == 0) continue;
-    new_receives.push_back({q, {}, next, c});
-    next += c;
-  }
-  std::vector<std::vector<Record>> out(new_sends.size());
-  std::vector<Record> in(next - before);
-  std::vector<MPI_Request> requests;
-  constexpr int tag = 2704;
-  for (const Link& link : new_receives) {
-    requests.emplace_back();
-    MPI_Irecv(in.data() + (link.first - before), static_cast<int>(link.count * sizeof(Record)), MPI_BYTE, link.rank,
-              tag, comm, &requests.back());
-  }
-  for (std::size_t k = 0; k < new_sends.size(); ++k) {
-    for (int i : new_sends[k].particles) out[k].push_back(record_of(particles, static_cast<std::size_t>(i)));
-    requests.emplace_back();
-    MPI_Isend(out[k].data(), static_cast<int>(out[k].size() * sizeof(Record)), MPI_BYTE, new_sends[k].rank, tag, comm,
-              &requests.back());
-  }
-  MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
-  resize(particles, next);
-  for (std::size_t k = 0; k < in.size(); ++k) put(particles, before + k, in[k]);
-  copies_ = next - owned_;
-  send_.insert(send_.end(), std::make_move_iterator(new_sends.begin()), std::make_move_iterator(new_sends.end()));
-  receive_.insert(receive_.end(), new_receives.begin(), new_receives.end());
-  return in.size();
+  return send_copies(particles, activated, 2704);
 }
 
 // ---------------------------------------------------------------------------------------------------------------------

@@ -124,8 +124,9 @@ class Halo {
   void remove(Particles& particles) const;
   /// Copies, appended after the others, of the owned particles that were ghosts when the halo was built and are not
   /// now (a pushing plate's new column), to the ranks whose box widened by the radius holds them (the boxes of the
-  /// halo's construction). Returns the copies this rank received; later refreshes include them.
-  std::size_t add_activated(Particles& particles);
+  /// halo's construction). Returns what it moved (particles_received: the copies this rank received); later refreshes
+  /// include them.
+  ExchangeStats add_activated(Particles& particles);
 
  private:
   struct Link {
@@ -135,6 +136,9 @@ class Halo {
   };
   void exchange(void* field, std::size_t value_bytes);
   void check_size(std::size_t size) const;
+  // Copies of the `candidates` (owned indices) inside each other rank's box widened by the radius, appended to that
+  // rank's particles after its copies so far, with new links after the old (one message per rank pair each way).
+  ExchangeStats send_copies(Particles& particles, const std::vector<int>& candidates, int tag);
 
   int comm_ = 0;
   double radius_ = 0;

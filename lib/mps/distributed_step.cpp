@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "mps/components.hpp"
 
@@ -85,6 +86,13 @@ void DistributedSimulation::count(const ExchangeStats& e) {
   stats_.bytes_sent += e.bytes_sent;
 }
 
+template <class Field>
+void DistributedSimulation::refresh(Field&& field) {
+  halo_->refresh(std::forward<Field>(field));
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
+}
+
 // Components a scene added after construction are refused here, on every rank alike.
 void DistributedSimulation::check_components() const { refuse_unsupported(); }
 
@@ -132,24 +140,17 @@ std::size_t DistributedSimulation::owned_particles() const {
 // A ghost turned fluid after the predictor (a pushing plate's column) was in no halo: its copies join now, and the
 // per-particle fields already sized take their owners' entries for them.
 void DistributedSimulation::share_predicted() {
-  const std::size_t added = halo_->add_activated(particles_);
-  stats_.activated_copies += added;
-  const bool any_added = max_over_ranks(static_cast<double>(added)) > 0.0;
-  halo_->refresh(particles_);
-  ++stats_.refreshes;
-  count(halo_->last_refresh());
+  const ExchangeStats added = halo_->add_activated(particles_);
+  stats_.activated_copies += added.particles_received;
+  count(added);
+  const bool any_added = max_over_ranks(static_cast<double>(added.particles_received)) > 0.0;
+  refresh(particles_);
   if (!any_added) return;
   fields_.prescribed.resize(particles_.size(), 0);
-  halo_->refresh(std::span<char>(fields_.prescribed));
-  ++stats_.refreshes;
-  count(halo_->last_refresh());
+  refresh(std::span<char>(fields_.prescribed));
 }
 
-void DistributedSimulation::share_surface() {
-  halo_->refresh(std::span<char>(fields_.surface));
-  ++stats_.refreshes;
-  count(halo_->last_refresh());
-}
+void DistributedSimulation::share_surface() { refresh(std::span<char>(fields_.surface)); }
 
 void DistributedSimulation::assemble() {
   const StepFields& f = fields_;
@@ -190,19 +191,12 @@ void DistributedSimulation::solve() {
 }
 
 void DistributedSimulation::share_pressure_boundary() {
-  halo_->refresh(std::span<double>(particles_.p));
-  count(halo_->last_refresh());
-  halo_->refresh(std::span<char>(fields_.carriers));
-  count(halo_->last_refresh());
-  stats_.refreshes += 2;
+  refresh(std::span<double>(particles_.p));
+  refresh(std::span<char>(fields_.carriers));
 }
 
 // Shifting moves a particle by its neighbours' positions and velocities at n+1.
-void DistributedSimulation::share_corrected() {
-  halo_->refresh(particles_);
-  ++stats_.refreshes;
-  count(halo_->last_refresh());
-}
+void DistributedSimulation::share_corrected() { refresh(particles_); }
 
 void DistributedSimulation::end_corrector() {
   halo_->remove(particles_);

@@ -20,7 +20,7 @@ struct DistributedStepStats {
   std::size_t halo_copies = 0;      ///< halo copies this rank received when building each step's halo
   std::size_t activated_copies = 0; ///< copies it received of particles turned from ghosts to fluid within a step
   std::size_t refreshes = 0;        ///< the step's own halo refreshes (the PPE's and hypre's not counted)
-  std::size_t messages_sent = 0;    ///< point-to-point messages of the migrations, halos and refreshes
+  std::size_t messages_sent = 0;    ///< point-to-point messages of the migrations, halos, new fluid's copies and refreshes
   std::size_t bytes_sent = 0;       ///< their payload bytes
   double migrate_seconds = 0;       ///< wall-clock time in the partition (assignment or repartition) and migration
   double halo_seconds = 0;          ///< wall-clock time building halos
@@ -94,6 +94,8 @@ class DistributedSimulation : public Simulation {
 
  private:
   void count(const ExchangeStats& e);
+  template <class Field>
+  void refresh(Field&& field);  // the halo's refresh of a field or of whole particles, counted
   void refuse_unsupported() const;
   void migrate_to_partition();
 

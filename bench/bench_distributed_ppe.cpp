@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "mpi_bench.hpp"
 #include "mps/distributed.hpp"
 #include "mps/geometry.hpp"
 #include "mps/kernel.hpp"
@@ -42,13 +43,7 @@ double timed(MPI_Comm comm, F&& f) {
   return t;
 }
 
-template <class T>
-T reduce(MPI_Comm comm, T value, MPI_Op op, MPI_Datatype type) {
-  MPI_Allreduce(MPI_IN_PLACE, &value, 1, type, op, comm);
-  return value;
-}
 
-// Everything holding MPI or hypre objects lives here, so that it is gone before MPI_Finalize.
 int run(int argc, char** argv) {
   const MPI_Comm comm = MPI_COMM_WORLD;
   const int handle = static_cast<int>(MPI_Comm_c2f(comm));
@@ -71,9 +66,7 @@ int run(int argc, char** argv) {
     return app.exit(e);
   }
 
-  // The machine's load when the run starts: other jobs on the cores change what P ranks can gain.
-  double load = -1.0;
-  if (rank == 0) std::ifstream("/proc/loadavg") >> load;
+  const double load = rank == 0 ? load_average() : -1.0;
 
   // A square tank: side sqrt(fluid) l0, walls on three sides, the fluid jittered and stirred from a fixed seed.
   const double side = std::round(std::sqrt(fluid)) * kL0;
@@ -176,9 +169,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  const int code = run(argc, argv);
-  MPI_Finalize();
-  return code;
-}
+int main(int argc, char** argv) { return run_under_mpi(argc, argv, "bench_distributed_ppe", run); }

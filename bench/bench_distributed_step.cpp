@@ -21,20 +21,15 @@
 #include <string>
 
 #include "column.hpp"
+#include "mpi_bench.hpp"
 #include "mps/components.hpp"
 #include "mps/distributed_step.hpp"
 
 namespace {
 
-template <class T>
-T reduce(MPI_Comm comm, T value, MPI_Op op, MPI_Datatype type) {
-  MPI_Allreduce(MPI_IN_PLACE, &value, 1, type, op, comm);
-  return value;
-}
 double slowest(MPI_Comm comm, double seconds) { return reduce(comm, seconds, MPI_MAX, MPI_DOUBLE); }
 double total(MPI_Comm comm, double value) { return reduce(comm, value, MPI_SUM, MPI_DOUBLE); }
 
-// Everything holding MPI or hypre objects lives here, so that it is gone before MPI_Finalize.
 int run(int argc, char** argv) {
   const MPI_Comm comm = MPI_COMM_WORLD;
   int rank = 0, ranks = 1;
@@ -58,9 +53,7 @@ int run(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  // The machine's load when the run starts: other jobs on the cores change what P ranks can gain.
-  double load = -1.0;
-  if (rank == 0) std::ifstream("/proc/loadavg") >> load;
+  const double load = rank == 0 ? load_average() : -1.0;
 
   // The classic column is a wide and 2a high: a / l0 = sqrt(fluid / 2) particles across.
   dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
@@ -195,15 +188,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  int status = 0;
-  try {
-    status = run(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "bench_distributed_step: " << e.what() << '\n';
-    status = 1;
-  }
-  MPI_Finalize();
-  return status;
-}
+int main(int argc, char** argv) { return run_under_mpi(argc, argv, "bench_distributed_step", run); }

@@ -36,10 +36,6 @@ class AppRanks {
   [[nodiscard]] bool root() const { return rank_ == 0; }
   [[nodiscard]] bool distributed() const { return size_ > 1; }
   [[nodiscard]] int comm() const { return static_cast<int>(MPI_Comm_c2f(MPI_COMM_WORLD)); }  // the library's handle
-  [[nodiscard]] long long sum(long long value) const {
-    if (distributed()) MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-    return value;
-  }
   // An error met by some ranks only would leave the others waiting in their next exchange: stop them all.
   [[noreturn]] void stop_all(int status) const {
     if (distributed()) MPI_Abort(MPI_COMM_WORLD, status);

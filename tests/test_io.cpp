@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <signal.h>
 #include <sys/resource.h>
@@ -356,8 +357,55 @@ TEST(Io, AFailedWriteKeepsThePreviousFileRemovesItsTemporaryAndSaysWhy) {
   const fs::path dir = scratch("a_directory");
   fs::create_directories(dir);
   mps::CsrMatrix a;
-  EXPECT_THROW(mps::write_matrix_market(dir, a), std::runtime_error);
+  EXPECT_THROW(mps::write_matrix_market(dir, a), std::invalid_argument);
   EXPECT_FALSE(fs::exists(scratch("a_directory.tmp")));
+}
+
+// A path that exists and is not a regular file is refused before anything is written, and stays what it was: a
+// write-then-rename once replaced /dev/full with a CSV file.
+TEST(Io, WritersRefuseAPathThatIsNotARegularFileAndLeaveItAlone) {
+  const fs::path fifo = scratch("a_fifo");
+  fs::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const fs::path dir = scratch("a_folder");
+  fs::create_directories(dir);
+  for (const fs::path& path : {fifo, dir}) {
+    try {
+      mps::write_text(path, "text");
+      ADD_FAILURE() << "wrote over " << path;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  EXPECT_TRUE(fs::is_directory(dir));
+  EXPECT_THROW(mps::write_text("", "text"), std::invalid_argument);
+  EXPECT_THROW(mps::require_directory_path(fifo), std::invalid_argument);
+  fs::remove(fifo);
+}
+
+// The temporary file is made afresh: a killed run's leftover is replaced, a FIFO in its place refused (opening it
+// for writing would wait for a reader forever), and a link to a file is written through, the link kept.
+TEST(Io, TheTemporaryFileIsNewAndALinkIsWrittenThrough) {
+  const fs::path file = scratch("leftover.csv"), tmp = scratch("leftover.csv.tmp");
+  fs::remove(file);
+  std::ofstream(tmp) << "a killed run's half";
+  mps::write_text(file, "whole\n");
+  EXPECT_EQ(slurp(file), "whole\n");
+  EXPECT_FALSE(fs::exists(tmp));
+
+  ASSERT_EQ(mkfifo(tmp.c_str(), 0600), 0);
+  EXPECT_THROW(mps::write_text(file, "again\n"), std::runtime_error);
+  EXPECT_EQ(slurp(file), "whole\n");
+  EXPECT_TRUE(fs::is_fifo(tmp));
+  fs::remove(tmp);
+
+  const fs::path link = scratch("link.csv");
+  fs::remove(link);
+  fs::create_symlink(file, link);
+  mps::write_text(link, "through\n");
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_EQ(slurp(file), "through\n");
 }
 
 // A .mtx.gz (as data/ppe/ keeps the sample PPEs) reads as the same matrix and vector as the plain file; a damaged
@@ -559,7 +607,10 @@ TEST(Io, VtpReaderNamesWhatAFrameLacks) {
       {edited("compressor=\"vtkZLibDataCompressor\"", "compressor=\"vtkLZ4DataCompressor\""), "only zlib"},
       {edited("encoding=\"raw\"", "encoding=\"base64\""), "only raw is read"},
       {edited("Name=\"kind\" format=\"appended\"", "Name=\"kind\" format=\"ascii\""), "is not appended raw data"},
-      {good.substr(0, good.size() / 2), "runs past the end of the file"},
+      {good.substr(0, good.size() / 2) + "\n</AppendedData>\n</VTKFile>\n", "runs past the end of the file"},
+      {good.substr(0, good.size() / 2), "the file was cut short"},
+      {good.substr(0, good.size() - 28), "the file was cut short"},  // every array whole, the closing tags gone
+      {good.substr(0, good.size() - 30), "the file was cut short"},
       {edited("NumberOfPoints=\"400\"", "NumberOfPoints=\"401\""), "array 'points' holds 9600 bytes, not the 9624 its 1203 values need"},
   };
   for (std::size_t k = 0; k < cases.size(); ++k) {

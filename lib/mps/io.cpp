@@ -19,6 +19,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include <fcntl.h>
+#include <unistd.h>
 #include <zlib.h>
 
 namespace mps {
@@ -26,16 +28,78 @@ namespace {
 
 namespace fs = std::filesystem;
 
+std::string kind_of(const fs::file_status& s);
+
+}  // namespace
+
+void require_file_path(const fs::path& path) {
+  if (path.empty()) throw std::invalid_argument("an output file's path is empty; name the file to write");
+  std::error_code ec;
+  const fs::file_status s = fs::status(path, ec);
+  if (fs::exists(s) && !fs::is_regular_file(s))
+    throw std::invalid_argument("cannot write " + path.string() + ": it exists and is " + kind_of(s) +
+                                ", not a regular file; give the path of a file (a file there is replaced)");
+}
+
+void require_directory_path(const fs::path& path) {
+  if (path.empty()) throw std::invalid_argument("an output folder's path is empty; name the folder to write into");
+  std::error_code ec;
+  const fs::file_status s = fs::status(path, ec);
+  if (fs::exists(s) && !fs::is_directory(s))
+    throw std::invalid_argument("cannot write into " + path.string() + ": it exists and is " +
+                                (fs::is_regular_file(s) ? std::string("a file") : kind_of(s)) +
+                                ", not a directory; give a directory (made if missing)");
+}
+
+namespace {
+
 // What the system said about the last failed call (errno), for messages: "No space left on device".
 std::string system_reason() { return errno != 0 ? std::string(": ") + std::strerror(errno) : std::string(); }
+
+// What a path names, for messages: "a directory", "a character device (such as /dev/null)".
+std::string kind_of(const fs::file_status& s) {
+  switch (s.type()) {
+    case fs::file_type::directory: return "a directory";
+    case fs::file_type::character: return "a character device";
+    case fs::file_type::block: return "a block device";
+    case fs::file_type::fifo: return "a FIFO";
+    case fs::file_type::socket: return "a socket";
+    case fs::file_type::symlink: return "a symbolic link";
+    default: return "not a regular file";
+  }
+}
+
+// Opens `tmp` as a new regular file of its own: a leftover regular file (a killed run's) is replaced, anything else
+// there (a FIFO, a device, a link) refused, so the write can neither block nor land outside the file.
+void create_temporary(const fs::path& tmp) {
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    errno = 0;
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      ::close(fd);
+      return;
+    }
+    if (errno != EEXIST) break;
+    std::error_code ec;
+    const fs::file_status there = fs::symlink_status(tmp, ec);
+    if (!fs::is_regular_file(there))
+      throw std::runtime_error("cannot write through " + tmp.string() + ": it exists and is " + kind_of(there) +
+                               "; remove it");
+    fs::remove(tmp, ec);
+  }
+  throw std::runtime_error("cannot create " + tmp.string() + system_reason());
+}
 
 // Writes through a temporary file in the same directory, then renames it over the target; on any failure the
 // temporary file is removed, the target left as it was, and the message says why (errno).
 template <class Body>
 void write_atomically(const fs::path& path, Body&& body) {
-  if (fs::is_directory(path)) throw std::runtime_error("cannot write " + path.string() + ": it is a directory");
-  if (path.has_parent_path()) fs::create_directories(path.parent_path());
-  fs::path tmp = path;
+  require_file_path(path);
+  // A link to a file is written through, so that the link stays.
+  std::error_code ec;
+  const fs::path target = fs::is_symlink(fs::symlink_status(path, ec)) ? fs::canonical(path) : path;
+  if (target.has_parent_path()) fs::create_directories(target.parent_path());
+  fs::path tmp = target;
   tmp += ".tmp";
   auto fail = [&](const std::string& what) {
     const std::string reason = system_reason();
@@ -43,6 +107,7 @@ void write_atomically(const fs::path& path, Body&& body) {
     fs::remove(tmp, ignored);
     throw std::runtime_error(what + reason);
   };
+  create_temporary(tmp);
   errno = 0;
   {
     std::ofstream out(tmp, std::ios::binary);
@@ -58,11 +123,18 @@ void write_atomically(const fs::path& path, Body&& body) {
     out.close();
     if (!out) fail("failed while writing " + tmp.string());
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
+  // Checked again just before the rename: whatever appeared at the path meanwhile is never replaced unless a file.
+  try {
+    require_file_path(target);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw;
+  }
+  fs::rename(tmp, target, ec);
   if (ec) {
     errno = ec.value();
-    fail("cannot rename " + tmp.string() + " to " + path.string());
+    fail("cannot rename " + tmp.string() + " to " + target.string());
   }
 }
 
@@ -799,8 +871,19 @@ Particles read_vtp(const fs::path& path, double* time) {
     fail("appended data encoded as '" + attribute(appended_tag, "encoding") + "'; only raw is read");
   const std::size_t underscore = text.find('_', appended + appended_tag.size());
   if (underscore == std::string::npos) fail("no '_' opening the appended data");
-  const AppendedReader data(path, std::string_view(text).substr(underscore + 1), header_type == "UInt64",
-                            compressor == "vtkZLibDataCompressor");
+  // A frame cut short may still hold every array it names; its missing closing tags tell.
+  const std::string closing = "</AppendedData>";
+  const std::size_t closed = text.rfind(closing);
+  bool whole = closed != std::string::npos && closed > underscore;
+  if (whole) {
+    const std::size_t tail = text.find_first_not_of(" \t\r\n", closed + closing.size());
+    whole = tail != std::string::npos && text.compare(tail, 10, "</VTKFile>") == 0 &&
+            text.find_first_not_of(" \t\r\n", tail + 10) == std::string::npos;
+  }
+  if (!whole)
+    fail("it ends before its closing </AppendedData> and </VTKFile> tags: the file was cut short");
+  const AppendedReader data(path, std::string_view(text).substr(underscore + 1, closed - underscore - 1),
+                            header_type == "UInt64", compressor == "vtkZLibDataCompressor");
   if (n > text.size()) fail("NumberOfPoints " + points_text + " exceeds what the file can hold");
 
   const std::size_t points_at = xml.find("<Points"), point_data_at = xml.find("<PointData");

@@ -18,6 +18,12 @@
 
 namespace mps {
 
+/// Throws std::invalid_argument if `path` is empty or exists and is not a regular file (a directory, a device, a
+/// FIFO, a socket): every writer below checks it, and an app can check its output paths before a run.
+void require_file_path(const std::filesystem::path& path);
+/// Throws std::invalid_argument if `path` is empty or exists and is not a directory (an app's output folder).
+void require_directory_path(const std::filesystem::path& path);
+
 /// Per-particle fields of a frame beyond the particles' own, each of length particles.size().
 struct PointFields {
   std::map<std::string, std::span<const double>> scalars{};  ///< one value per particle, by name

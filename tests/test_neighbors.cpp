@@ -123,3 +123,16 @@ TEST(Neighbors, RestrictingAListToASmallerRadiusEqualsSearchingWithIt) {
   EXPECT_THROW((void)mps::restrict_radius(wide, p, d, 0.2), std::invalid_argument);
 }
 }  // namespace
+
+// A domain far larger than its search radius (a particle far from the rest widened it) is refused with the count,
+// not allocated: the cell counts overflowed an int at 1e300 m.
+TEST(Neighbors, AGridOfMoreThan1e8CellsIsRefused) {
+  try {
+    mps::CellGrid grid({0, 1e300, 0, 1}, 0.03);
+    ADD_FAILURE() << "a grid 1e300 m long was made";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the 1e8 a grid may hold"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(mps::CellGrid({0, 1000, 0, 1000}, 0.1), std::invalid_argument);  // 4e8 cells
+  EXPECT_NO_THROW(mps::CellGrid({0, 1000, 0, 1000}, 0.4));                      // 2.5e7 cells
+}

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -19,6 +20,14 @@ bool Domain::contains(double x, double y) const {
 }
 
 namespace {
+constexpr double kMaxCells = 1e8;
+
+std::string fmt_g(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
+
 // fmod(t, L) is t itself for |t| < L, the common case, which skips the library call and gives the same bits.
 double remainder_of(double t, double length) { return std::abs(t) < length ? t : std::fmod(t, length); }
 }  // namespace
@@ -53,8 +62,18 @@ CellGrid::CellGrid(const Domain& domain, double cell_size) : domain_(domain), ce
     throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
   // Half-radius cells: the runs scanned for a radius-r search cover (2r + h)^2 = 6.25 r^2 instead of the
   // 9 r^2 of radius-wide cells, so a third fewer distance tests.
-  nx_ = std::max(1, static_cast<int>(std::floor(domain_.width() / (0.5 * cell_size))));
-  ny_ = std::max(1, static_cast<int>(std::floor(domain_.height() / (0.5 * cell_size))));
+  const double cells_x = std::floor(domain_.width() / (0.5 * cell_size));
+  const double cells_y = std::floor(domain_.height() / (0.5 * cell_size));
+  // A domain far larger than its particles' spacing (a particle far from the rest) would need more memory than the
+  // particles themselves.
+  const double cells = std::max(cells_x, 1.0) * std::max(cells_y, 1.0);
+  if (!(cells <= kMaxCells))
+    throw std::invalid_argument("CellGrid: the domain, " + fmt_g(domain_.width()) + " m x " +
+                                fmt_g(domain_.height()) + " m, would hold " + fmt_g(cells) +
+                                " cells of half the search radius (" + fmt_g(cell_size) +
+                                " m), more than the 1e8 a grid may hold: is a particle far from the others?");
+  nx_ = std::max(1, static_cast<int>(cells_x));
+  ny_ = std::max(1, static_cast<int>(cells_y));
   hx_ = domain_.width() / nx_;
   hy_ = domain_.height() / ny_;
 }

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "checks.hpp"
@@ -172,4 +174,106 @@ TEST(GroupedHelp, OptionsInGroupsWithDefaultUnitAndRange) {
   EXPECT_NE(help.find("  --cold                            start from zeros\n"), std::string::npos) << help;
   EXPECT_NE(help.find("  --version "), std::string::npos);
   EXPECT_NE(help.find("  --config "), std::string::npos);
+}
+
+namespace {
+
+// What an app made of `text` given as --config: "" and the options set, or the error CLI11 reported.
+struct ConfigRun {
+  std::string error;
+  double gamma = 0.01;
+  std::string column = "classic";
+  bool wet = false;
+  std::vector<double> probes;
+};
+
+ConfigRun read_config(const std::string& text) {
+  const std::string path = testing::TempDir() + "sparsemps_config.toml";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    std::fwrite(text.data(), 1, text.size(), f);
+    std::fclose(f);
+  }
+  ConfigRun run;
+  CLI::App app{"test"};
+  add_config_option(app);
+  app.add_option("--gamma", run.gamma);
+  app.add_option("--column", run.column);
+  app.add_flag("--wet-walls", run.wet);
+  app.add_option("--probes", run.probes);
+  check_switches(app);
+  std::vector<std::string> args{"app", "--config", path};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  try {
+    app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::ParseError& e) {
+    run.error = e.what();
+  }
+  return run;
+}
+
+}  // namespace
+
+// The subset of TOML the apps write reads back: comments, blank lines, strings with escapes, switches, arrays, a
+// byte-order mark.
+TEST(ConfigFile, ReadsWhatTheAppsWrite) {
+  const ConfigRun run = read_config(
+      "\xEF\xBB\xBF# a comment\n\ngamma = 0.5  # trailing comment\ncolumn=\"seed \\\"x\\\"\"\nwet-walls=true\r\n"
+      "probes=[0.2, 0.5,1e-1]\n");
+  EXPECT_EQ(run.error, "");
+  EXPECT_EQ(run.gamma, 0.5);
+  EXPECT_EQ(run.column, "seed \"x\"");
+  EXPECT_TRUE(run.wet);
+  EXPECT_EQ(run.probes, (std::vector<double>{0.2, 0.5, 0.1}));
+}
+
+// What CLI11's own reader let through (the first of a repeated key kept, malformed lines skipped, an unterminated
+// string taken literally, a switch counting 2 as on) is refused, naming the line.
+TEST(ConfigFile, RefusesWhatIsNotAKeyValueLineNamingTheLine) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"gamma=0.5\ngamma=0.9\n", "line 2: 'gamma' is set again (first on line 1)"},
+      {"gamma=0.5\ngamma\n", "line 2: expected 'key = value'"},
+      {"gamma=0.5\n= 3\n", "line 2: expected 'key = value'"},
+      {"column=\"seed\n", "line 1: the string of 'column' is not closed"},
+      {"column=seed\n", "line 1: the value of 'column' must be a number"},
+      {"gamma=0.5 0.6\n", "unexpected text after the value of 'gamma'"},
+      {"gamma=\n", "'gamma' has no value"},
+      {"[scene]\ngamma=0.5\n", "line 1: sections ('[scene]') are not read"},
+      {std::string("gamma=0.5\0\n", 11), "line 1: column 10 holds the control character 0x00 (NUL)"},
+      {"wet-walls=2\n", "line 1: 'wet-walls' is a switch: its value is true or false"},
+      {"gama=0.5\n", "line 1: 'gama' is not an option"},
+      {"config=\"other.toml\"\n", "line 1: 'config' is not an option"},
+      {"probes=[0.2, 0.5\n", "line 1: the array of 'probes' is not closed"},
+      {"column=\"a\\qb\"\n", "holds the escape '\\q'"},
+  };
+  for (const auto& [text, expected] : cases) {
+    const ConfigRun run = read_config(text);
+    EXPECT_NE(run.error.find(expected), std::string::npos) << "file: " << text << "\nerror: " << run.error;
+  }
+}
+
+// A switch takes true or false on the command line too: --wet-walls=2 was taken as on.
+TEST(ConfigFile, SwitchesOnTheCommandLineTakeTrueOrFalseOnly) {
+  for (const auto& [arg, ok, value] : std::vector<std::tuple<std::string, bool, bool>>{
+           {"--wet-walls", true, true}, {"--wet-walls=false", true, false}, {"--wet-walls=2", false, false},
+           {"--wet-walls=yes", false, false}}) {
+    bool wet = false;
+    CLI::App app{"test"};
+    app.add_flag("--wet-walls", wet);
+    check_switches(app);
+    std::vector<std::string> args{"app", arg};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    bool parsed = true;
+    try {
+      app.parse(static_cast<int>(argv.size()), argv.data());
+    } catch (const CLI::ParseError&) {
+      parsed = false;
+    }
+    EXPECT_EQ(parsed, ok) << arg;
+    if (ok) {
+      EXPECT_EQ(wet, value) << arg;
+    }
+  }
 }

@@ -129,12 +129,13 @@ int main(int argc, char** argv) {
       ->delimiter(',')->check(number_in(0.0, 1e4))->group("Run");
   app.add_option("--tolerance", tolerance, "absolute quadrature tolerance of the exact solution [eps]")
       ->capture_default_str()->check(number_in(1e-15, 1e-2))->group("Run");
-  app.add_option("--out", out, "output directory (default: runs/acoustic/<case>)")->group("Output");
+  app.add_option("--out", out, "output directory (default: runs/acoustic/<case>)")->check(output_directory())->group("Output");
   app.add_option("--maps", maps, "times of the pressure-map PNGs (default: the paper's figure times) [s]")
       ->delimiter(',')->check(number_in(0.0, 1e4))->group("Output");
   app.add_flag("--no-maps", no_maps, "write no pressure maps (studies)")->group("Output");
   app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)")
       ->check(whole_in(0, 100000))->group("Output");
+  check_switches(app);
   CLI11_PARSE(app, argc, argv);
 
   try {

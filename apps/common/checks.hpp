@@ -16,6 +16,8 @@
 
 #include <unistd.h>
 
+#include "mps/io.hpp"
+
 inline std::string short_number(double v) {
   char s[32];
   std::snprintf(s, sizeof s, "%g", v);
@@ -51,6 +53,85 @@ inline CLI::Validator whole_in(double lo, double hi) {
       "in " + range);
 }
 
+// A value that is exactly true or false: CLI11 also took 2, on, yes and an empty value as true.
+inline CLI::Validator true_or_false() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        return s == "true" || s == "false" ? std::string() : "must be true or false, got '" + s + "'";
+      },
+      "");
+}
+
+// Every switch (a flag) of the app refuses a value other than true or false (--wet-walls=2 counted as on). Call it
+// after the options are added.
+inline void check_switches(CLI::App& app) {
+  for (CLI::Option* option : app.get_options())
+    if (option->get_expected_min() == 0 && option->get_name() != "--help" && option->get_name() != "--version")
+      option->check(true_or_false());
+}
+
+// An input file that exists, made absolute so that config.toml replays the run from any folder. Use as a transform.
+inline CLI::Validator existing_file_made_absolute() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        if (s.empty()) return "the path is empty; name an existing file";
+        std::error_code ec;
+        const auto status = std::filesystem::status(s, ec);
+        if (!std::filesystem::exists(status)) return "no file '" + s + "' exists";
+        if (!std::filesystem::is_regular_file(status)) return "'" + s + "' is not a regular file";
+        const std::filesystem::path absolute = std::filesystem::absolute(s, ec);
+        if (ec) return "cannot resolve '" + s + "': " + ec.message();
+        s = absolute.lexically_normal().string();
+        return {};
+      },
+      "FILE");
+}
+
+namespace detail {
+// The nearest part of `path` that exists must be a directory, or nothing could be made below it.
+inline std::string output_parent_problem(const std::filesystem::path& path) {
+  std::error_code ec;
+  for (std::filesystem::path up = std::filesystem::absolute(path, ec).parent_path(); !up.empty();
+       up = up.parent_path()) {
+    const auto status = std::filesystem::status(up, ec);
+    if (std::filesystem::exists(status))
+      return std::filesystem::is_directory(status) ? std::string() : up.string() + " is not a directory";
+    if (up == up.parent_path()) break;
+  }
+  return {};
+}
+}  // namespace detail
+
+// --out: a directory, made if missing; refused if the path or a part of it exists and is not a directory.
+inline CLI::Validator output_directory() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        try {
+          mps::require_directory_path(s);
+        } catch (const std::invalid_argument& e) {
+          return e.what();
+        }
+        const std::string parent = detail::output_parent_problem(s);
+        return parent.empty() ? std::string() : "cannot make the folder " + s + ": " + parent;
+      },
+      "DIR");
+}
+
+// An output file: refused if it exists and is not a regular file (a device, a FIFO, a folder), or cannot be made.
+inline CLI::Validator output_file() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        try {
+          mps::require_file_path(s);
+        } catch (const std::invalid_argument& e) {
+          return e.what();
+        }
+        const std::string parent = detail::output_parent_problem(s);
+        return parent.empty() ? std::string() : "cannot write " + s + ": " + parent;
+      },
+      "FILE");
+}
+
 // Runs beyond these are refused up front with the estimate: more particles than this machine's memory holds at the
 // 2 KB a particle takes at least (or 2e7), or more than 1e8 steps.
 inline void check_run_size(double particles, double steps, const std::string& fewer_particles,
@@ -70,8 +151,14 @@ inline void check_run_size(double particles, double steps, const std::string& fe
 
 // Removes what an earlier run into `dir` wrote (the names a run owns), then makes sure `dir` exists.
 inline void clear_outputs(const std::filesystem::path& dir, std::initializer_list<const char*> owned) {
-  for (const char* name : owned) std::filesystem::remove_all(dir / name);
-  std::filesystem::create_directories(dir);
+  mps::require_directory_path(dir);
+  try {
+    for (const char* name : owned) std::filesystem::remove_all(dir / name);
+    std::filesystem::create_directories(dir);
+  } catch (const std::filesystem::filesystem_error& e) {
+    throw std::runtime_error("cannot use the output folder " + dir.string() + " (" + e.code().message() +
+                             "); choose another --out");
+  }
 }
 
 // What an app prints for an error that ended it: std::bad_alloc's own text says nothing a person can act on.

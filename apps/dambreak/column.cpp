@@ -77,7 +77,7 @@ const Params& checked(const Params& p) {
   if (!(p.width + 2 * p.l0 <= p.tank_length) || !(p.height + 2 * p.l0 <= p.tank_height))
     throw std::invalid_argument("dam break: the column (" + fmt(p.width) + " x " + fmt(p.height) +
                                 " m) must fit in the tank (" + fmt(p.tank_length) + " x " + fmt(p.tank_height) + " m)");
-  if (p.width < 4 * p.l0 || p.height < 4 * p.l0)
+  if (p.l0 > coarsest_spacing(p))
     throw std::invalid_argument("dam break: the column must be at least 4 spacings wide and high; lower the spacing (" +
                                 fmt(p.l0) + " m)");
   const double first_step = p.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // make_config's dt_max
@@ -102,12 +102,37 @@ const Params& checked(const Params& p) {
   return p;
 }
 
+// A file's velocities and pressures are a state a dam break could reach: a fall from the tank's top gives
+// sqrt(2 g h) and rho g h; ten and a hundred times those are beyond any splash or impact (docs/particle-files.md).
+void check_initial_state(const mps::Particles& s, const Params& p) {
+  const double h = std::max(p.tank_height, p.height), speed = std::sqrt(2.0 * p.g * h), rho_g_h = 1000.0 * p.g * h;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] == mps::Kind::ghost) continue;
+    const double v = std::hypot(s.u[i], s.v[i]);
+    if (!(v <= 10.0 * speed))
+      throw std::invalid_argument("the particle file's particle at (" + fmt(s.x[i]) + ", " + fmt(s.y[i]) +
+                                  ") moves at " + fmt(v) + " m/s, more than 10 times the speed of a fall from the "
+                                  "tank's top (sqrt(2 g h) = " + fmt(speed) + " m/s): check its u and v");
+    if (!(std::abs(s.p[i]) <= 100.0 * rho_g_h))
+      throw std::invalid_argument("the particle file's particle at (" + fmt(s.x[i]) + ", " + fmt(s.y[i]) +
+                                  ") holds the pressure " + fmt(s.p[i]) + " Pa, more than 100 times rho g h = " +
+                                  fmt(rho_g_h) + " Pa of the tank's height: check its p");
+  }
+}
+
 bool has_fluid_neighbour(const mps::Particles& s, std::size_t i, double radius) {
   for (std::size_t j = 0; j < s.size(); ++j)
     if (j != i && s.kind[j] == mps::Kind::fluid && std::hypot(s.x[j] - s.x[i], s.y[j] - s.y[i]) < radius) return true;
   return false;
 }
 }  // namespace
+
+double estimated_steps(const Params& p) {
+  const mps::SimulationConfig c = make_config(p);
+  return p.end_time / std::min(c.dt_max, c.viscous_number * c.l0 * c.l0 / c.nu);
+}
+
+double coarsest_spacing(const Params& p) { return std::min(p.width, p.height) / 4.0; }
 
 mps::Particles make_particles(const Params& p) {
   mps::Particles particles;
@@ -245,6 +270,7 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
   for (Column c : {Column::classic, Column::seed}) {
     if (!is_column(out.particles, c, l0)) continue;
     take_column_geometry(p, c);
+    check_initial_state(out.particles, p);
     out.description = "spacing " + fmt(l0) + " m (" + how + "); the " + to_string(c) +
                       " column's particles: its tank, probes and experiments";
     return out;
@@ -261,6 +287,14 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
     }
   if (s.count(mps::Kind::fluid) == 0) throw std::invalid_argument("the particle file has no fluid particles");
   if (!(wx0 < inf)) throw std::invalid_argument("the particle file has no wall particles: a dam break needs a tank");
+  // A bottom and two sides of wall particles span the tank one spacing apart: fewer cannot enclose a box this big.
+  const double needed = (wx1 - wx0) / l0 + 2.0 * (wy1 - wy0) / l0;
+  if (!(needed <= 1.5 * static_cast<double>(s.count(mps::Kind::wall))))
+    throw std::invalid_argument("the particle file's " + std::to_string(s.count(mps::Kind::wall)) +
+                                " wall particles span x from " + fmt(wx0) + " to " + fmt(wx1) + " m and y from " +
+                                fmt(wy0) + " to " + fmt(wy1) + " m, a tank that would need about " + fmt(needed) +
+                                " of them at spacing " + fmt(l0) +
+                                " m: a wall particle lies far from the others (check the largest and smallest x, y)");
   // The walls' first layer sits half a spacing outside the tank's inner lines; the tank's top is its walls' top.
   const double x0 = wx0 + 0.5 * l0, y0 = wy0 + 0.5 * l0;
   if (std::abs(x0) > 1e-9 * l0 || std::abs(y0) > 1e-9 * l0)
@@ -292,6 +326,7 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
   for (double h : classic.pressure_probes)
     if (h * p.height < p.tank_height) p.pressure_probes.push_back(h);
   p.end_time = 2.5 / std::sqrt(2 * p.g / p.width);  // T = 2.5, as the classic column
+  check_initial_state(s, p);
   out.description = "spacing " + fmt(l0) + " m (" + how + "); tank " + fmt(p.tank_length) + " x " +
                     fmt(p.tank_height) + " m (the wall particles' inner box" +
                     (std::abs(x0) > 1e-9 * l0 || std::abs(y0) > 1e-9 * l0
@@ -337,6 +372,11 @@ long Scene::removed() const {
 void Scene::step() {
   sim_->step();
   sample();
+  // With no fluid left there is nothing to simulate, and a summary of it would read as a completed run.
+  if (removed() >= initial_fluid_)
+    throw mps::SimulationError("step " + std::to_string(sim_->last_step().step) + " (t = " + fmt(sim_->time()) +
+                               " s): every fluid particle (" + std::to_string(initial_fluid_) +
+                               ") has left the tank as spray; the flow blew up: lower --cfl");
 }
 
 void Scene::sample() {

@@ -65,6 +65,12 @@ struct Sample {
   std::vector<double> pressures;  // mean pressure over each probe patch [Pa]
 };
 
+// The steps a run takes at least: its end time over the largest step the CFL (at the free-fall speed) and the
+// viscous limit allow.
+double estimated_steps(const Params& p);
+// The largest spacing the column takes: four particles across its width and its height.
+double coarsest_spacing(const Params& p);
+
 mps::Particles make_particles(const Params& p);
 mps::Domain make_domain(const Params& p);
 mps::SimulationConfig make_config(const Params& p);

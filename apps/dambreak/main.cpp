@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   const AppRanks ranks(&argc, &argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string column_name = "classic", gradient = "min-reference", out = "runs/dambreak",
+  std::string column_name, gradient = "min-reference", out = "runs/dambreak",
               data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
   double dx = 0, end_time = 0, front_tolerance = 0.03;
   int frames = 20;
@@ -72,13 +72,12 @@ int main(int argc, char** argv) {
                  "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
                  "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
                  "--dx or the file's")
-      ->check(CLI::ExistingFile)
-      ->transform([](std::string name) { return fs::absolute(name).lexically_normal().string(); })  // replayable
-      ->group("Scene");
+      ->transform(existing_file_made_absolute())->group("Scene");
+  // No default string: a run from --particles then writes no column into config.toml, and its replay is no conflict.
   app.add_option("--column", column_name,
-                 "classic: a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, H = 1 m high, "
-                 "tank 5.366 m x 3 m (Buchner's wall pressure)")
-      ->capture_default_str()->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
+                 "classic (the default): a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, "
+                 "H = 1 m high, tank 5.366 m x 3 m (Buchner's wall pressure); not with --particles")
+      ->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
   app.add_option("--data", data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
                  "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
   app.add_option("--dx", dx, "particle spacing (default: a/20 for classic, H/25 for seed, the seed's own is 0.02; with "
@@ -110,21 +109,25 @@ int main(int argc, char** argv) {
   app.add_option("--front-tolerance", front_tolerance,
                  "classic: pass if the front is within this relative error of either Martin & Moyce series for T <= 2.5")
       ->capture_default_str()->check(positive_up_to(10))->group("Run");
-  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
   app.add_option("--write-particles", write_particles,
                  "write the scene's initial particles to this CSV file (a start for --particles) and exit")
-      ->group("Output");
-  CLI11_PARSE(app, argc, argv);
+      ->check(output_file())->group("Output");
+  check_switches(app);
+  if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
-  bool running = false;  // from the first step on, an error may be one rank's alone
   try {
     if (ranks.distributed() && !export_ppe.empty())
       throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
     p.gradient = mps::gradient_variant_from_name(gradient);
+    if (!particles_file.empty() && !column_name.empty())
+      throw std::invalid_argument("--column " + column_name + " and --particles: the particle file is the scene (its "
+                                  "tank, water and spacing); give one of them");
+    if (column_name.empty()) column_name = "classic";
     mps::Particles particles;
     std::string scene_name = column_name + " column";
     if (particles_file.empty()) {
@@ -132,9 +135,13 @@ int main(int argc, char** argv) {
       dambreak::take_column_geometry(p, column);
       if (end_time > 0) p.end_time = end_time;
       p.l0 = dx > 0 ? dx : dambreak::defaults(column).l0;
-      check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5),
-                     p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "raise --dx",
-                     "shorten --end-time or raise --cfl");
+      if (p.l0 > dambreak::coarsest_spacing(p))
+        throw std::invalid_argument("--dx " + short_number(p.l0) + " m is coarser than the " + column_name +
+                                    " column takes: at most " + short_number(dambreak::coarsest_spacing(p)) +
+                                    " m, four particles across its width and height");
+      check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5), dambreak::estimated_steps(p),
+                     "raise --dx", "shorten --end-time or raise --dx (the viscous limit dt <= 0.2 dx^2/nu binds at "
+                     "small spacings)");
       particles = dambreak::make_particles(p);
     } else {
       const bool frame = fs::path(particles_file).extension() == ".vtp";
@@ -146,9 +153,9 @@ int main(int argc, char** argv) {
       particles = std::move(file.particles);
       column_name = dambreak::to_string(p.column);
       scene_name = p.column == dambreak::Column::file ? "particles of " + particles_file : column_name + " column";
-      check_run_size(static_cast<double>(particles.size()),
-                     p.end_time * std::sqrt(2 * p.g * p.height) / (p.cfl * p.l0), "use a coarser particle file",
-                     "shorten --end-time or raise --cfl");
+      check_run_size(static_cast<double>(particles.size()), dambreak::estimated_steps(p),
+                     "use a coarser particle file", "shorten --end-time or use a coarser particle file (the viscous "
+                     "limit dt <= 0.2 dx^2/nu binds at small spacings)");
     }
     const dambreak::Column column = p.column;
     if (!write_particles.empty()) {
@@ -195,7 +202,6 @@ int main(int argc, char** argv) {
       fs::create_directories(dir / "frames");
     }
     series.write_if_due(sim.time(), scene.all_particles());
-    running = true;
     double next_report = p.end_time / 10;
     Progress progress(p.end_time, "s");
     try {
@@ -214,8 +220,11 @@ int main(int argc, char** argv) {
         }
       }
     } catch (const mps::SimulationError& e) {
-      // The guard stops every rank at the same step (the scene's gathering is the last good state).
       progress.finish(sim.time(), sim.last_step().step);
+      // The guard stops every rank at the same step (the scene's gathering is the last good state); a component's
+      // error may be one rank's alone.
+      if (!ranks.every_rank_failed())
+        ranks.end_alone(e.what(), [&] { record_failure_alone(dir, e.what(), params, sim); });
       return ranks.root() ? report_guard_stop(dir, e, params, sim, &scene.all_particles()) : 1;
     }
     progress.finish(sim.time(), sim.last_step().step);
@@ -316,9 +325,8 @@ int main(int argc, char** argv) {
                 series.path().string().c_str(), dir.string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    // Before the run every rank meets the same error and rank 0 says it; during it, a rank alone may.
-    if (ranks.root() || running) std::cerr << "error: " << error_message(e) << "\n";
-    if (running) ranks.stop_all(1);
+    if (!ranks.every_rank_failed()) ranks.end_alone(error_message(e));
+    ranks.say_error(error_message(e));
     return 1;
   }
 }

@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
       ->check(number_in(0.01, 1.0))->group("Numerics");
   app.add_option("--wet-walls", p.wet_walls, "walls next to the liquid's interior carry pressure even where the "
                  "density test calls them dry (mps::WetWalls): true | false")->capture_default_str()
-      ->group("Numerics");
+      ->check(true_or_false())->group("Numerics");
   std::string gradient;
   app.add_option("--pressure-gradient", gradient, "conservative: every pressure pair equal and opposite, the body gets "
                  "exactly the fluid's push back (still water does not stay at rest with it); min-reference: the "
@@ -65,11 +65,12 @@ int main(int argc, char** argv) {
   app.add_option("--solver", p.solver, "pressure solver spec")->capture_default_str()->group("Solver");
   app.add_option("--end-time", end_time, "simulated time (default: plate 0.3, gate 0.4) [s]")
       ->check(positive_up_to(100))->group("Run");
-  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
+  check_switches(app);
   CLI11_PARSE(app, argc, argv);
   try {
     const fsi::Params base = fsi::defaults(fsi::case_from_name(scene_name));

@@ -67,11 +67,12 @@ int main(int argc, char** argv) {
       ->check(number_in(1.0, 1e6))->group("Run");
   app.add_option("--tolerance", tolerance, "pass if every band below the top is within this relative error")
       ->capture_default_str()->check(positive_up_to(10))->group("Run");
-  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
+  check_switches(app);
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -110,16 +110,16 @@ int main(int argc, char** argv) {
       ->check(number_in(0.0, 1e6))->group("Run");
   app.add_option("--tolerance", tolerance, "pass if the final profile's relative L2 error (inlet: peak velocity "
                  "error) is below this")->capture_default_str()->check(positive_up_to(10))->group("Run");
-  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--profiles", profiles, "profiles written, evenly spaced in time")->capture_default_str()
       ->check(whole_in(1, 1000))->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  CLI11_PARSE(app, argc, argv);
+  check_switches(app);
+  if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
-  bool running = false;  // from the first step on, an error may be one rank's alone
   try {
     if (ranks.distributed() && !export_ppe.empty())
       throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
@@ -172,7 +172,6 @@ int main(int argc, char** argv) {
       mps::write_vtp(dir / name, all, sim.time());
       series.add(sim.time(), dir / name);
     };
-    running = true;
     int frame = 0, profile = 0;
     if (frames > 0) write_frame(frame++);
     std::vector<std::string> header{"y_over_D"};
@@ -215,8 +214,11 @@ int main(int argc, char** argv) {
         ++profile;
       }
     } catch (const mps::SimulationError& e) {
-      // The guard stops every rank at the same step, each holding the last good state.
       progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
+      // The guard stops every rank at the same step, each holding the last good state; a component's error (the
+      // plate's ghost pool) may be one rank's alone.
+      if (!ranks.every_rank_failed())
+        ranks.end_alone(e.what(), [&] { record_failure_alone(dir, e.what(), params, sim); });
       const mps::Particles& last_good = all_particles();
       return ranks.root() ? report_guard_stop(dir, e, params, sim, &last_good) : 1;
     }
@@ -264,9 +266,8 @@ int main(int argc, char** argv) {
                 (dir / "summary.json").string().c_str());
     return pass ? 0 : 2;
   } catch (const std::exception& e) {
-    // Before the run every rank meets the same error and rank 0 says it; during it, a rank alone may.
-    if (ranks.root() || running) std::cerr << "error: " << error_message(e) << "\n";
-    if (running) ranks.stop_all(1);
+    if (!ranks.every_rank_failed()) ranks.end_alone(error_message(e));
+    ranks.say_error(error_message(e));
     return 1;
   }
 }

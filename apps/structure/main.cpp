@@ -83,9 +83,10 @@ int main(int argc, char** argv) {
   app.add_option("--csm3-tolerance", csm3_tolerance, "csm3: pass if the tip's u_y mean, amplitude and frequency are "
                  "each within this of the reference over the same time")->capture_default_str()
       ->check(positive_up_to(10))->group("Run");
-  app.add_option("--out", out, "output directory")->capture_default_str()->group("Output");
+  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
+  check_switches(app);
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -1,12 +1,19 @@
 #pragma once
 // An app started by mpirun runs its scene on the ranks (mps::DistributedSimulation, docs/scaling.md); started
 // plainly, or on one rank, it is the serial app and never starts MPI itself.
+#include <CLI/CLI.hpp>
 #include <mpi.h>
 #include <omp.h>
 
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <optional>
+#include <sstream>
 #include <string>
+#include <thread>
 
 class AppRanks {
  public:
@@ -25,6 +32,8 @@ class AppRanks {
     }
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    // Apart from the library's: an agreement on failure must never match one of the step's collectives.
+    MPI_Comm_dup(MPI_COMM_WORLD, &failures_);
     // One console: the other ranks' output would repeat rank 0's. Their errors still reach stderr.
     if (rank_ != 0 && !std::freopen("/dev/null", "w", stdout)) std::perror("stdout to /dev/null");
     // Ranks are the parallelism: two OpenMP threads per rank on two cores spin against each other.
@@ -36,10 +45,50 @@ class AppRanks {
   [[nodiscard]] bool root() const { return rank_ == 0; }
   [[nodiscard]] bool distributed() const { return size_ > 1; }
   [[nodiscard]] int comm() const { return static_cast<int>(MPI_Comm_c2f(MPI_COMM_WORLD)); }  // the library's handle
-  // An error met by some ranks only would leave the others waiting in their next exchange: stop them all.
-  [[noreturn]] void stop_all(int status) const {
-    if (distributed()) MPI_Abort(MPI_COMM_WORLD, status);
-    std::exit(status);
+  // Called by a rank that met an error. True when every rank met one and came here within a few seconds (a bad
+  // option, a file no rank can read, the guard, which stops all ranks at one step): they may still gather and
+  // report together. False when the others did not come: they wait in an exchange with this rank (an error of its
+  // own, such as a component's or its output's), so it must end the job alone (end_alone). Serially: true.
+  [[nodiscard]] bool every_rank_failed() const {
+    if (!distributed()) return true;
+    int failed = 1, count = 0;
+    MPI_Request request = MPI_REQUEST_NULL;
+    MPI_Iallreduce(&failed, &count, 1, MPI_INT, MPI_SUM, failures_, &request);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kWaitSeconds);
+    for (int done = 0; !done; std::this_thread::sleep_for(std::chrono::milliseconds(1))) {
+      MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+      if (!done && std::chrono::steady_clock::now() > deadline) return false;
+    }
+    return true;
+  }
+
+  // After every_rank_failed(): rank 0 says its error; another rank says its own only if it differs. Collective.
+  void say_error(const std::string& message) const {
+    std::string first = message;
+    if (distributed()) {
+      int length = static_cast<int>(first.size());
+      MPI_Bcast(&length, 1, MPI_INT, 0, failures_);
+      first.resize(static_cast<std::size_t>(length));
+      MPI_Bcast(first.data(), length, MPI_CHAR, 0, failures_);
+    }
+    if (root()) std::cerr << "error: " << message << "\n";
+    else if (message != first) std::cerr << "error (rank " << rank_ << "): " << message << "\n";
+  }
+
+  // An error of this rank alone: says it, naming the rank, lets `record` keep what it can (a summary), and ends
+  // every rank (MPI_Abort), so that no rank waits for it.
+  [[noreturn]] void end_alone(const std::string& message, const std::function<void()>& record = {}) const {
+    std::cerr << "error (rank " << rank_ << " of " << size_ << ", alone: ending every rank): " << message << "\n";
+    if (record) {
+      try {
+        record();
+      } catch (const std::exception& e) {
+        std::cerr << "error: the failure could not be recorded: " << e.what() << "\n";
+      }
+    }
+    std::cerr.flush();
+    MPI_Abort(MPI_COMM_WORLD, 1);
+    std::exit(1);
   }
 
  private:
@@ -48,7 +97,9 @@ class AppRanks {
       if (std::getenv(name) != nullptr) return true;
     return false;
   }
+  static constexpr int kWaitSeconds = 3;
   int rank_ = 0, size_ = 1;
+  MPI_Comm failures_ = MPI_COMM_NULL;
 };
 
 // The apps whose scenes run on one process: under mpirun each rank would run the whole scene into the same files.
@@ -58,4 +109,17 @@ inline void require_one_process(const AppRanks& ranks, const std::string& app) {
     std::fprintf(stderr, "error: %s runs on one process, not on %d MPI ranks; run it without mpirun (dambreak and "
                  "poiseuille run on ranks: docs/scaling.md)\n", app.c_str(), ranks.size());
   std::exit(1);
+}
+
+// CLI11_PARSE on ranks: every rank finds the same fault in the options; rank 0 says it (and prints --help).
+// Returns the exit status when the run ends here.
+inline std::optional<int> parse_options(CLI::App& app, const AppRanks& ranks, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (ranks.root()) return app.exit(e);
+    std::ostringstream ignored;
+    return app.exit(e, ignored, ignored);
+  }
+  return std::nullopt;
 }

@@ -92,3 +92,11 @@ inline int report_guard_stop(const std::filesystem::path& dir, const mps::Simula
   }
   return 1;
 }
+
+// A run on ranks stopped by an error of one rank alone: the others cannot join a gathering of the last good state,
+// so this rank records the reason in summary.json; the frames written so far are complete.
+inline void record_failure_alone(const std::filesystem::path& dir, const std::string& error,
+                                 const nlohmann::json& params, const mps::Simulation& sim) {
+  write_summary(dir, {{"status", "failed"}, {"error", error}, {"parameters", params}, {"time_s", sim.time()},
+                      {"steps", sim.last_step().step}});
+}

@@ -85,6 +85,53 @@ def check(app, args, proc, out):
     return None
 
 
+def special_inputs(build, tmp):
+    """Paths that are not what an option needs and damaged config files, for every app. Returns the failures."""
+    failures, count = [], 0
+    env = {"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"}
+    (tmp / "a_file").write_text("a file\n")
+    for app in sorted(BASE):
+        exe = str(build / "apps" / app / app)
+        base = BASE[app].split()
+        good = tmp / f"{app}-base"
+        proc = subprocess.run([exe, *base, "--out", str(good)], capture_output=True, text=True, timeout=120, env=env)
+        if proc.returncode not in (0, 2):
+            failures.append(f"{app} {' '.join(base)}: exit {proc.returncode}: {proc.stderr[-300:]}")
+            continue
+        config = (good / "config.toml").read_text()
+        first_key = next(line for line in config.splitlines() if not line.startswith("#"))
+        # (file text, what the refusal must say; None: the run must succeed)
+        configs = [
+            (config + first_key + "\n", "is set again"),
+            ("\ufeff" + config, None),
+            (config.replace("\n", "\n\0", 1), "control character 0x00 (NUL)"),
+            ("[section]\n" + config, "sections"),
+            (config + first_key.split("=")[0] + "\n", "expected 'key = value'"),
+            (config + 'solver="auto\n', "is not closed"),
+        ]
+        cases = [(["--out", "/dev/full"], "not a directory"), (["--out", "/dev/full/x"], "not a directory"),
+                 (["--out", ""], "empty"), (["--out", str(tmp / "a_file")], "not a directory")]
+        if app == "dambreak":
+            cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
+                      (["--particles", "", "--out", str(tmp / "w")], "empty")]
+        for k, (text, said) in enumerate(configs):
+            path = tmp / f"{app}-{k}.toml"
+            path.write_bytes(text.encode("utf-8"))
+            cases.append((["--config", str(path), "--out", str(tmp / f"{app}-config-{k}")], said))
+        for args, said in cases:
+            count += 1
+            proc = subprocess.run([exe, *base, *args], capture_output=True, text=True, timeout=120, env=env)
+            if said is None and proc.returncode not in (0, 2):
+                failures.append(f"{app} {' '.join(args)}: exit {proc.returncode}: {proc.stderr[-300:]}")
+            elif said is not None and (proc.returncode in (0, 2) or said not in proc.stderr):
+                failures.append(f"{app} {' '.join(args)}: exit {proc.returncode}, expected {said!r} in "
+                                f"{proc.stderr[-300:]!r}")
+        if not Path("/dev/full").is_char_device():
+            failures.append(f"{app} replaced /dev/full")
+    print(f"special paths and damaged config files: {count} cases")
+    return failures
+
+
 def main():
     build = Path(sys.argv[1])
     cases = int(sys.argv[2]) if len(sys.argv) > 2 else 60
@@ -109,6 +156,7 @@ def main():
                 problem = "hung (no end within 120 s)"
             if problem:
                 failures.append(f"{app} {' '.join(args)}: {problem}")
+        failures += special_inputs(build, Path(tmp))
     print("exit codes:", dict(sorted(outcomes.items())))
     for f in failures:
         print("FAIL", f)

@@ -197,16 +197,47 @@ def refusals(build, tmp, failures):
     (tmp / "bad.csv").write_text("# a tank\nx,y,kind\n0.1,0.1,fluid\n0.2,0.1,water\n")
     (tmp / "no-tank.csv").write_text("x,y,kind\n" + "".join(f"{0.01 * i},{0.01 * j},fluid\n" for i in range(8)
                                                             for j in range(8)))
+    # The classic column's file with one particle changed, or every position scaled.
+    lines = (tmp / "classic.csv").read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[header].split(",")
+
+    def edited(name, kind, column, value, scale=1.0):
+        rows, done = [], False
+        for line in lines[header + 1:]:
+            row = dict(zip(names, line.split(",")))
+            if not done and row["kind"] == kind and column:
+                row[column], done = value, True
+            row["x"], row["y"] = repr(float(row["x"]) * scale), repr(float(row["y"]) * scale)
+            rows.append(",".join(row[n] for n in names))
+        (tmp / name).write_text("\n".join(lines[:header + 1] + rows) + "\n")
+        return str(tmp / name)
+
     cases = [(["--particles", str(tmp / "bad.csv")], "bad.csv:4: kind 'water' is not fluid, wall or dummy"),
              (["--particles", str(tmp / "no-tank.csv")], "no wall particles: a dam break needs a tank"),
              (["--particles", str(tmp / "classic.csv"), "--dx", "0.01"], "give the spacing the file was made with"),
-             (["--particles", str(tmp / "missing.csv")], "missing.csv")]
+             (["--particles", str(tmp / "missing.csv")], "missing.csv"),
+             (["--particles", ""], "--particles: the path is empty"),
+             (["--particles", str(tmp / "classic.csv"), "--column", "seed"], "--column seed and --particles"),
+             (["--particles", edited("far-wall.csv", "wall", "x", "1e300")], "a wall particle lies far from the others"),
+             (["--particles", edited("fast.csv", "fluid", "u", "1e10")], "moves at 1e+10 m/s, more than 10 times"),
+             (["--particles", edited("pressed.csv", "fluid", "p", "1e300")], "holds the pressure 1e+300 Pa"),
+             (["--particles", edited("tiny.csv", "fluid", None, None, 1e-9)], "steps, more than the 1e+08"),
+             (["--column", "classic", "--dx", "1"], "at most 0.0365 m")]
     for args, message in cases:
         proc = run(build, args, tmp / "refused")
         if proc.returncode == 0 or message not in proc.stderr:
             failures.append(f"{' '.join(args)}: exit {proc.returncode}, stderr {proc.stderr[-300:]!r}, "
                             f"expected {message!r}")
-    print(f"refusals: {len(cases)} bad inputs refused with their cause")
+    # An output path that is not a file is refused and left as it was (a rename once replaced /dev/full).
+    os.mkfifo(tmp / "a-fifo")
+    for target in (tmp / "a-fifo", tmp):
+        proc = run(build, ["--column", "classic", "--dx", "0.0146", "--write-particles", str(target)])
+        if proc.returncode == 0 or "not a regular file" not in proc.stderr:
+            failures.append(f"--write-particles {target}: exit {proc.returncode}, stderr {proc.stderr[-300:]!r}")
+    if not (tmp / "a-fifo").is_fifo():
+        failures.append("--write-particles replaced a FIFO")
+    print(f"refusals: {len(cases) + 2} bad inputs refused with their cause")
 
 
 def main():

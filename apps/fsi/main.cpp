@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
                  "(1: none; filters MPS's step-to-step wall-pressure noise)")->capture_default_str()
       ->check(number_in(0.01, 1.0))->group("Numerics");
   app.add_option("--wet-walls", p.wet_walls, "walls next to the liquid's interior carry pressure even where the "
-                 "density test calls them dry (mps::WetWalls): true | false")->capture_default_str()
+                 "density test calls them dry (mps::WetWalls): true | false")->default_str(p.wet_walls ? "true" : "false")
       ->check(true_or_false())->group("Numerics");
   std::string gradient;
   app.add_option("--pressure-gradient", gradient, "conservative: every pressure pair equal and opposite, the body gets "

@@ -7,6 +7,7 @@ as many frames on disk as the .pvd lists), never a crash, a hang or a NaN in a s
 """
 import json
 import random
+import re
 import subprocess
 import sys
 import tempfile
@@ -67,6 +68,8 @@ def check(app, args, proc, out):
             else f"exit {proc.returncode} without a message"
     if proc.returncode not in (0, 2):
         return f"exit {proc.returncode}"
+    if re.search(r"\bnan\b", proc.stdout, re.IGNORECASE):  # a figure the run could not give, printed as NaN
+        return "printed nan: " + next(line for line in proc.stdout.splitlines() if re.search(r"\bnan\b", line, re.I))
     summary_file = out / "summary.json"
     if not summary_file.exists():
         return "no summary.json"
@@ -121,8 +124,9 @@ def special_inputs(build, tmp):
         for args, said in cases:
             count += 1
             proc = subprocess.run([exe, *base, *args], capture_output=True, text=True, timeout=120, env=env)
-            if said is None and proc.returncode not in (0, 2):
-                failures.append(f"{app} {' '.join(args)}: exit {proc.returncode}: {proc.stderr[-300:]}")
+            if said is None and (proc.returncode not in (0, 2) or re.search(r"\bnan\b", proc.stdout, re.I)):
+                failures.append(f"{app} {' '.join(args)}: exit {proc.returncode}: {proc.stderr[-300:]}"
+                                f"{proc.stdout[-300:]}")
             elif said is not None and (proc.returncode in (0, 2) or said not in proc.stderr):
                 failures.append(f"{app} {' '.join(args)}: exit {proc.returncode}, expected {said!r} in "
                                 f"{proc.stderr[-300:]!r}")

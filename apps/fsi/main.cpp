@@ -137,8 +137,10 @@ int main(int argc, char** argv) {
                       short_number(p.relaxation) + ") or --cfl"
                 : "; with an elastic body, a blow-up at the impact is usually the partitioned coupling: lower "
                   "--relaxation (now " + short_number(p.relaxation) + ") and keep --wet-walls true";
+      // The body's own step blowing up is its time step's fault, which its message names (--solid-cfl).
+      const bool body_step = std::string(e.what()).find("elastic solid unstable") != std::string::npos;
       const mps::SimulationError coupled(std::string(e.what()) +
-                                         (p.rigid ? std::string() : coupling + " (docs/fsi.md)"));
+                                         (p.rigid || body_step ? std::string() : coupling + " (docs/fsi.md)"));
       return report_guard_stop(dir, coupled, params, sim);
     }
     progress.finish(sim.time(), sim.last_step().step);

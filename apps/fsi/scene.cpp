@@ -135,6 +135,7 @@ Scene::Scene(const Params& p) : params_(p) {
     mps::ElasticConfig ec;
     ec.material = {p.density, p.youngs_modulus, p.poisson_ratio, mps::ElasticModel::saint_venant_kirchhoff};
     ec.cfl = p.solid_cfl;
+    ec.cfl_option = "--solid-cfl";
     ec.gravity_y = -d.g;
     const double x0 = body_x, y0 = body_y, w = body_width, h = body_height;
     structure_ = &sim_->add<mps::ElasticStructure>(

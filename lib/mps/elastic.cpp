@@ -265,6 +265,8 @@ ElasticSolid::ElasticSolid(const ElasticBody& body, const ElasticConfig& config)
   disp_y_.assign(n, 0.0);
   hg_own_x_.assign(moving_, 0.0);
   hg_own_y_.assign(moving_, 0.0);
+  strain_of_.assign(moving_, 0.0);
+  hourglass_of_.assign(hg_coef_.size(), 0.0);
   dt_ = config_.cfl * spacing_ / config_.material.p_wave_speed();
   // Power iteration on M^-1 K, K v = -f(X + eps v) / eps (the body is unloaded at X), from a fixed start vector.
   {
@@ -359,8 +361,7 @@ void ElasticSolid::evaluate_forces() {
   const CsrMatrix &gx = fit_.gradient.x, &gy = fit_.gradient.y;
   const bool with_hourglass = config_.hourglass > 0;
   const double lambda = config_.material.lame_lambda(), mu = config_.material.shear_modulus();
-  double strain = 0.0, hourglass = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : strain, hourglass)
+#pragma omp parallel for schedule(static)
   for (std::ptrdiff_t i = 0; i < m; ++i) {
     const auto ii = static_cast<std::size_t>(i);
     const auto b = static_cast<std::size_t>(gx.row_ptr[ii]), e = static_cast<std::size_t>(gx.row_ptr[ii + 1]);
@@ -403,7 +404,7 @@ void ElasticSolid::evaluate_forces() {
         hg_xy_[2 * k + 1] = c * dey;
         own_x += c * dex;
         own_y += c * dey;
-        hourglass += 0.5 * c * (dex * dex + dey * dey);
+        hourglass_of_[k] = 0.5 * c * (dex * dex + dey * dey);
       }
     }
     hg_own_x_[ii] = own_x;
@@ -413,10 +414,12 @@ void ElasticSolid::evaluate_forces() {
       p_[c][ii] = s.p[c];
       vp_[c][ii] = volume_[ii] * s.p[c];
     }
-    strain += volume_[ii] * s.energy_density;
+    strain_of_[ii] = volume_[ii] * s.energy_density;
   }
-  strain_energy_ = strain;
-  hourglass_energy_ = hourglass;
+  strain_energy_ = hourglass_energy_ = 0.0;
+  for (std::size_t i = 0; i < moving_; ++i) strain_energy_ += strain_of_[i];
+  if (with_hourglass)
+    for (std::size_t k = 0; k < static_cast<std::size_t>(gx.row_ptr[moving_]); ++k) hourglass_energy_ += hourglass_of_[k];
   const CsrMatrix &tx = grad_t_.x, &ty = grad_t_.y;
   // f^a = -(Gx^T (V P^{a x}) + Gy^T (V P^{a y})) + sum_i c_ik delta_ik - sum_j c_kj delta_kj
 #pragma omp parallel for schedule(static)
@@ -497,7 +500,8 @@ void ElasticSolid::step() {
           << e.total() - external_work_ - work << " J/m, more than "
           << config_.guard_energy_fraction << " of the largest kinetic + strain energy " << largest << " J/m";
     msg << "; dt = " << dt_ << " s at CFL " << config_.cfl << " (p-wave speed " << config_.material.p_wave_speed()
-        << " m/s); this body is stable up to CFL ~" << stable_cfl_ << ": lower the CFL";
+        << " m/s); this body is stable up to CFL ~" << stable_cfl_ << ": lower "
+        << (config_.cfl_option.empty() ? std::string("the CFL") : config_.cfl_option);
     x_.swap(saved_[0]);
     y_.swap(saved_[1]);
     u_.swap(saved_[2]);

@@ -116,6 +116,8 @@ struct ElasticConfig {
   /// Guard: stop when the total energy (kinetic + strain + gravity) has moved from its start by more than this
   /// fraction of the largest kinetic + strain energy seen, or any particle moved more than half a spacing in one step.
   double guard_energy_fraction = 0.25;
+  /// The host program's option for `cfl`, named in the guard's advice (e.g. --solid-cfl; empty: "the CFL").
+  std::string cfl_option;
   void validate() const;  ///< throws std::invalid_argument naming the value and what to change
 };
 
@@ -209,6 +211,9 @@ class ElasticSolid {
   std::vector<double> pair_dx_, pair_dy_;  // X_j - X_i per entry
   std::vector<double> disp_x_, disp_y_;    // u = x - X of the evaluation in progress
   std::vector<int> transposed_entry_;
+  // Strain energy per moving particle and hourglass energy per entry, summed in order afterwards (the order of one
+  // thread): a threaded reduction's sum depended on the thread count.
+  std::vector<double> strain_of_, hourglass_of_;
   double hourglass_energy_ = 0;
   std::array<std::vector<double>, 6> saved_;  // x, y, u, v, ax, ay before the step in progress
   double strain_energy_ = 0;

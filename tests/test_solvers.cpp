@@ -399,6 +399,9 @@ TEST(SolverFailure, EveryBackendRefusesMalformedMatricesWithAMessageNamingTheDef
       {"missing diagonal", csr(3, {0, 2, 4, 5}, {0, 1, 0, 2, 2}, {4, 1, 1, 1, 4}), "row 1 has no diagonal"},
       {"nonsymmetric", csr(3, {0, 2, 4, 5}, {0, 1, 0, 1, 2}, {4, 1, 2, 4, 4}), "not symmetric", true},
       {"negative diagonal", csr(2, {0, 1, 2}, {0, 1}, {4, -1}), "diagonal entry <= 0", true},
+      // hypre checked the diagonal's sign before finiteness and called a NaN "<= 0".
+      {"NaN diagonal", csr(2, {0, 1, 2}, {0, 1}, {4, std::nan("")}), "NaN or Inf in the matrix"},
+      {"infinite diagonal", csr(2, {0, 1, 2}, {0, 1}, {HUGE_VAL, 4}), "NaN or Inf in the matrix"},
   };
   for (const auto& spec : all_backends()) {
     const bool symmetric_method = spec.rfind("eigen-bicgstab", 0) != 0;

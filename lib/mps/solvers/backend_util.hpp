@@ -30,6 +30,10 @@ inline void check_diagonal(const std::string& backend, const CsrMatrix& a, int f
     const auto it = std::lower_bound(b, e, first_row + i);
     const bool stored = it != e && *it == first_row + i;
     const double d = stored ? a.val[static_cast<std::size_t>(it - a.col.begin())] : 0.0;
+    if (stored && !std::isfinite(d))
+      throw SolverError(backend + ": row " + std::to_string(first_row + i) + " has a diagonal entry that is " +
+                            (std::isnan(d) ? "NaN" : "infinite") + ": NaN or Inf in the matrix",
+                        report);
     if (!stored || (positive ? !(d > 0.0) : d == 0.0))
       throw SolverError(backend + ": row " + std::to_string(first_row + i) +
                             (b == e      ? " is empty"

@@ -80,6 +80,14 @@ def main():
         for name in ("ppe/step_000001.mtx", "ppe/step_000003.mtx", "ppe/step_000003_rhs.mtx"):
             if (first / name).read_bytes() != (again / name).read_bytes():
                 failures.append(f"{name} differs between two runs")
+        # A step beyond the run's end is said, not passed over in silence.
+        steps = summary["steps"]
+        cmd = [str(Path(build) / "apps" / "poiseuille" / "poiseuille"),
+               *[a for a in ARGS if a != "1,3"][:-1], "--export-ppe", f"2,{steps + 5000}", "--out", str(Path(tmp) / "late")]
+        late = subprocess.run(cmd, env=dict(os.environ, OMP_NUM_THREADS="1"), capture_output=True, text=True)
+        said = f"--export-ppe {steps + 5000}: the run ended after step {steps}"
+        if said not in late.stderr or not (Path(tmp) / "late" / "ppe" / "step_000002.mtx").exists():
+            failures.append(f"--export-ppe beyond the end: expected {said!r}, stderr {late.stderr[-300:]!r}")
     for f in failures:
         print("FAIL", f)
     return 1 if failures else 0

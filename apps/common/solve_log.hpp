@@ -31,6 +31,8 @@ class SolveLog final : public mps::StepComponent {
     if (export_steps_.count(step) != 0) export_ppe(c, step);
   }
 
+  [[nodiscard]] const std::set<int>& export_steps() const { return export_steps_; }
+
   // solves.csv: one row per solve, in step order (a step the guard undid keeps its row).
   void write(const std::filesystem::path& dir) const {
     std::string text = "step,time_s,unknowns,backend,iterations,relative_residual,setup_s,solve_s,setup_reused\n";
@@ -75,9 +77,17 @@ class SolveLog final : public mps::StepComponent {
   std::vector<std::string> rows_;
 };
 
-// solves.csv of the run's SolveLog, if it has one.
+// solves.csv of the run's SolveLog, if it has one; a step --export-ppe named that the run never reached is said.
 inline void write_solves(const std::filesystem::path& dir, const mps::Simulation& sim) {
-  if (const auto* log = sim.find<SolveLog>()) log->write(dir);
+  const auto* log = sim.find<SolveLog>();
+  if (log == nullptr) return;
+  log->write(dir);
+  std::string missed;
+  for (int step : log->export_steps())
+    if (step > sim.last_step().step) missed += (missed.empty() ? "" : ",") + std::to_string(step);
+  if (!missed.empty())
+    std::fprintf(stderr, "warning: --export-ppe %s: the run ended after step %d, so no PPE was written for %s\n",
+                 missed.c_str(), sim.last_step().step, missed.find(',') == std::string::npos ? "it" : "them");
 }
 
 // --export-ppe STEPS: the steps whose PPE is written to OUT/ppe/ (comma-separated step numbers).

@@ -31,7 +31,8 @@ std::vector<double> to_doubles(py::handle obj, const std::string& what, py::ssiz
 std::vector<int> to_ints(py::handle obj, const std::string& what, py::ssize_t n = -1);
 
 // Anything scipy.sparse.csr_matrix accepts (a CSR, COO, ... matrix or array, a dense array) as the library's CSR:
-// duplicates summed, columns sorted, indices checked to fit 32 bits.
+// duplicates summed, columns sorted, indices checked to fit 32 bits. A sparse matrix's own arrays (indptr, indices,
+// row, col, data) are checked before SciPy converts it: a ValueError names the damaged entry.
 mps::CsrMatrix to_csr(py::handle obj);
 // scipy.sparse.csr_matrix over copies of the arrays (int32 indices, float64 values).
 py::object to_scipy(const mps::CsrMatrix& a);

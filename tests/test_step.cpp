@@ -48,6 +48,8 @@ TEST(Simulation, RejectsInvalidParametersWithAMessageNamingThem) {
       {[](auto& c) { c.gamma = 1.2; }, "gamma"},          {[](auto& c) { c.gamma = -0.1; }, "gamma"},
       {[](auto& c) { c.l0 = 0.0; }, "l0"},                {[](auto& c) { c.l0 = -0.01; }, "l0"},
       {[](auto& c) { c.radius_laplacian = 0.0; }, "radius"}, {[](auto& c) { c.dt_max = 0.0; }, "dt_max"},
+      {[](auto& c) { c.radius_laplacian = 1e6; }, "radius_laplacian must be in (1, 10] (in l0), got 1e+06"},
+      {[](auto& c) { c.radius_density = 10.5; }, "radius_density must be in (1, 10]"},
       {[](auto& c) { c.dt_max = -1.0; }, "dt_max"},       {[](auto& c) { c.solver = "petsc-gmres"; }, "unknown solver"},
       {[](auto& c) {
          c.implicit_viscosity = true;

@@ -31,15 +31,24 @@ std::string fmt(double v) {
   return s.str();
 }
 
+SimulationConfig validated(SimulationConfig config) {
+  config.validate();
+  return config;
+}
+
 }  // namespace
 
 void SimulationConfig::validate() const {
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   require(positive(l0), "particle spacing l0 must be positive, got " + fmt(l0));
-  require(positive(radius_density) && radius_density > 1.0, "radius_density must exceed 1 (in l0), got " + fmt(radius_density));
-  require(positive(radius_surface) && radius_surface > 1.0, "radius_surface must exceed 1 (in l0), got " + fmt(radius_surface));
-  require(positive(radius_gradient) && radius_gradient > 1.0, "radius_gradient must exceed 1 (in l0), got " + fmt(radius_gradient));
-  require(positive(radius_laplacian) && radius_laplacian > 1.0, "radius_laplacian must exceed 1 (in l0), got " + fmt(radius_laplacian));
+  const auto radius_in_range = [](double re, const char* name) {
+    require(re > 1.0 && re <= kMaxRadius,
+            std::string(name) + " must be in (1, " + fmt(kMaxRadius) + "] (in l0), got " + fmt(re));
+  };
+  radius_in_range(radius_density, "radius_density");
+  radius_in_range(radius_surface, "radius_surface");
+  radius_in_range(radius_gradient, "radius_gradient");
+  radius_in_range(radius_laplacian, "radius_laplacian");
   require(positive(rho), "density rho must be positive, got " + fmt(rho));
   require(nu >= 0.0 && std::isfinite(nu), "viscosity nu must be >= 0, got " + fmt(nu));
   require(std::isfinite(fx) && std::isfinite(fy), "body force must be finite");
@@ -65,14 +74,13 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
     : particles_(std::move(particles)),
       solver_(std::move(solver)),
       domain_(domain),
-      config_(std::move(config)),
+      config_(validated(std::move(config))),  // before the kernels, so that a bad radius is named as the field
       k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight)),
       k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight)),
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight)),
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight)),
       grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
                                             config_.radius_laplacian})) {
-  config_.validate();
   if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
   if (config_.implicit_viscosity) viscosity_solver_ = make_solver(config_.viscosity_solver);
   if (particles_.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: the domain holds no fluid particles");

@@ -145,3 +145,18 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3)
     with pytest.raises(ValueError, match=r"no field 'gama'"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, gama=0.5)
+
+
+def test_kernel_radii_outside_one_to_ten_spacings_are_refused():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.2, 0.2), 0.02)
+    # 1e6 l0 used to hang in the kernel's lattice sum for n0 and lambda.
+    with pytest.raises(ValueError, match=r"radius_laplacian must be in \(1, 10\] \(in l0\), got 1e\+06"):
+        sparsemps.assemble_ppe(p, dt=1e-3, l0=0.02, radius_laplacian=1e6)
+    for field in ["radius_density", "radius_surface", "radius_gradient", "radius_laplacian"]:
+        for bad in [10.5, 1.0, np.inf, np.nan]:
+            with pytest.raises(ValueError, match=rf"{field} must be in \(1, 10\] \(in l0\), got {bad:g}"):
+                sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.02, dt_max=1e-3, **{field: bad})
+        with pytest.raises(ValueError, match=rf"{field} must be in \(1, 10\]"):
+            sparsemps.SimulationConfig(l0=0.02, dt_max=1e-3, **{field: 11.0}).validate()
+    widest = sparsemps.assemble_ppe(p, dt=1e-3, l0=0.02, radius_laplacian=10.0)  # the range's end is taken
+    assert widest.matrix.shape[0] > 0

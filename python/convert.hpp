@@ -27,6 +27,8 @@ py::array_t<bool> flags_to_numpy(const std::vector<char>& v);
 
 // A 1-D array of real numbers (any real dtype) as doubles; `n` >= 0 demands that length. The messages name `what`.
 std::vector<double> to_doubles(py::handle obj, const std::string& what, py::ssize_t n = -1);
+// Same, every value finite: a ValueError names the first NaN or Inf by its index.
+std::vector<double> to_finite_doubles(py::handle obj, const std::string& what, py::ssize_t n = -1);
 // A 1-D array of integers as ints; `n` >= 0 demands that length.
 std::vector<int> to_ints(py::handle obj, const std::string& what, py::ssize_t n = -1);
 

@@ -1,6 +1,8 @@
 // The sparsemps Python module: the solver registry on SciPy sparse matrices, PPE assembly from particle arrays and
 // the time loop (docs/python.md). This file holds the module, its exceptions and the array conversions.
+#include <algorithm>
 #include <climits>
+#include <cmath>
 #include <exception>
 #include <string>
 
@@ -44,6 +46,15 @@ std::vector<double> to_doubles(py::handle obj, const std::string& what, py::ssiz
   check_length(a, what, n);
   const auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
   return {d.data(), d.data() + d.size()};
+}
+
+std::vector<double> to_finite_doubles(py::handle obj, const std::string& what, py::ssize_t n) {
+  std::vector<double> values = to_doubles(obj, what, n);
+  const auto bad = std::find_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); });
+  if (bad != values.end())
+    throw py::value_error(what + "[" + std::to_string(bad - values.begin()) + "] is " +
+                          py::repr(py::float_(*bad)).cast<std::string>() + ": every entry must be a finite number");
+  return values;
 }
 
 std::vector<int> to_ints(py::handle obj, const std::string& what, py::ssize_t n) {

@@ -103,7 +103,7 @@ void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<doub
   c.def_property(
       name, [member](const mps::Particles& p) { return to_numpy(p.*member); },
       [member, name](mps::Particles& p, py::handle values) {
-        p.*member = to_doubles(values, name, static_cast<py::ssize_t>(p.size()));
+        p.*member = to_finite_doubles(values, name, static_cast<py::ssize_t>(p.size()));
       },
       doc);
 }
@@ -440,14 +440,14 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
 
 mps::Particles particles_from_arrays(py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind) {
   mps::Particles p;
-  const std::vector<double> xs = to_doubles(x, "x");
+  const std::vector<double> xs = to_finite_doubles(x, "x");
   const auto n = static_cast<py::ssize_t>(xs.size());
-  const std::vector<double> ys = to_doubles(y, "y", n);
+  const std::vector<double> ys = to_finite_doubles(y, "y", n);
   const std::vector<mps::Kind> kinds = kinds_of(kind, xs.size());
   p.reserve(xs.size());
   for (std::size_t i = 0; i < xs.size(); ++i) p.add(xs[i], ys[i], kinds[i]);
-  if (!u.is_none()) p.u = to_doubles(u, "u", n);
-  if (!v.is_none()) p.v = to_doubles(v, "v", n);
+  if (!u.is_none()) p.u = to_finite_doubles(u, "u", n);
+  if (!v.is_none()) p.v = to_finite_doubles(v, "v", n);
   return p;
 }
 
@@ -511,7 +511,7 @@ void bind_scene(py::module_& m) {
              if (kind.is_none()) throw py::value_error("Particles(x, y, kind): kind is required with positions");
              mps::Particles out = particles_from_arrays(x, y, u, v, kind);
              const auto n = static_cast<py::ssize_t>(out.size());
-             if (!p.is_none()) out.p = to_doubles(p, "p", n);
+             if (!p.is_none()) out.p = to_finite_doubles(p, "p", n);
              if (!group.is_none()) out.group = to_ints(group, "group", n);
              return out;
            }),

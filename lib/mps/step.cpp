@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace mps {
 namespace {
@@ -29,6 +30,32 @@ std::string fmt(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
+}
+
+// What the first step would turn into NaN without a word: a non-finite velocity or pressure, and two particles at one
+// point (r_ij / |r_ij|^2 in the gradient and divergence). Ghosts are inactive and may hold anything.
+void check_initial_state(const Particles& p, CellGrid& grid, double l0) {
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == Kind::ghost) continue;
+    for (const auto& [field, value] : {std::pair{"velocity u", p.u[i]}, {"velocity v", p.v[i]}, {"pressure p", p.p[i]}})
+      if (!std::isfinite(value))
+        throw std::invalid_argument("simulation: particle " + std::to_string(i) + " has " + field + " = " + fmt(value) +
+                                    "; every particle but ghosts needs a finite velocity and pressure");
+  }
+  // "One point" up to round-off: a periodic image one period away lands within a few ulps, not exactly.
+  const double same = 1e-6 * l0;
+  grid.bin(p);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == Kind::ghost) continue;
+    int twin = -1;
+    grid.for_each_near(p.x[i], p.y[i], same, [&](int j, double, double) {
+      if (static_cast<std::size_t>(j) > i && (twin < 0 || j < twin)) twin = j;
+    });
+    if (twin >= 0)
+      throw std::invalid_argument("simulation: particles " + std::to_string(i) + " and " + std::to_string(twin) +
+                                  " sit at one position (" + fmt(p.x[i]) + ", " + fmt(p.y[i]) + "), closer than " +
+                                  fmt(same / l0) + " l0; remove or move one of them");
+  }
 }
 
 SimulationConfig validated(SimulationConfig config) {
@@ -88,6 +115,7 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
     if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
       throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at (" + fmt(particles_.x[i]) + ", " +
                                   fmt(particles_.y[i]) + ") starts outside the domain");
+  check_initial_state(particles_, grid_, config_.l0);
   // The configuration's own components, ahead of any a scene adds (the outlet reads the hydrostatic offset).
   const bool split = config_.hydrostatic_split && config_.min_reference_tilt;
   const double fhx = split && !domain_.periodic_x ? config_.fx : 0.0;

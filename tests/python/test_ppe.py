@@ -137,7 +137,7 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0], [0, 0], [0, 0], [0, 7], dt=1e-3, l0=0.01)
     with pytest.raises(ValueError, match=r"y has length 3, expected 2"):
         sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
-    with pytest.raises(ValueError, match=r"particle 1 at \(nan, 0\) starts outside the domain"):
+    with pytest.raises(ValueError, match=r"x\[1\] is nan: every entry must be a finite number"):
         sparsemps.assemble_ppe([0.0, np.nan], [0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
     with pytest.raises(ValueError, match=r"dt must be positive"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=0.0, l0=0.01)
@@ -160,3 +160,23 @@ def test_kernel_radii_outside_one_to_ten_spacings_are_refused():
             sparsemps.SimulationConfig(l0=0.02, dt_max=1e-3, **{field: 11.0}).validate()
     widest = sparsemps.assemble_ppe(p, dt=1e-3, l0=0.02, radius_laplacian=10.0)  # the range's end is taken
     assert widest.matrix.shape[0] > 0
+
+
+def test_nan_velocities_and_coincident_particles_are_refused_not_assembled():
+    # Both used to give a right-hand side holding NaN.
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01).add_rectangle_walls((0, 0, 0.1, 0.2), 0.01)
+    for name, bad in [("u", np.nan), ("v", np.inf), ("y", -np.inf)]:
+        arrays = {k: getattr(p, k) for k in "xyuv"}
+        arrays[name][3] = bad
+        with pytest.raises(ValueError, match=rf"^{name}\[3\] is {bad!r}: every entry must be a finite number$"):
+            sparsemps.assemble_ppe(arrays["x"], arrays["y"], arrays["u"], arrays["v"], p.kind, dt=1e-3, l0=0.01)
+    x, y = p.x, p.y
+    x[:50], y[:50] = 0.05, 0.05
+    with pytest.raises(ValueError, match=r"^simulation: particles 0 and 1 sit at one position \(0.05, 0.05\), "
+                                         r"closer than 1e-06 l0; remove or move one of them$"):
+        sparsemps.assemble_ppe(x, y, p.u, p.v, p.kind, dt=1e-3, l0=0.01)
+    # A ghost is inactive: it may sit where an active particle is.
+    kind = p.kind
+    kind[1:50] = sparsemps.Kind.ghost.value
+    ppe = sparsemps.assemble_ppe(x, y, p.u, p.v, kind, dt=1e-3, l0=0.01)
+    assert np.isfinite(ppe.rhs).all() and np.isfinite(ppe.matrix.data).all()

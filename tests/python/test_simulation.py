@@ -151,3 +151,20 @@ def test_components_refuse_parameters_out_of_range():
         sim.add_particle_collision(0.8, -0.1)
     with pytest.raises(ValueError, match=r"asymmetry fraction must be in \(0, 10\]"):
         sim.add_asymmetry_surface(0.0)
+
+
+def test_particles_refuse_non_finite_positions_velocities_and_pressures():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    for name in ["x", "y", "u", "v", "p"]:
+        values = np.zeros(len(p))
+        values[7] = np.nan
+        with pytest.raises(ValueError, match=rf"^{name}\[7\] is nan: every entry must be a finite number$"):
+            setattr(p, name, values)
+        values[7], values[2] = 0.0, -np.inf
+        with pytest.raises(ValueError, match=rf"^{name}\[2\] is -inf"):
+            setattr(p, name, values)
+    assert np.isfinite(p.x).all() and np.isfinite(p.u).all()  # the refused arrays left nothing behind
+    with pytest.raises(ValueError, match=r"^p\[1\] is inf"):
+        sparsemps.Particles([0.0, 1.0], [0.0, 0.0], "fluid", p=[0.0, np.inf])
+    with pytest.raises(ValueError, match=r"^x\[0\] is nan"):
+        sparsemps.Particles([np.nan, 1.0], [0.0, 0.0], "fluid")

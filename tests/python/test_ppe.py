@@ -120,16 +120,54 @@ def test_pressures_of_a_tank_at_rest_are_hydrostatic():
     assert np.all(pressure[p.kind == sparsemps.Kind.dummy.value] == 0)  # dummies are the step's to set
 
 
-def test_closed_box_gets_the_gauge_and_zero_mean_pressure():
+def sealed_box():
     p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
-    p.add_rectangle_walls((0, 0, 0.1, 0.1), 0.01, sides="left|right|bottom|top")
-    p.u = np.where(p.kind == 0, 0.01 * p.y, 0.0)
+    return p.add_rectangle_walls((0, 0, 0.1, 0.1), 0.01, sides="left|right|bottom|top")
+
+
+def test_closed_box_gets_the_gauge_and_its_pressure_solves_the_singular_ppe():
+    p = sealed_box()
+    p.u = np.where(p.kind == 0, 0.01 * p.y, 0.0)  # a shear the walls stop: div u* is not zero along them
     ppe = sparsemps.assemble_ppe(p.x, p.y, p.u, p.v, p.kind, dt=1e-3, l0=0.01, fy=-G)
     assert ppe.floating_groups == 1 and not ppe.free_surface.any()
+    a, b = ppe.matrix, ppe.rhs
+    n, eps = a.shape[0], np.finfo(float).eps
+    # The gauge (lib/mps/ppe.hpp): the lowest unknown's diagonal doubled, the mean of b removed. Undoing the first gives
+    # the all-Neumann Laplacian L, whose rows sum to 0 (each row ~50 terms rounded at eps max|A|: 1e-13 bounds it).
+    laplacian = a.tolil()
+    laplacian[0, 0] /= 2
+    laplacian = laplacian.tocsr()
+    assert np.abs(laplacian @ np.ones(n)).max() <= 1e-13 * np.abs(a).max()
+    assert abs(b.sum()) <= n * eps * np.abs(b).sum()  # consistent: b in the range of L
+    exact = None
+    for spec in ["cholmod", "eigen-cg:tol=1e-10"]:
+        x, report = sparsemps.solve(a, b, spec)
+        residual = np.linalg.norm(a @ x - b)
+        # L x - b = (A x - b) - d x_0 e_0, and summing A x - b over the rows gives d x_0 = sum(A x - b) + sum(b): the
+        # pinned unknown sits at 0 and x solves the PPE's own rows, each to what the solve's residual allows.
+        assert laplacian[0, 0] * abs(x[0]) <= np.sqrt(n) * residual + abs(b.sum())
+        assert np.linalg.norm(laplacian @ x - b) <= (1 + np.sqrt(n)) * residual + abs(b.sum())
+        relative = (ppe.pressures(x) - ppe.offset)[ppe.particle]  # the unknown P - rho f.r, shifted to zero mean
+        assert abs(relative.mean()) <= n * eps * np.abs(relative).max()  # n terms, each rounded at eps max
+        assert np.abs(relative).max() > 0.1  # measured: 0.35 Pa
+        if exact is None:
+            exact = relative
+        else:  # |x - x*| / |x*| <= cond(A) |b - A x| / |b|: the gauge picks one solution whatever the solver
+            eigenvalues = np.linalg.eigvalsh(a.toarray())
+            bound = eigenvalues[-1] / eigenvalues[0] * report.relative_residual
+            assert np.linalg.norm(relative - exact) <= bound * np.linalg.norm(exact)  # measured 8.7e-12, bound 4.5e-8
+
+
+def test_closed_box_at_rest_is_hydrostatic_at_the_gauges_level():
+    p = sealed_box()
+    ppe = sparsemps.assemble_ppe(p, dt=1e-3, l0=0.01, fy=-G)
     x, _ = sparsemps.solve(ppe.matrix, ppe.rhs, "cholmod")
-    relative = ppe.pressures(x) - ppe.offset  # the unknown P - rho f.r, shifted to zero mean over the group
-    assert abs(relative[ppe.particle].mean()) < 1e-12
-    assert np.abs(relative[ppe.particle]).max() > 0.1  # measured: 0.35 Pa
+    # At rest b is only the round-off of n* - n0, so |x| <= |b| / lambda_min(A): P - rho f.r is the gauge's constant,
+    # 0, and P = -rho g y up to that and the rounding of P = x + offset (measured 1e-10 Pa against 8e-8).
+    wet = ppe.particle
+    rounding = 4 * np.finfo(float).eps * np.abs(ppe.offset[wet]).max()
+    bound = np.linalg.norm(ppe.rhs) / np.linalg.eigvalsh(ppe.matrix.toarray())[0] + rounding
+    assert np.abs(ppe.pressures(x)[wet] - 1000.0 * (-G) * p.y[wet]).max() <= bound
 
 
 def test_bad_particles_raise_clear_errors():

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <functional>
 #include <limits>
@@ -25,6 +26,14 @@ namespace sparsemps {
 namespace {
 
 using Config = mps::SimulationConfig;
+
+std::string repr(double v) { return py::repr(py::float_(v)).cast<std::string>(); }
+
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
 
 // ---------------------------------------------------------------------------------------------------------------
 // Kinds and particles
@@ -386,6 +395,33 @@ struct Simulation {
   }
 };
 
+// A run that cannot advance, or one too long to be meant (the apps' bound, apps/common/checks.hpp), is refused before
+// the first step: end_time NaN or Inf ran until the guard tripped, end_time in the past or steps < 1 returned silently.
+void check_run(const Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
+  constexpr double kMaxSteps = 1e8;
+  if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
+  if (steps && *steps < 1)
+    throw py::value_error("run: steps = " + std::to_string(*steps) + " takes no step; give steps >= 1");
+  double fewest_steps = steps ? static_cast<double>(*steps) : std::numeric_limits<double>::infinity();
+  if (end_time) {
+    const double now = s.locked([&] { return s.sim->time(); });
+    if (!std::isfinite(*end_time))
+      throw py::value_error("run: end_time = " + repr(*end_time) + " is not a finite time; give the time to stop at [s]");
+    if (!(*end_time - 1e-12 > now))  // the loop's own test for "reached"
+      throw py::value_error("run: end_time = " + repr(*end_time) + " s is not beyond the current time " + repr(now) +
+                            " s; give a later end_time");
+    const double dt_max = s.sim->config().dt_max;
+    fewest_steps = std::min(fewest_steps, std::ceil((*end_time - now) / dt_max));
+    if (fewest_steps > kMaxSteps)
+      throw py::value_error("run: end_time = " + repr(*end_time) + " s is at least " + short_number(fewest_steps) +
+                            " steps of at most dt_max = " + repr(dt_max) + " s away, more than the 1e8 a run may " +
+                            "take; give an earlier end_time or a larger dt_max");
+  }
+  if (fewest_steps > kMaxSteps)
+    throw py::value_error("run: steps = " + std::to_string(*steps) + " is more than the 1e8 a run may take; " +
+                          "run in parts or take fewer steps");
+}
+
 // PPE assembly: the step's own stages run on particles placed at r* with velocities u*, up to the solve.
 Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config config, double asymmetry,
              bool wet_walls) {
@@ -716,9 +752,9 @@ void bind_scene(py::module_& m) {
            "the stability guard trips or the solve fails.")
       .def(
           "run",
-          [](Simulation& s, std::optional<double> end_time, std::optional<int> steps) {
-            if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
-            for (int done = 0;; ++done) {
+          [](Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
+            check_run(s, end_time, steps);
+            for (long long done = 0;; ++done) {
               if (end_time && s.sim->time() >= *end_time - 1e-12) break;
               if (steps && done >= *steps) break;
               s.step();
@@ -727,7 +763,9 @@ void bind_scene(py::module_& m) {
             return s.sim->last_step();
           },
           py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
-          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.")
+          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.\n"
+          "Raises ValueError for an end_time that is not finite or not beyond the current time, steps below 1, or\n"
+          "a run of more than 1e8 steps.")
       .def(
           "add_particle_collision",
           [](Simulation& s, double distance, double restitution) {

@@ -168,3 +168,31 @@ def test_particles_refuse_non_finite_positions_velocities_and_pressures():
         sparsemps.Particles([0.0, 1.0], [0.0, 0.0], "fluid", p=[0.0, np.inf])
     with pytest.raises(ValueError, match=r"^x\[0\] is nan"):
         sparsemps.Particles([np.nan, 1.0], [0.0, 0.0], "fluid")
+
+
+def test_run_refuses_an_end_it_cannot_reach_and_fewer_than_one_step():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3)
+    # NaN and Inf used to run until the guard tripped; a past end_time or steps < 1 returned at step 0 silently.
+    for bad in [np.nan, np.inf, -np.inf]:
+        with pytest.raises(ValueError, match=rf"^run: end_time = {bad!r} is not a finite time; give the time to stop at"):
+            sim.run(end_time=bad)
+    for bad in [-1.0, 0.0, 5e-13]:
+        with pytest.raises(ValueError, match=rf"^run: end_time = {bad!r} s is not beyond the current time 0.0 s; "
+                                             r"give a later end_time$"):
+            sim.run(end_time=bad)
+    for bad in [-1, 0]:
+        with pytest.raises(ValueError, match=rf"^run: steps = {bad} takes no step; give steps >= 1$"):
+            sim.run(steps=bad)
+        with pytest.raises(ValueError, match=r"takes no step"):
+            sim.run(end_time=1.0, steps=bad)
+    with pytest.raises(ValueError, match=r"^run: end_time = 1000000.0 s is at least 1e\+09 steps of at most "
+                                         r"dt_max = 0.001 s away, more than the 1e8 a run may take"):
+        sim.run(end_time=1e6)
+    with pytest.raises(ValueError, match=r"^run: steps = 1000000000 is more than the 1e8 a run may take"):
+        sim.run(steps=10**9)
+    assert sim.steps == 0 and sim.time == 0.0  # nothing ran
+    assert sim.run(end_time=1e6, steps=2).step == 2  # bounded by the step count: taken
+    with pytest.raises(ValueError, match=r"end_time = 0.002 s is not beyond the current time 0.002 s"):
+        sim.run(end_time=sim.time)
+    assert sim.run(end_time=0.003).step == 3

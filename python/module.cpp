@@ -4,6 +4,7 @@
 #include <climits>
 #include <cmath>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "convert.hpp"
@@ -29,8 +30,10 @@ py::array real_array(py::handle obj, const std::string& what, const char* kinds)
   const char kind = a.dtype().kind();
   if (std::string(kinds).find(kind) == std::string::npos)
     throw py::type_error(what + " must hold real numbers, got dtype " + py::str(a.dtype()).cast<std::string>());
-  if (a.ndim() != 1)
-    throw py::value_error(what + " must be 1-D, got shape " + py::str(obj.attr("shape")).cast<std::string>());
+  if (a.ndim() != 1)  // the array's shape: obj may be a scalar or a nested list, which have none
+    throw py::value_error(what + " must be 1-D, got " +
+                          (a.ndim() == 0 ? std::string("a scalar")
+                                         : "shape " + py::str(a.attr("shape")).cast<std::string>()));
   return a;
 }
 
@@ -168,7 +171,8 @@ void check_sparse_structure(const py::object& matrix) {
     throw py::value_error("A has shape (" + std::to_string(shape.first) + ", " + std::to_string(shape.second) +
                           "); a shape is never negative");
   const auto format = matrix.attr("format").cast<std::string>();
-  if (format == "csr" || format == "csc" || format == "bsr") check_compressed(matrix, format, shape.first, shape.second);
+  if (format == "csr" || format == "csc" || format == "bsr")
+    check_compressed(matrix, format, shape.first, shape.second);
   else if (format == "coo") check_coo(matrix, shape.first, shape.second);
 }
 
@@ -245,6 +249,10 @@ PYBIND11_MODULE(sparsemps, m) {
       PyErr_SetObject(solver_error->ptr(), error.ptr());
     } catch (const mps::SimulationError& e) {
       PyErr_SetString(simulation_error->ptr(), e.what());
+    } catch (const std::bad_alloc&) {  // pybind11's own translation says only "std::bad_alloc"
+      PyErr_SetString(PyExc_MemoryError,
+                      "out of memory: this needs more memory than the machine has; use fewer particles (a larger l0, "
+                      "a smaller rectangle or domain) or a smaller matrix");
     }
   });
 

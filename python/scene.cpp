@@ -1,6 +1,8 @@
 // Particles, domain, configuration, the time loop and PPE assembly from particle arrays.
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -100,11 +102,47 @@ unsigned sides_of(py::handle obj) {
   return sides;
 }
 
+std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
+// Four numbers from a tuple or list; `what` and `form` name it in the messages.
+std::vector<double> four_numbers(py::handle obj, const std::string& what, const std::string& form) {
+  std::vector<double> v;
+  try {
+    v = obj.cast<std::vector<double>>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(what + " must be " + form + ", got " + type_name(obj));
+  }
+  if (v.size() != 4)
+    throw py::value_error(what + " must be " + form + ", got " + std::to_string(v.size()) + " numbers");
+  return v;
+}
+
 mps::Rect rect_of(py::handle obj, const char* what) {
-  const auto v = obj.cast<std::vector<double>>();
-  if (v.size() != 4) throw py::value_error(std::string(what) + " must be (x0, y0, x1, y1)");
+  const std::vector<double> v = four_numbers(obj, what, "(x0, y0, x1, y1)");
+  for (const double c : v)
+    if (!std::isfinite(c)) throw py::value_error(std::string(what) + " holds " + repr(c) + "; give finite coordinates");
   return {v[0], v[1], v[2], v[3]};
 }
+
+// As the apps refuse a run too large (apps/common/checks.hpp), before anything is allocated: more particles than 2e7
+// or than this machine's memory holds at the 2 KB a particle takes at least in a simulation.
+void check_particle_count(double added, std::size_t existing, const std::string& what) {
+  constexpr double kBytesPerParticle = 2000;
+  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGE_SIZE));
+  const double limit = std::min(2e7, memory / kBytesPerParticle);
+  const double total = added + static_cast<double>(existing);
+  if (!(total <= limit)) {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "%s would make about %.3g particles (%.3g GB at 2 KB each; this machine has %.3g GB), more than "
+                  "the %.3g a scene may hold here; use a larger l0 or a smaller rectangle",
+                  what.c_str(), total, total * kBytesPerParticle / 1e9, memory / 1e9, limit);
+    throw py::value_error(text);
+  }
+}
+
+// Lattice cells along a length, as mps::geometry counts them (rounded), in floating point so that nothing overflows.
+double cells(double length, double l0) { return std::max(0.0, std::round(length / l0)); }
 
 // A per-particle double array: a copy out, and a checked copy in.
 void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<double> mps::Particles::*member,
@@ -119,8 +157,8 @@ void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<doub
 
 mps::Domain domain_of(py::handle obj) {
   if (py::isinstance<mps::Domain>(obj)) return obj.cast<mps::Domain>();
-  const auto v = obj.cast<std::vector<double>>();
-  if (v.size() != 4) throw py::value_error("a domain is a Domain or (xmin, xmax, ymin, ymax)");
+  const std::vector<double> v =
+      four_numbers(obj, "the domain", "a sparsemps.Domain or a 4-tuple (xmin, xmax, ymin, ymax)");
   const mps::Domain d{v[0], v[1], v[2], v[3]};
   d.validate();
   return d;
@@ -406,7 +444,8 @@ void check_run(const Simulation& s, std::optional<double> end_time, std::optiona
   if (end_time) {
     const double now = s.locked([&] { return s.sim->time(); });
     if (!std::isfinite(*end_time))
-      throw py::value_error("run: end_time = " + repr(*end_time) + " is not a finite time; give the time to stop at [s]");
+      throw py::value_error("run: end_time = " + repr(*end_time) +
+                            " is not a finite time; give the time to stop at [s]");
     if (!(*end_time - 1e-12 > now))  // the loop's own test for "reached"
       throw py::value_error("run: end_time = " + repr(*end_time) + " s is not beyond the current time " + repr(now) +
                             " s; give a later end_time");
@@ -561,8 +600,12 @@ void bind_scene(py::module_& m) {
            "How many particles are of this kind.")
       .def(
           "fill_rectangle",
-          [](mps::Particles& p, py::handle rect, double l0, py::handle kind, int group) -> mps::Particles& {
-            mps::fill_rectangle(p, rect_of(rect, "rect"), l0, kind_of(kind), group);
+          [](mps::Particles& p, py::handle rect_in, double l0, py::handle kind, int group) -> mps::Particles& {
+            const mps::Rect rect = rect_of(rect_in, "rect");
+            if (l0 > 0.0 && std::isfinite(l0))  // else the library names l0
+              check_particle_count(cells(rect.x1 - rect.x0, l0) * cells(rect.y1 - rect.y0, l0), p.size(),
+                                   "fill_rectangle");
+            mps::fill_rectangle(p, rect, l0, kind_of(kind), group);
             return p;
           },
           py::arg("rect"), py::arg("l0"), py::arg("kind") = "fluid", py::arg("group") = 0,
@@ -572,8 +615,14 @@ void bind_scene(py::module_& m) {
           "add_rectangle_walls",
           [](mps::Particles& p, py::handle inner, double l0, py::handle sides, int wall_layers, int dummy_layers,
              int group) -> mps::Particles& {
-            mps::add_rectangle_walls(p, rect_of(inner, "inner"), l0, sides_of(sides), wall_layers, dummy_layers,
-                                     group);
+            const mps::Rect rect = rect_of(inner, "inner");
+            if (l0 > 0.0 && std::isfinite(l0) && wall_layers >= 0 && dummy_layers >= 0) {  // else the library says why
+              // The frame of layers around the rectangle, every side walled: an upper bound of what is added.
+              const double nx = cells(rect.x1 - rect.x0, l0), ny = cells(rect.y1 - rect.y0, l0);
+              const double layers = static_cast<double>(wall_layers) + dummy_layers;
+              check_particle_count((nx + 2 * layers) * (ny + 2 * layers) - nx * ny, p.size(), "add_rectangle_walls");
+            }
+            mps::add_rectangle_walls(p, rect, l0, sides_of(sides), wall_layers, dummy_layers, group);
             return p;
           },
           py::arg("inner"), py::arg("l0"), py::arg("sides") = "left|right|bottom", py::arg("wall_layers") = 1,

@@ -496,7 +496,7 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
   auto out = std::make_shared<Ppe>();
   AssemblyState state;
   mps::Simulation sim(star, domain, config, std::make_unique<StopAtSolve>(state));
-  if (asymmetry > 0.0) add_asymmetry_surface(sim, asymmetry);
+  if (asymmetry != 0.0) add_asymmetry_surface(sim, asymmetry);  // which names a fraction out of range, NaN included
   if (wet_walls) sim.add<mps::WetWalls>();
   sim.add<Injector>(out, star, state);
   std::string error;
@@ -723,7 +723,8 @@ void bind_scene(py::module_& m) {
       .def(
           "pressures",
           [](const Ppe& p, py::handle x, bool clamp_negative) {
-            const std::vector<double> solution = to_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
+            const std::vector<double> solution =
+                to_finite_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
             mps::Particles scratch;
             for (const mps::Kind k : p.kind) scratch.add(0.0, 0.0, k);
             p.system.scatter(solution, scratch, clamp_negative, p.offset);

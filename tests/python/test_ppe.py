@@ -183,6 +183,13 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3)
     with pytest.raises(ValueError, match=r"no field 'gama'"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, gama=0.5)
+    # 0 switches the asymmetry test off; NaN and negative fractions used to switch it off silently too.
+    for bad in [np.nan, -1.0]:
+        with pytest.raises(ValueError, match=rf"^asymmetry fraction must be in \(0, 10\], got {bad:f}$"):
+            sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, asymmetry=bad)
+    ppe = sparsemps.assemble_ppe(sealed_box(), dt=1e-3, l0=0.01)
+    with pytest.raises(ValueError, match=r"^x\[0\] is nan: every entry must be a finite number$"):
+        ppe.pressures(np.full(ppe.matrix.shape[0], np.nan))  # used to scatter NaN pressures
 
 
 def test_kernel_radii_outside_one_to_ten_spacings_are_refused():

@@ -577,8 +577,8 @@ void bind_scene(py::module_& m) {
   py::class_<mps::Particles> particles_class(
       m, "Particles",
       "Particle state as arrays (mps::Particles): x, y, u, v, p, kind, group, id. Reading an attribute gives a\n"
-      "NumPy copy; assigning one takes an array of the same length. id is each particle's index at creation and\n"
-      "follows it through the reorderings a Simulation makes.");
+      "NumPy copy; assigning one takes an array of the same length (positions, velocities and pressures finite).\n"
+      "id is each particle's index at creation and follows it through the reorderings a Simulation makes.");
   particles_class
       .def(py::init([](py::handle x, py::handle y, py::handle kind, py::handle u, py::handle v, py::handle p,
                        py::handle group) {
@@ -796,7 +796,8 @@ void bind_scene(py::module_& m) {
            }),
            py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
            "particles: Particles. domain: Domain or (xmin, xmax, ymin, ymax). config: SimulationConfig or dict;\n"
-           "keyword fields override it. Raises ValueError for a bad configuration or particles outside the domain.")
+           "keyword fields override it. Raises ValueError for a bad configuration, particles outside the domain, a\n"
+           "NaN or Inf velocity or pressure, or two particles at one position.")
       .def("step", &Simulation::step,
            "Advances one step; returns its StepInfo. Raises SimulationError (the state kept as before the step) if\n"
            "the stability guard trips or the solve fails.")

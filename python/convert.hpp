@@ -27,11 +27,14 @@ py::array_t<bool> flags_to_numpy(const std::vector<char>& v);
 
 // A 1-D array of real numbers (any real dtype) as doubles; `n` >= 0 demands that length. The messages name `what`.
 std::vector<double> to_doubles(py::handle obj, const std::string& what, py::ssize_t n = -1);
+// Same, every value finite: a ValueError names the first NaN or Inf by its index.
+std::vector<double> to_finite_doubles(py::handle obj, const std::string& what, py::ssize_t n = -1);
 // A 1-D array of integers as ints; `n` >= 0 demands that length.
 std::vector<int> to_ints(py::handle obj, const std::string& what, py::ssize_t n = -1);
 
 // Anything scipy.sparse.csr_matrix accepts (a CSR, COO, ... matrix or array, a dense array) as the library's CSR:
-// duplicates summed, columns sorted, indices checked to fit 32 bits.
+// duplicates summed, columns sorted, indices checked to fit 32 bits. A sparse matrix's own arrays (indptr, indices,
+// row, col, data) are checked before SciPy converts it: a ValueError names the damaged entry.
 mps::CsrMatrix to_csr(py::handle obj);
 // scipy.sparse.csr_matrix over copies of the arrays (int32 indices, float64 values).
 py::object to_scipy(const mps::CsrMatrix& a);

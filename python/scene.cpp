@@ -1,8 +1,11 @@
 // Particles, domain, configuration, the time loop and PPE assembly from particle arrays.
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <functional>
 #include <limits>
@@ -25,6 +28,14 @@ namespace sparsemps {
 namespace {
 
 using Config = mps::SimulationConfig;
+
+std::string repr(double v) { return py::repr(py::float_(v)).cast<std::string>(); }
+
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
 
 // ---------------------------------------------------------------------------------------------------------------
 // Kinds and particles
@@ -91,11 +102,47 @@ unsigned sides_of(py::handle obj) {
   return sides;
 }
 
+std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
+
+// Four numbers from a tuple or list; `what` and `form` name it in the messages.
+std::vector<double> four_numbers(py::handle obj, const std::string& what, const std::string& form) {
+  std::vector<double> v;
+  try {
+    v = obj.cast<std::vector<double>>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(what + " must be " + form + ", got " + type_name(obj));
+  }
+  if (v.size() != 4)
+    throw py::value_error(what + " must be " + form + ", got " + std::to_string(v.size()) + " numbers");
+  return v;
+}
+
 mps::Rect rect_of(py::handle obj, const char* what) {
-  const auto v = obj.cast<std::vector<double>>();
-  if (v.size() != 4) throw py::value_error(std::string(what) + " must be (x0, y0, x1, y1)");
+  const std::vector<double> v = four_numbers(obj, what, "(x0, y0, x1, y1)");
+  for (const double c : v)
+    if (!std::isfinite(c)) throw py::value_error(std::string(what) + " holds " + repr(c) + "; give finite coordinates");
   return {v[0], v[1], v[2], v[3]};
 }
+
+// As the apps refuse a run too large (apps/common/checks.hpp), before anything is allocated: more particles than 2e7
+// or than this machine's memory holds at the 2 KB a particle takes at least in a simulation.
+void check_particle_count(double added, std::size_t existing, const std::string& what) {
+  constexpr double kBytesPerParticle = 2000;
+  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGE_SIZE));
+  const double limit = std::min(2e7, memory / kBytesPerParticle);
+  const double total = added + static_cast<double>(existing);
+  if (!(total <= limit)) {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "%s would make about %.3g particles (%.3g GB at 2 KB each; this machine has %.3g GB), more than "
+                  "the %.3g a scene may hold here; use a larger l0 or a smaller rectangle",
+                  what.c_str(), total, total * kBytesPerParticle / 1e9, memory / 1e9, limit);
+    throw py::value_error(text);
+  }
+}
+
+// Lattice cells along a length, as mps::geometry counts them (rounded), in floating point so that nothing overflows.
+double cells(double length, double l0) { return std::max(0.0, std::round(length / l0)); }
 
 // A per-particle double array: a copy out, and a checked copy in.
 void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<double> mps::Particles::*member,
@@ -103,15 +150,15 @@ void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<doub
   c.def_property(
       name, [member](const mps::Particles& p) { return to_numpy(p.*member); },
       [member, name](mps::Particles& p, py::handle values) {
-        p.*member = to_doubles(values, name, static_cast<py::ssize_t>(p.size()));
+        p.*member = to_finite_doubles(values, name, static_cast<py::ssize_t>(p.size()));
       },
       doc);
 }
 
 mps::Domain domain_of(py::handle obj) {
   if (py::isinstance<mps::Domain>(obj)) return obj.cast<mps::Domain>();
-  const auto v = obj.cast<std::vector<double>>();
-  if (v.size() != 4) throw py::value_error("a domain is a Domain or (xmin, xmax, ymin, ymax)");
+  const std::vector<double> v =
+      four_numbers(obj, "the domain", "a sparsemps.Domain or a 4-tuple (xmin, xmax, ymin, ymax)");
   const mps::Domain d{v[0], v[1], v[2], v[3]};
   d.validate();
   return d;
@@ -386,6 +433,34 @@ struct Simulation {
   }
 };
 
+// A run that cannot advance, or one too long to be meant (the apps' bound, apps/common/checks.hpp), is refused before
+// the first step: end_time NaN or Inf ran until the guard tripped, end_time in the past or steps < 1 returned silently.
+void check_run(const Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
+  constexpr double kMaxSteps = 1e8;
+  if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
+  if (steps && *steps < 1)
+    throw py::value_error("run: steps = " + std::to_string(*steps) + " takes no step; give steps >= 1");
+  double fewest_steps = steps ? static_cast<double>(*steps) : std::numeric_limits<double>::infinity();
+  if (end_time) {
+    const double now = s.locked([&] { return s.sim->time(); });
+    if (!std::isfinite(*end_time))
+      throw py::value_error("run: end_time = " + repr(*end_time) +
+                            " is not a finite time; give the time to stop at [s]");
+    if (!(*end_time - 1e-12 > now))  // the loop's own test for "reached"
+      throw py::value_error("run: end_time = " + repr(*end_time) + " s is not beyond the current time " + repr(now) +
+                            " s; give a later end_time");
+    const double dt_max = s.sim->config().dt_max;
+    fewest_steps = std::min(fewest_steps, std::ceil((*end_time - now) / dt_max));
+    if (fewest_steps > kMaxSteps)
+      throw py::value_error("run: end_time = " + repr(*end_time) + " s is at least " + short_number(fewest_steps) +
+                            " steps of at most dt_max = " + repr(dt_max) + " s away, more than the 1e8 a run may " +
+                            "take; give an earlier end_time or a larger dt_max");
+  }
+  if (fewest_steps > kMaxSteps)
+    throw py::value_error("run: steps = " + std::to_string(*steps) + " is more than the 1e8 a run may take; " +
+                          "run in parts or take fewer steps");
+}
+
 // PPE assembly: the step's own stages run on particles placed at r* with velocities u*, up to the solve.
 Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config config, double asymmetry,
              bool wet_walls) {
@@ -421,7 +496,7 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
   auto out = std::make_shared<Ppe>();
   AssemblyState state;
   mps::Simulation sim(star, domain, config, std::make_unique<StopAtSolve>(state));
-  if (asymmetry > 0.0) add_asymmetry_surface(sim, asymmetry);
+  if (asymmetry != 0.0) add_asymmetry_surface(sim, asymmetry);  // which names a fraction out of range, NaN included
   if (wet_walls) sim.add<mps::WetWalls>();
   sim.add<Injector>(out, star, state);
   std::string error;
@@ -440,14 +515,14 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
 
 mps::Particles particles_from_arrays(py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind) {
   mps::Particles p;
-  const std::vector<double> xs = to_doubles(x, "x");
+  const std::vector<double> xs = to_finite_doubles(x, "x");
   const auto n = static_cast<py::ssize_t>(xs.size());
-  const std::vector<double> ys = to_doubles(y, "y", n);
+  const std::vector<double> ys = to_finite_doubles(y, "y", n);
   const std::vector<mps::Kind> kinds = kinds_of(kind, xs.size());
   p.reserve(xs.size());
   for (std::size_t i = 0; i < xs.size(); ++i) p.add(xs[i], ys[i], kinds[i]);
-  if (!u.is_none()) p.u = to_doubles(u, "u", n);
-  if (!v.is_none()) p.v = to_doubles(v, "v", n);
+  if (!u.is_none()) p.u = to_finite_doubles(u, "u", n);
+  if (!v.is_none()) p.v = to_finite_doubles(v, "v", n);
   return p;
 }
 
@@ -502,8 +577,8 @@ void bind_scene(py::module_& m) {
   py::class_<mps::Particles> particles_class(
       m, "Particles",
       "Particle state as arrays (mps::Particles): x, y, u, v, p, kind, group, id. Reading an attribute gives a\n"
-      "NumPy copy; assigning one takes an array of the same length. id is each particle's index at creation and\n"
-      "follows it through the reorderings a Simulation makes.");
+      "NumPy copy; assigning one takes an array of the same length (positions, velocities and pressures finite).\n"
+      "id is each particle's index at creation and follows it through the reorderings a Simulation makes.");
   particles_class
       .def(py::init([](py::handle x, py::handle y, py::handle kind, py::handle u, py::handle v, py::handle p,
                        py::handle group) {
@@ -511,7 +586,7 @@ void bind_scene(py::module_& m) {
              if (kind.is_none()) throw py::value_error("Particles(x, y, kind): kind is required with positions");
              mps::Particles out = particles_from_arrays(x, y, u, v, kind);
              const auto n = static_cast<py::ssize_t>(out.size());
-             if (!p.is_none()) out.p = to_doubles(p, "p", n);
+             if (!p.is_none()) out.p = to_finite_doubles(p, "p", n);
              if (!group.is_none()) out.group = to_ints(group, "group", n);
              return out;
            }),
@@ -525,8 +600,12 @@ void bind_scene(py::module_& m) {
            "How many particles are of this kind.")
       .def(
           "fill_rectangle",
-          [](mps::Particles& p, py::handle rect, double l0, py::handle kind, int group) -> mps::Particles& {
-            mps::fill_rectangle(p, rect_of(rect, "rect"), l0, kind_of(kind), group);
+          [](mps::Particles& p, py::handle rect_in, double l0, py::handle kind, int group) -> mps::Particles& {
+            const mps::Rect rect = rect_of(rect_in, "rect");
+            if (l0 > 0.0 && std::isfinite(l0))  // else the library names l0
+              check_particle_count(cells(rect.x1 - rect.x0, l0) * cells(rect.y1 - rect.y0, l0), p.size(),
+                                   "fill_rectangle");
+            mps::fill_rectangle(p, rect, l0, kind_of(kind), group);
             return p;
           },
           py::arg("rect"), py::arg("l0"), py::arg("kind") = "fluid", py::arg("group") = 0,
@@ -536,8 +615,14 @@ void bind_scene(py::module_& m) {
           "add_rectangle_walls",
           [](mps::Particles& p, py::handle inner, double l0, py::handle sides, int wall_layers, int dummy_layers,
              int group) -> mps::Particles& {
-            mps::add_rectangle_walls(p, rect_of(inner, "inner"), l0, sides_of(sides), wall_layers, dummy_layers,
-                                     group);
+            const mps::Rect rect = rect_of(inner, "inner");
+            if (l0 > 0.0 && std::isfinite(l0) && wall_layers >= 0 && dummy_layers >= 0) {  // else the library says why
+              // The frame of layers around the rectangle, every side walled: an upper bound of what is added.
+              const double nx = cells(rect.x1 - rect.x0, l0), ny = cells(rect.y1 - rect.y0, l0);
+              const double layers = static_cast<double>(wall_layers) + dummy_layers;
+              check_particle_count((nx + 2 * layers) * (ny + 2 * layers) - nx * ny, p.size(), "add_rectangle_walls");
+            }
+            mps::add_rectangle_walls(p, rect, l0, sides_of(sides), wall_layers, dummy_layers, group);
             return p;
           },
           py::arg("inner"), py::arg("l0"), py::arg("sides") = "left|right|bottom", py::arg("wall_layers") = 1,
@@ -638,7 +723,8 @@ void bind_scene(py::module_& m) {
       .def(
           "pressures",
           [](const Ppe& p, py::handle x, bool clamp_negative) {
-            const std::vector<double> solution = to_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
+            const std::vector<double> solution =
+                to_finite_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
             mps::Particles scratch;
             for (const mps::Kind k : p.kind) scratch.add(0.0, 0.0, k);
             p.system.scatter(solution, scratch, clamp_negative, p.offset);
@@ -710,15 +796,16 @@ void bind_scene(py::module_& m) {
            }),
            py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
            "particles: Particles. domain: Domain or (xmin, xmax, ymin, ymax). config: SimulationConfig or dict;\n"
-           "keyword fields override it. Raises ValueError for a bad configuration or particles outside the domain.")
+           "keyword fields override it. Raises ValueError for a bad configuration, particles outside the domain, a\n"
+           "NaN or Inf velocity or pressure, or two particles at one position.")
       .def("step", &Simulation::step,
            "Advances one step; returns its StepInfo. Raises SimulationError (the state kept as before the step) if\n"
            "the stability guard trips or the solve fails.")
       .def(
           "run",
-          [](Simulation& s, std::optional<double> end_time, std::optional<int> steps) {
-            if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
-            for (int done = 0;; ++done) {
+          [](Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
+            check_run(s, end_time, steps);
+            for (long long done = 0;; ++done) {
               if (end_time && s.sim->time() >= *end_time - 1e-12) break;
               if (steps && done >= *steps) break;
               s.step();
@@ -727,7 +814,9 @@ void bind_scene(py::module_& m) {
             return s.sim->last_step();
           },
           py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
-          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.")
+          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.\n"
+          "Raises ValueError for an end_time that is not finite or not beyond the current time, steps below 1, or\n"
+          "a run of more than 1e8 steps.")
       .def(
           "add_particle_collision",
           [](Simulation& s, double distance, double restitution) {

@@ -23,6 +23,12 @@ struct Solver {
 
   std::pair<py::array_t<double>, mps::SolveReport> solve(py::handle a_in, py::handle b_in, py::handle x0) {
     const mps::CsrMatrix a = to_csr(a_in);
+    // A length that differs is the library's to report (with both sizes); any other shape is refused here.
+    const py::array b_array = py::array::ensure(b_in);
+    if (b_array && b_array.ndim() != 1)
+      throw py::value_error("b must be a 1-D array of A's size (" + std::to_string(a.rows) + " entries), got " +
+                            (b_array.ndim() == 0 ? std::string("a scalar")
+                                                 : "shape " + py::str(b_array.attr("shape")).cast<std::string>()));
     const std::vector<double> b = to_doubles(b_in, "b");
     // The library checks sizes against A (a SolverError naming both); an x0 of the wrong length is refused here,
     // where it is the caller's argument and not the library's.

@@ -31,6 +31,16 @@ TEST(Kernel, RejectsBadInput) {
   EXPECT_THROW(mps::make_kernel(2.1, 0.0), std::invalid_argument);
   EXPECT_THROW(mps::make_kernel(2.1, -1.0), std::invalid_argument);
   EXPECT_THROW(mps::make_kernel(0.9, 0.1), std::invalid_argument);
+  EXPECT_THROW(mps::make_kernel(std::nan(""), 0.1), std::invalid_argument);
+  // Beyond 10 l0 is refused before the lattice sums (1e6 l0 never returned).
+  try {
+    (void)mps::make_kernel(1e6, 0.1);
+    ADD_FAILURE() << "accepted a radius of 1e6 l0";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "kernel: radius re/l0 = 1e+06 is outside (1, 10]; choose a radius in that range (the usual "
+                           "ones are 2.1 to 4.1)");
+  }
+  EXPECT_DOUBLE_EQ(mps::make_kernel(10.0, 0.1).re, 1.0);
   EXPECT_THROW(mps::parse_weight("gaussian"), std::invalid_argument);
 }
 

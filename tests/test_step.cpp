@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
+#include <sstream>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -48,6 +51,8 @@ TEST(Simulation, RejectsInvalidParametersWithAMessageNamingThem) {
       {[](auto& c) { c.gamma = 1.2; }, "gamma"},          {[](auto& c) { c.gamma = -0.1; }, "gamma"},
       {[](auto& c) { c.l0 = 0.0; }, "l0"},                {[](auto& c) { c.l0 = -0.01; }, "l0"},
       {[](auto& c) { c.radius_laplacian = 0.0; }, "radius"}, {[](auto& c) { c.dt_max = 0.0; }, "dt_max"},
+      {[](auto& c) { c.radius_laplacian = 1e6; }, "radius_laplacian must be in (1, 10] (in l0), got 1e+06"},
+      {[](auto& c) { c.radius_density = 10.5; }, "radius_density must be in (1, 10]"},
       {[](auto& c) { c.dt_max = -1.0; }, "dt_max"},       {[](auto& c) { c.solver = "petsc-gmres"; }, "unknown solver"},
       {[](auto& c) {
          c.implicit_viscosity = true;
@@ -70,6 +75,51 @@ TEST(Simulation, RejectsInvalidParametersWithAMessageNamingThem) {
   mps::Particles none;
   EXPECT_THROW(mps::fill_rectangle(none, {0, 0, 1, 1}, 0.0, mps::Kind::fluid), std::invalid_argument);
   EXPECT_THROW(mps::fill_rectangle(none, {0, 0, 1, 1}, -0.1, mps::Kind::fluid), std::invalid_argument);
+}
+
+TEST(Simulation, RefusesNonFiniteStateAndCoincidentParticlesNamingThem) {
+  tank::Params params;
+  const auto particles = tank::make_particles(params);
+  const auto domain = tank::make_domain(params);
+  auto message = [&](const mps::Particles& p) {
+    try {
+      mps::Simulation sim(p, domain, base_config());
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  mps::Particles spoilt = particles;
+  spoilt.v[7] = std::nan("");
+  EXPECT_EQ(message(spoilt), "simulation: particle 7 has velocity v = nan; every particle but ghosts needs a finite "
+                             "velocity and pressure");
+  spoilt = particles;
+  spoilt.p[3] = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(message(spoilt), "simulation: particle 3 has pressure p = -inf; every particle but ghosts needs a finite "
+                             "velocity and pressure");
+  spoilt.kind[3] = mps::Kind::ghost;  // a ghost may hold anything
+  EXPECT_EQ(message(spoilt), "accepted");
+  spoilt = particles;
+  spoilt.x[9] = spoilt.x[4];
+  spoilt.y[9] = spoilt.y[4];
+  std::ostringstream position;
+  position << "(" << spoilt.x[4] << ", " << spoilt.y[4] << ")";
+  EXPECT_EQ(message(spoilt), "simulation: particles 4 and 9 sit at one position " + position.str() +
+                                 ", closer than 1e-06 l0; remove or move one of them");
+  spoilt.kind[9] = mps::Kind::ghost;
+  EXPECT_EQ(message(spoilt), "accepted");
+  // On a periodic axis a particle and its image one period away are one point.
+  mps::Domain periodic = domain;
+  periodic.periodic_x = true;
+  spoilt = particles;
+  spoilt.x[9] = spoilt.x[4] + periodic.width();
+  spoilt.y[9] = spoilt.y[4];
+  try {
+    mps::Simulation sim(spoilt, periodic, base_config());
+    ADD_FAILURE() << "accepted two particles one period apart";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("particles 4 and 9 sit at one position"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Simulation, AbsurdTimeStepIsStoppedByTheGuardAndTheLastGoodStateIsKept) {

@@ -1,6 +1,7 @@
 #include "mps/kernel.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -17,9 +18,13 @@ std::string_view to_string(Weight weight) { return weight == Weight::bounded ? "
 Kernel make_kernel(double radius_over_l0, double l0, Weight weight) {
   if (!(l0 > 0.0) || !std::isfinite(l0))
     throw std::invalid_argument("kernel: particle spacing l0 must be positive, got " + std::to_string(l0));
-  if (!(radius_over_l0 > 1.0) || !std::isfinite(radius_over_l0))
-    throw std::invalid_argument("kernel: radius must exceed one particle spacing (re/l0 > 1), got " +
-                                std::to_string(radius_over_l0));
+  // Above 10 l0 the lattice sums below and every neighbour list grow past use (1e6 l0 would never return).
+  if (!(radius_over_l0 > 1.0 && radius_over_l0 <= kMaxRadius)) {
+    std::ostringstream message;
+    message << "kernel: radius re/l0 = " << radius_over_l0 << " is outside (1, " << kMaxRadius
+            << "]; choose a radius in that range (the usual ones are 2.1 to 4.1)";
+    throw std::invalid_argument(message.str());
+  }
   Kernel k{weight, radius_over_l0 * l0, 0.0, 0.0, 0};
   const int n = static_cast<int>(std::ceil(radius_over_l0));
   double sum_w = 0.0, sum_wr2 = 0.0;

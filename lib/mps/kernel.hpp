@@ -28,8 +28,11 @@ struct Kernel {
   }
 };
 
+/// The largest kernel radius, in l0, that make_kernel and SimulationConfig accept.
+inline constexpr double kMaxRadius = 10.0;
+
 /// A kernel of radius radius_over_l0 * l0 whose n0 and lambda are summed over the perfect 2-D square lattice
-/// of spacing l0 around an interior particle.
+/// of spacing l0 around an interior particle; throws std::invalid_argument for a radius outside (1, kMaxRadius].
 Kernel make_kernel(double radius_over_l0, double l0, Weight weight = Weight::bounded);
 
 }  // namespace mps

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace mps {
 namespace {
@@ -31,15 +32,50 @@ std::string fmt(double v) {
   return s.str();
 }
 
+// What the first step would turn into NaN without a word: a non-finite velocity or pressure, and two particles at one
+// point (r_ij / |r_ij|^2 in the gradient and divergence). Ghosts are inactive and may hold anything.
+void check_initial_state(const Particles& p, CellGrid& grid, double l0) {
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == Kind::ghost) continue;
+    for (const auto& [field, value] : {std::pair{"velocity u", p.u[i]}, {"velocity v", p.v[i]}, {"pressure p", p.p[i]}})
+      if (!std::isfinite(value))
+        throw std::invalid_argument("simulation: particle " + std::to_string(i) + " has " + field + " = " + fmt(value) +
+                                    "; every particle but ghosts needs a finite velocity and pressure");
+  }
+  // "One point" up to round-off: a periodic image one period away lands within a few ulps, not exactly.
+  const double same = 1e-6 * l0;
+  grid.bin(p);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == Kind::ghost) continue;
+    int twin = -1;
+    grid.for_each_near(p.x[i], p.y[i], same, [&](int j, double, double) {
+      if (static_cast<std::size_t>(j) > i && (twin < 0 || j < twin)) twin = j;
+    });
+    if (twin >= 0)
+      throw std::invalid_argument("simulation: particles " + std::to_string(i) + " and " + std::to_string(twin) +
+                                  " sit at one position (" + fmt(p.x[i]) + ", " + fmt(p.y[i]) + "), closer than " +
+                                  fmt(same / l0) + " l0; remove or move one of them");
+  }
+}
+
+SimulationConfig validated(SimulationConfig config) {
+  config.validate();
+  return config;
+}
+
 }  // namespace
 
 void SimulationConfig::validate() const {
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   require(positive(l0), "particle spacing l0 must be positive, got " + fmt(l0));
-  require(positive(radius_density) && radius_density > 1.0, "radius_density must exceed 1 (in l0), got " + fmt(radius_density));
-  require(positive(radius_surface) && radius_surface > 1.0, "radius_surface must exceed 1 (in l0), got " + fmt(radius_surface));
-  require(positive(radius_gradient) && radius_gradient > 1.0, "radius_gradient must exceed 1 (in l0), got " + fmt(radius_gradient));
-  require(positive(radius_laplacian) && radius_laplacian > 1.0, "radius_laplacian must exceed 1 (in l0), got " + fmt(radius_laplacian));
+  const auto radius_in_range = [](double re, const char* name) {
+    require(re > 1.0 && re <= kMaxRadius,
+            std::string(name) + " must be in (1, " + fmt(kMaxRadius) + "] (in l0), got " + fmt(re));
+  };
+  radius_in_range(radius_density, "radius_density");
+  radius_in_range(radius_surface, "radius_surface");
+  radius_in_range(radius_gradient, "radius_gradient");
+  radius_in_range(radius_laplacian, "radius_laplacian");
   require(positive(rho), "density rho must be positive, got " + fmt(rho));
   require(nu >= 0.0 && std::isfinite(nu), "viscosity nu must be >= 0, got " + fmt(nu));
   require(std::isfinite(fx) && std::isfinite(fy), "body force must be finite");
@@ -65,14 +101,13 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
     : particles_(std::move(particles)),
       solver_(std::move(solver)),
       domain_(domain),
-      config_(std::move(config)),
+      config_(validated(std::move(config))),  // before the kernels, so that a bad radius is named as the field
       k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight)),
       k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight)),
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight)),
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight)),
       grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
                                             config_.radius_laplacian})) {
-  config_.validate();
   if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
   if (config_.implicit_viscosity) viscosity_solver_ = make_solver(config_.viscosity_solver);
   if (particles_.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: the domain holds no fluid particles");
@@ -80,6 +115,7 @@ Simulation::Simulation(Particles particles, Domain domain, SimulationConfig conf
     if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
       throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at (" + fmt(particles_.x[i]) + ", " +
                                   fmt(particles_.y[i]) + ") starts outside the domain");
+  check_initial_state(particles_, grid_, config_.l0);
   // The configuration's own components, ahead of any a scene adds (the outlet reads the hydrostatic offset).
   const bool split = config_.hydrostatic_split && config_.min_reference_tilt;
   const double fhx = split && !domain_.periodic_x ? config_.fx : 0.0;

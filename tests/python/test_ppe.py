@@ -120,16 +120,54 @@ def test_pressures_of_a_tank_at_rest_are_hydrostatic():
     assert np.all(pressure[p.kind == sparsemps.Kind.dummy.value] == 0)  # dummies are the step's to set
 
 
-def test_closed_box_gets_the_gauge_and_zero_mean_pressure():
+def sealed_box():
     p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
-    p.add_rectangle_walls((0, 0, 0.1, 0.1), 0.01, sides="left|right|bottom|top")
-    p.u = np.where(p.kind == 0, 0.01 * p.y, 0.0)
+    return p.add_rectangle_walls((0, 0, 0.1, 0.1), 0.01, sides="left|right|bottom|top")
+
+
+def test_closed_box_gets_the_gauge_and_its_pressure_solves_the_singular_ppe():
+    p = sealed_box()
+    p.u = np.where(p.kind == 0, 0.01 * p.y, 0.0)  # a shear the walls stop: div u* is not zero along them
     ppe = sparsemps.assemble_ppe(p.x, p.y, p.u, p.v, p.kind, dt=1e-3, l0=0.01, fy=-G)
     assert ppe.floating_groups == 1 and not ppe.free_surface.any()
+    a, b = ppe.matrix, ppe.rhs
+    n, eps = a.shape[0], np.finfo(float).eps
+    # The gauge (lib/mps/ppe.hpp): the lowest unknown's diagonal doubled, the mean of b removed. Undoing the first gives
+    # the all-Neumann Laplacian L, whose rows sum to 0 (each row ~50 terms rounded at eps max|A|: 1e-13 bounds it).
+    laplacian = a.tolil()
+    laplacian[0, 0] /= 2
+    laplacian = laplacian.tocsr()
+    assert np.abs(laplacian @ np.ones(n)).max() <= 1e-13 * np.abs(a).max()
+    assert abs(b.sum()) <= n * eps * np.abs(b).sum()  # consistent: b in the range of L
+    exact = None
+    for spec in ["cholmod", "eigen-cg:tol=1e-10"]:
+        x, report = sparsemps.solve(a, b, spec)
+        residual = np.linalg.norm(a @ x - b)
+        # L x - b = (A x - b) - d x_0 e_0, and summing A x - b over the rows gives d x_0 = sum(A x - b) + sum(b): the
+        # pinned unknown sits at 0 and x solves the PPE's own rows, each to what the solve's residual allows.
+        assert laplacian[0, 0] * abs(x[0]) <= np.sqrt(n) * residual + abs(b.sum())
+        assert np.linalg.norm(laplacian @ x - b) <= (1 + np.sqrt(n)) * residual + abs(b.sum())
+        relative = (ppe.pressures(x) - ppe.offset)[ppe.particle]  # the unknown P - rho f.r, shifted to zero mean
+        assert abs(relative.mean()) <= n * eps * np.abs(relative).max()  # n terms, each rounded at eps max
+        assert np.abs(relative).max() > 0.1  # measured: 0.35 Pa
+        if exact is None:
+            exact = relative
+        else:  # |x - x*| / |x*| <= cond(A) |b - A x| / |b|: the gauge picks one solution whatever the solver
+            eigenvalues = np.linalg.eigvalsh(a.toarray())
+            bound = eigenvalues[-1] / eigenvalues[0] * report.relative_residual
+            assert np.linalg.norm(relative - exact) <= bound * np.linalg.norm(exact)  # measured 8.7e-12, bound 4.5e-8
+
+
+def test_closed_box_at_rest_is_hydrostatic_at_the_gauges_level():
+    p = sealed_box()
+    ppe = sparsemps.assemble_ppe(p, dt=1e-3, l0=0.01, fy=-G)
     x, _ = sparsemps.solve(ppe.matrix, ppe.rhs, "cholmod")
-    relative = ppe.pressures(x) - ppe.offset  # the unknown P - rho f.r, shifted to zero mean over the group
-    assert abs(relative[ppe.particle].mean()) < 1e-12
-    assert np.abs(relative[ppe.particle]).max() > 0.1  # measured: 0.35 Pa
+    # At rest b is only the round-off of n* - n0, so |x| <= |b| / lambda_min(A): P - rho f.r is the gauge's constant,
+    # 0, and P = -rho g y up to that and the rounding of P = x + offset (measured 1e-10 Pa against 8e-8).
+    wet = ppe.particle
+    rounding = 4 * np.finfo(float).eps * np.abs(ppe.offset[wet]).max()
+    bound = np.linalg.norm(ppe.rhs) / np.linalg.eigvalsh(ppe.matrix.toarray())[0] + rounding
+    assert np.abs(ppe.pressures(x)[wet] - 1000.0 * (-G) * p.y[wet]).max() <= bound
 
 
 def test_bad_particles_raise_clear_errors():
@@ -137,7 +175,7 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0], [0, 0], [0, 0], [0, 7], dt=1e-3, l0=0.01)
     with pytest.raises(ValueError, match=r"y has length 3, expected 2"):
         sparsemps.assemble_ppe([0.0, 0.01], [0.0, 0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
-    with pytest.raises(ValueError, match=r"particle 1 at \(nan, 0\) starts outside the domain"):
+    with pytest.raises(ValueError, match=r"x\[1\] is nan: every entry must be a finite number"):
         sparsemps.assemble_ppe([0.0, np.nan], [0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
     with pytest.raises(ValueError, match=r"dt must be positive"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=0.0, l0=0.01)
@@ -145,3 +183,45 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3)
     with pytest.raises(ValueError, match=r"no field 'gama'"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, gama=0.5)
+    # 0 switches the asymmetry test off; NaN and negative fractions used to switch it off silently too.
+    for bad in [np.nan, -1.0]:
+        with pytest.raises(ValueError, match=rf"^asymmetry fraction must be in \(0, 10\], got {bad:f}$"):
+            sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, asymmetry=bad)
+    ppe = sparsemps.assemble_ppe(sealed_box(), dt=1e-3, l0=0.01)
+    with pytest.raises(ValueError, match=r"^x\[0\] is nan: every entry must be a finite number$"):
+        ppe.pressures(np.full(ppe.matrix.shape[0], np.nan))  # used to scatter NaN pressures
+
+
+def test_kernel_radii_outside_one_to_ten_spacings_are_refused():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.2, 0.2), 0.02)
+    # 1e6 l0 used to hang in the kernel's lattice sum for n0 and lambda.
+    with pytest.raises(ValueError, match=r"radius_laplacian must be in \(1, 10\] \(in l0\), got 1e\+06"):
+        sparsemps.assemble_ppe(p, dt=1e-3, l0=0.02, radius_laplacian=1e6)
+    for field in ["radius_density", "radius_surface", "radius_gradient", "radius_laplacian"]:
+        for bad in [10.5, 1.0, np.inf, np.nan]:
+            with pytest.raises(ValueError, match=rf"{field} must be in \(1, 10\] \(in l0\), got {bad:g}"):
+                sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.02, dt_max=1e-3, **{field: bad})
+        with pytest.raises(ValueError, match=rf"{field} must be in \(1, 10\]"):
+            sparsemps.SimulationConfig(l0=0.02, dt_max=1e-3, **{field: 11.0}).validate()
+    widest = sparsemps.assemble_ppe(p, dt=1e-3, l0=0.02, radius_laplacian=10.0)  # the range's end is taken
+    assert widest.matrix.shape[0] > 0
+
+
+def test_nan_velocities_and_coincident_particles_are_refused_not_assembled():
+    # Both used to give a right-hand side holding NaN.
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01).add_rectangle_walls((0, 0, 0.1, 0.2), 0.01)
+    for name, bad in [("u", np.nan), ("v", np.inf), ("y", -np.inf)]:
+        arrays = {k: getattr(p, k) for k in "xyuv"}
+        arrays[name][3] = bad
+        with pytest.raises(ValueError, match=rf"^{name}\[3\] is {bad!r}: every entry must be a finite number$"):
+            sparsemps.assemble_ppe(arrays["x"], arrays["y"], arrays["u"], arrays["v"], p.kind, dt=1e-3, l0=0.01)
+    x, y = p.x, p.y
+    x[:50], y[:50] = 0.05, 0.05
+    with pytest.raises(ValueError, match=r"^simulation: particles 0 and 1 sit at one position \(0.05, 0.05\), "
+                                         r"closer than 1e-06 l0; remove or move one of them$"):
+        sparsemps.assemble_ppe(x, y, p.u, p.v, p.kind, dt=1e-3, l0=0.01)
+    # A ghost is inactive: it may sit where an active particle is.
+    kind = p.kind
+    kind[1:50] = sparsemps.Kind.ghost.value
+    ppe = sparsemps.assemble_ppe(x, y, p.u, p.v, kind, dt=1e-3, l0=0.01)
+    assert np.isfinite(ppe.rhs).all() and np.isfinite(ppe.matrix.data).all()

@@ -1,6 +1,8 @@
 """The time loop from Python: the dam break stepped from Python gives the dambreak app's numbers bitwise; a tank stays
 hydrostatic; the guard's stop and bad configurations raise with the library's message."""
 import csv
+import os
+import re
 
 import numpy as np
 import pytest
@@ -151,3 +153,91 @@ def test_components_refuse_parameters_out_of_range():
         sim.add_particle_collision(0.8, -0.1)
     with pytest.raises(ValueError, match=r"asymmetry fraction must be in \(0, 10\]"):
         sim.add_asymmetry_surface(0.0)
+
+
+def test_particles_refuse_non_finite_positions_velocities_and_pressures():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    for name in ["x", "y", "u", "v", "p"]:
+        values = np.zeros(len(p))
+        values[7] = np.nan
+        with pytest.raises(ValueError, match=rf"^{name}\[7\] is nan: every entry must be a finite number$"):
+            setattr(p, name, values)
+        values[7], values[2] = 0.0, -np.inf
+        with pytest.raises(ValueError, match=rf"^{name}\[2\] is -inf"):
+            setattr(p, name, values)
+    assert np.isfinite(p.x).all() and np.isfinite(p.u).all()  # the refused arrays left nothing behind
+    with pytest.raises(ValueError, match=r"^p\[1\] is inf"):
+        sparsemps.Particles([0.0, 1.0], [0.0, 0.0], "fluid", p=[0.0, np.inf])
+    with pytest.raises(ValueError, match=r"^x\[0\] is nan"):
+        sparsemps.Particles([np.nan, 1.0], [0.0, 0.0], "fluid")
+
+
+def test_run_refuses_an_end_it_cannot_reach_and_fewer_than_one_step():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3)
+    # NaN and Inf used to run until the guard tripped; a past end_time or steps < 1 returned at step 0 silently.
+    for bad in [np.nan, np.inf, -np.inf]:
+        with pytest.raises(ValueError, match=rf"^run: end_time = {bad!r} is not a finite time; give the time to stop"):
+            sim.run(end_time=bad)
+    for bad in [-1.0, 0.0, 5e-13]:
+        with pytest.raises(ValueError, match=rf"^run: end_time = {bad!r} s is not beyond the current time 0.0 s; "
+                                             r"give a later end_time$"):
+            sim.run(end_time=bad)
+    for bad in [-1, 0]:
+        with pytest.raises(ValueError, match=rf"^run: steps = {bad} takes no step; give steps >= 1$"):
+            sim.run(steps=bad)
+        with pytest.raises(ValueError, match=r"takes no step"):
+            sim.run(end_time=1.0, steps=bad)
+    with pytest.raises(ValueError, match=r"^run: end_time = 1000000.0 s is at least 1e\+09 steps of at most "
+                                         r"dt_max = 0.001 s away, more than the 1e8 a run may take"):
+        sim.run(end_time=1e6)
+    with pytest.raises(ValueError, match=r"^run: steps = 1000000000 is more than the 1e8 a run may take"):
+        sim.run(steps=10**9)
+    assert sim.steps == 0 and sim.time == 0.0  # nothing ran
+    assert sim.run(end_time=1e6, steps=2).step == 2  # bounded by the step count: taken
+    with pytest.raises(ValueError, match=r"end_time = 0.002 s is not beyond the current time 0.002 s"):
+        sim.run(end_time=sim.time)
+    assert sim.run(end_time=0.003).step == 3
+
+
+def test_unclear_arguments_get_messages_that_say_what_is_expected():
+    p = sparsemps.Particles().fill_rectangle((0, 0, 0.1, 0.1), 0.01)
+    domain = r"the domain must be a sparsemps.Domain or a 4-tuple \(xmin, xmax, ymin, ymax\), got "
+    with pytest.raises(TypeError, match=domain + "NoneType$"):  # was pybind11's "Unable to cast"
+        sparsemps.Simulation(p, None, l0=0.01, dt_max=1e-3)
+    with pytest.raises(TypeError, match=domain + "str$"):
+        sparsemps.Simulation(p, "box", l0=0.01, dt_max=1e-3)
+    with pytest.raises(ValueError, match=domain + "3 numbers$"):
+        sparsemps.Simulation(p, (0, 1, 0), l0=0.01, dt_max=1e-3)
+    with pytest.raises(TypeError, match=r"^rect must be \(x0, y0, x1, y1\), got NoneType$"):
+        sparsemps.Particles().fill_rectangle(None, 0.01)
+    with pytest.raises(ValueError, match=r"^inner holds nan; give finite coordinates$"):
+        sparsemps.Particles().add_rectangle_walls((0, 0, np.nan, 1), 0.01)
+    with pytest.raises(ValueError, match=r"^x must be 1-D, got a scalar$"):
+        sparsemps.Particles(0.5, 0.5, "fluid")
+
+
+def test_requests_too_large_are_refused_before_allocating_with_the_estimate():
+    # Each used to raise a bare MemoryError (std::bad_alloc) after trying.
+    more = r" particles \([0-9.e+]+ GB at 2 KB each; this machine has [0-9.e+]+ GB\), more than the [0-9.e+]+ a scene "
+    with pytest.raises(ValueError, match=r"^fill_rectangle would make about 1e\+16" + more +
+                                         r"may hold here; use a larger l0 or a smaller rectangle$"):
+        sparsemps.Particles().fill_rectangle((0, 0, 1e4, 1e4), 1e-4)
+    with pytest.raises(ValueError, match=r"^add_rectangle_walls would make about 2e\+09" + more):
+        sparsemps.Particles().add_rectangle_walls((0, 0, 1e4, 1e4), 1e-4)
+    layers = 2 * (2**31 - 1)  # their sum would overflow the library's int
+    frame = re.escape(f"{(100 + 2 * layers) ** 2 - 100**2:.3g}")
+    with pytest.raises(ValueError, match=r"^add_rectangle_walls would make about " + frame + more):
+        sparsemps.Particles().add_rectangle_walls((0, 0, 1, 1), 0.01, wall_layers=2**31 - 1, dummy_layers=2**31 - 1)
+    # The particles already held count too: a row that alone would fit, on top of 100 held, does not.
+    limit = min(2e7, os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 2000)
+    p = sparsemps.Particles().fill_rectangle((0, 0, 1, 1), 0.1)
+    row = int(limit) - 50
+    with pytest.raises(ValueError, match=r"^fill_rectangle would make about " + re.escape(f"{row + 100:.3g}")):
+        p.fill_rectangle((0, 0, row, 1), 1.0)
+    assert len(p) == 100  # left as it was
+    # What has no estimate still says what to reduce: a domain of 1e14 cells for the neighbour search.
+    with pytest.raises(MemoryError, match=r"^out of memory: this needs more memory than the machine has; use fewer "
+                                          r"particles \(a larger l0, a smaller rectangle or domain\) or a smaller "
+                                          r"matrix$"):
+        sparsemps.Simulation(p, (-1e6, 1e6, -1e6, 1e6), l0=0.1, dt_max=1e-3)

@@ -194,6 +194,7 @@ TEST(SolverSpec, BadValuesSayWhatIsAllowed) {
   }
   try {
     (void)mps::make_solver("eigen-bicgstab:precond=ic");
+    FAIL() << "eigen-bicgstab accepted precond=ic";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("ilut"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("jacobi"), std::string::npos) << e.what();

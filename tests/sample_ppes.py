@@ -115,7 +115,8 @@ def check_case(name, expected, a_text, b_text):
         check(name, pinned.size == 1 and abs(excess[pinned[0]] - 0.5) <= ROUND_OFF,
               f"every row sums to 0 but one, which sums to half its diagonal (the gauge's pin): {pinned.size} rows "
               f"off 0, excess {excess[pinned].max() if pinned.size else 0:.12g}")
-        check(name, abs(b.sum()) <= ROUND_OFF * np.abs(b).sum(), f"b sums to 0 ({b.sum():.3g} of {np.abs(b).sum():.3g})")
+        check(name, abs(b.sum()) <= ROUND_OFF * np.abs(b).sum(),
+              f"b sums to 0 ({b.sum():.3g} of {np.abs(b).sum():.3g})")
     else:
         check(name, at_shift.sum() > n // 2 and (~at_shift).sum() > 0,
               f"rows without a free-surface neighbour sum to the shift exactly ({at_shift.sum()} rows), the others to "

@@ -353,7 +353,8 @@ TEST(InletChannel, CompressibilityKeepsTheLongChannelsPlatePressureNearItsPoiseu
       if (compression > 0.0) {
         const double shear = mu * U / std::sqrt(std::numbers::pi * p.nu * sim.time()) + 6.0 * mu * U / p.D;
         const double bound = 2.0 * shear * L / p.D + p.gamma * p.rho * c * c * std::abs(delta / within_w);
-        EXPECT_LT(plate, bound) << "step " << step << ", t = " << sim.time() << " s, density error " << delta / within_w;
+        EXPECT_LT(plate, bound) << "step " << step << ", t = " << sim.time() << " s, density error "
+                                << delta / within_w;
       }
     }
     return largest;

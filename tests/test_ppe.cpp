@@ -86,8 +86,8 @@ TEST(Ppe, FreeSurfaceTankMatrixIsSymmetricPositiveDefiniteWithZeroRowSumsAwayFro
 // phi = a + g.r + r^T H r / 2 is exact: the odd moment sum w r_ij cancels by symmetry, sum w x^2 = sum w y^2 =
 // lambda n0 / 2 (lambda's definition, sum w r^2 = lambda n0) and sum w x y = 0, so (2d/(lambda n0)) sum w (phi_j -
 // phi_i) = tr H. The matrix is A = -lap over the unknowns (ppe.hpp), so (A phi)_r = -tr H on a row whose kernel holds
-// unknowns only; a row that reaches Dirichlet particles (held at phi, source 0) has the rest in b: (A phi - b)_r = -tr H.
-// A band wider than re around the lattice is Dirichlet, so every unknown's kernel lies on the lattice.
+// unknowns only; a row that reaches Dirichlet particles (held at phi, source 0) has the rest in b:
+// (A phi - b)_r = -tr H. A band wider than re around the lattice is Dirichlet, so every unknown's kernel lies on it.
 class PpeOnLattice : public ::testing::TestWithParam<std::tuple<mps::Weight, double>> {};
 
 TEST_P(PpeOnLattice, MatrixTimesAQuadraticIsMinusItsExactLaplacian) {

@@ -229,7 +229,13 @@ TEST(Operators, NeighbourAsymmetryIsZeroInsideAndTheFlatSurfaceValueOnTheTopRow)
   std::vector<double> a;
   mps::neighbour_asymmetry({L.p, L.d, list, k}, a);
   const double flat = mps::asymmetry_of_flat_surface(k, L.l0);
-  EXPECT_NEAR(flat, 1.385 / 4.905, 1e-3);  // by hand: the lower half of the 2.1 l0 kernel over its full n0
+  // By hand, in units of l0 with w(r) = 2.1/(0.85 r + 0.315) - 1: the top row's neighbours below it within 2.1 are
+  // (0,-1) at r = 1, (+-1,-1) at sqrt 2 and (0,-2) at 2 (its own row adds nothing along y), each pulling w(r) |y|/r:
+  // w(1) + sqrt(2) w(sqrt 2) + w(2) = 1.3881515..., over n0 = 4 (w(1) + w(sqrt 2) + w(2)) = 4.9159819... of the full
+  // kernel: 0.28237524. w(1) = 187/233, w(2) = 17/403 and w(sqrt 2) = 420/(170 sqrt 2 + 63) - 1 exactly.
+  const double w1 = 187.0 / 233.0, w2 = 17.0 / 403.0, wd = 420.0 / (170.0 * std::sqrt(2.0) + 63.0) - 1.0;
+  EXPECT_NEAR(k.n0, 4.0 * (w1 + wd + w2), 1e-12);
+  EXPECT_NEAR(flat, (w1 + std::sqrt(2.0) * wd + w2) / (4.0 * (w1 + wd + w2)), 1e-12);
   int inside = 0, top = 0;
   for (std::size_t i = 0; i < L.p.size(); ++i) {
     if (L.interior(i, 2.2 * L.l0)) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <iostream>
+#include <numbers>
 #include <vector>
 
 #include "channel.hpp"
@@ -314,27 +315,52 @@ TEST(InletChannel, CompressibilityKeepsTheLongChannelsPlatePressureNearItsPoiseu
   p.re = 400;
   p.length_D = 15;
   p.station_D = 10;
-  const double drop = 12.0 * p.rho * p.nu * p.U() * p.length_D / p.D;  // 12 mu U L / D^2
+  const double L = p.length_D * p.D, mu = p.rho * p.nu, U = p.U();
+  const double drop = 12.0 * mu * U * L / (p.D * p.D);  // Poiseuille's
+  // With it, the plate pressure is the wall shear's drop plus a compressible liquid's answer to its density error:
+  // |P_plate| <= 2 tau L / D + gamma rho c^2 |delta|. tau: the plug flow the run starts from meets the walls with
+  // Rayleigh's mu U / sqrt(pi nu t), the developed flow has Poiseuille's 6 mu U / D; their sum bounds both. delta: the
+  // fluid's (n* - n0)/n0 weighted by exp(-x / (c dt)), the plate's response to a source at x under
+  // (-lap + 1/(c dt)^2) P = gamma rho delta / dt^2 with a closed end there. No parameter bounds delta (the channel's
+  // quarter-wave mode rings at up to 3.8e-4, 3.8x compression), so the bound is checked step by step: measured
+  // |P_plate| <= 0.035 Pa = 19.4 drops, at most 0.89 of its step's bound.
   auto largest_plate_pressure = [&](double compression) {
     p.compression = compression;
     mps::Simulation sim = poiseuille::make_simulation(p);
+    const double c = p.sound_speed(), n0 = sim.density_kernel().n0;
     double largest = 0.0;
     for (int step = 0; step < 60; ++step) {
       sim.step();
       const mps::Particles& s = sim.particles();
-      double sum = 0.0;
+      const std::vector<double>& n = sim.number_density();
+      const double reach = c * sim.last_step().dt;
+      double sum = 0.0, delta = 0.0, within_w = 0.0;
       int count = 0;
-      for (std::size_t i = 0; i < s.size(); ++i)
-        if (s.kind[i] == mps::Kind::fluid && s.x[i] < 3 * p.l0()) {
+      for (std::size_t i = 0; i < s.size(); ++i) {
+        if (s.kind[i] != mps::Kind::fluid) continue;
+        if (s.x[i] < 3 * p.l0()) {
           sum += s.p[i];
           ++count;
         }
-      largest = std::max(largest, std::abs(sum / count));
+        if (compression > 0.0) {
+          const double weight = std::exp(-std::max(0.0, s.x[i]) / reach);
+          delta += weight * (n[i] / n0 - 1.0);
+          within_w += weight;
+        }
+      }
+      const double plate = std::abs(sum / count);
+      largest = std::max(largest, plate);
+      if (compression > 0.0) {
+        const double shear = mu * U / std::sqrt(std::numbers::pi * p.nu * sim.time()) + 6.0 * mu * U / p.D;
+        const double bound = 2.0 * shear * L / p.D + p.gamma * p.rho * c * c * std::abs(delta / within_w);
+        EXPECT_LT(plate, bound) << "step " << step << ", t = " << sim.time() << " s, density error "
+                                << delta / within_w;
+      }
     }
     return largest;
   };
   EXPECT_GT(largest_plate_pressure(0.0), 200 * drop);
-  EXPECT_LT(largest_plate_pressure(1e-4), 40 * drop);
+  EXPECT_GT(largest_plate_pressure(1e-4), drop);  // the plate does push the flow, within its bound at every step
 }
 
 TEST(InletChannel, FluidRecycledFromTheOutletBufferIsNotHeldAtZeroPressureAtTheInlet) {

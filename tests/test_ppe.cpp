@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
+#include <tuple>
 
 #include "mps/geometry.hpp"
 #include "mps/ppe.hpp"
@@ -79,6 +81,63 @@ TEST(Ppe, FreeSurfaceTankMatrixIsSymmetricPositiveDefiniteWithZeroRowSumsAwayFro
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(dense(sys.matrix));
   EXPECT_GT(eig.eigenvalues().minCoeff(), 1e-8 * eig.eigenvalues().maxCoeff());
 }
+
+// The PPE's coefficients against the exact Laplacian. On a perfect lattice the MPS Laplacian of a quadratic
+// phi = a + g.r + r^T H r / 2 is exact: the odd moment sum w r_ij cancels by symmetry, sum w x^2 = sum w y^2 =
+// lambda n0 / 2 (lambda's definition, sum w r^2 = lambda n0) and sum w x y = 0, so (2d/(lambda n0)) sum w (phi_j -
+// phi_i) = tr H. The matrix is A = -lap over the unknowns (ppe.hpp), so (A phi)_r = -tr H on a row whose kernel holds
+// unknowns only; a row that reaches Dirichlet particles (held at phi, source 0) has the rest in b:
+// (A phi - b)_r = -tr H. A band wider than re around the lattice is Dirichlet, so every unknown's kernel lies on it.
+class PpeOnLattice : public ::testing::TestWithParam<std::tuple<mps::Weight, double>> {};
+
+TEST_P(PpeOnLattice, MatrixTimesAQuadraticIsMinusItsExactLaplacian) {
+  const auto [weight, radius] = GetParam();
+  const double l0 = 0.1, side = 4.0;
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, side, side}, l0, mps::Kind::fluid);  // 40 x 40, particles at (k + 1/2) l0
+  const mps::Domain d{-1, side + 1, -1, side + 1};
+  const mps::Kernel k = mps::make_kernel(radius, l0, weight);
+  const mps::NeighborList list = mps::find_neighbors(p, d, k.re);
+  const double band = k.re + l0;
+  const std::size_t n = p.size();
+  std::vector<char> surface(n);
+  std::vector<double> phi(n);
+  const std::vector<double> source(n, 0.0);
+  const double trace = 6.0 + 4.0;  // tr H of 3x^2 - xy + 2y^2
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = p.x[i], y = p.y[i];
+    surface[i] = x < band || x > side - band || y < band || y > side - band;
+    phi[i] = 3 * x * x - x * y + 2 * y * y + x - 0.5 * y + 1.0;
+  }
+  const mps::PpeSystem sys = mps::assemble_ppe({p, d, list, k}, surface, source, phi);
+  ASSERT_TRUE(sys.floating.empty());
+  std::vector<double> x(sys.size()), ax(sys.size());
+  for (std::size_t r = 0; r < sys.size(); ++r) x[r] = phi[static_cast<std::size_t>(sys.particle[r])];
+  sys.matrix.multiply(x, ax);
+  int interior = 0, reaching = 0;
+  for (std::size_t r = 0; r < sys.size(); ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[r]);
+    bool unknowns_only = true;
+    for (int j : list.of(i)) unknowns_only = unknowns_only && sys.unknown[static_cast<std::size_t>(j)] >= 0;
+    if (unknowns_only) {
+      EXPECT_NEAR(ax[r], -trace, 1e-9 * trace) << "interior row at (" << p.x[i] << ", " << p.y[i] << ")";
+      ++interior;
+    } else {
+      ++reaching;
+    }
+    EXPECT_NEAR(ax[r] - sys.rhs[r], -trace, 1e-9 * trace) << "row at (" << p.x[i] << ", " << p.y[i] << ")";
+  }
+  EXPECT_GE(interior, 100);
+  EXPECT_GE(reaching, 100);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    BothWeightsTwoRadii, PpeOnLattice,
+    ::testing::Combine(::testing::Values(mps::Weight::bounded, mps::Weight::classic), ::testing::Values(3.1, 4.1)),
+    [](const ::testing::TestParamInfo<std::tuple<mps::Weight, double>>& param_info) {
+      return std::string(mps::to_string(std::get<0>(param_info.param))) + "_re" +
+             (std::get<1>(param_info.param) < 4.0 ? "3_1" : "4_1");
+    });
 
 TEST(Ppe, UnknownsAreExactlyTheWetFluidAndWallParticles) {
   const Box box(false);

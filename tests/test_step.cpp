@@ -12,6 +12,7 @@
 
 #include "mps/components.hpp"
 #include "mps/geometry.hpp"
+#include "hydrostatic_bound.hpp"
 #include "mps/step.hpp"
 #include "tank.hpp"
 
@@ -203,11 +204,13 @@ TEST(Simulation, SameInputGivesTheSameNumbersAndReorderingChangesNothingButRound
   EXPECT_LT(diff, 1e-6 * scale);
 }
 
-// Hydrostatic tank over the 1 s (pressures averaged over the last 0.1 s): band pressures against
-// rho g (H - y) within 5 %, and no fluid particle more than 0.2 l0 from where it started.
+// Hydrostatic tank over the 1 s (pressures averaged over the last 0.1 s): every band's pressure, the top one
+// included, within what the solver's tolerance allows of rho g (H - y) (tank_bound::solve_error_bound: 0.054 Pa, 2.8e-4
+// of the top band's 196 Pa; measured 1.1e-6 Pa at gamma = 0.01, 3.6e-6 Pa at 0.99), and no fluid particle more than
+// 0.2 l0 from where it started.
 class HydrostaticTank : public ::testing::TestWithParam<double> {};
 
-TEST_P(HydrostaticTank, HoldsRhoGDepthWithinFivePercentAndEveryParticleWithinAFifthOfASpacingForOneSecond) {
+TEST_P(HydrostaticTank, HoldsRhoGDepthToTheSolversToleranceAndEveryParticleWithinAFifthOfASpacingForOneSecond) {
   tank::Params p;
   p.gamma = GetParam();
   tank::Tank t(p);
@@ -215,10 +218,11 @@ TEST_P(HydrostaticTank, HoldsRhoGDepthWithinFivePercentAndEveryParticleWithinAFi
   const tank::Result r = t.result();
   EXPECT_NEAR(r.time, 1.0, 1e-9);
   ASSERT_GE(r.bands.size(), 8u);
-  for (std::size_t b = 0; b + 1 < r.bands.size(); ++b) {
-    EXPECT_GT(r.bands[b].samples, 0);
-    EXPECT_LT(r.bands[b].relative_error, 0.05) << "band at y = " << r.bands[b].y_center << ": "
-                                               << r.bands[b].mean_pressure << " Pa vs " << r.bands[b].exact_pressure;
+  const double bound = tank_bound::solve_error_bound(t.sim(), 1e-8);  // the auto solver's tol
+  for (const tank::Band& band : r.bands) {
+    EXPECT_GT(band.samples, 0);
+    EXPECT_LT(std::abs(band.mean_pressure - band.exact_pressure), bound)
+        << "band at y = " << band.y_center << ": " << band.mean_pressure << " Pa vs " << band.exact_pressure;
   }
   EXPECT_LT(r.max_displacement_l0, 0.2);
 }

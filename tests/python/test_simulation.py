@@ -236,8 +236,8 @@ def test_requests_too_large_are_refused_before_allocating_with_the_estimate():
     with pytest.raises(ValueError, match=r"^fill_rectangle would make about " + re.escape(f"{row + 100:.3g}")):
         p.fill_rectangle((0, 0, row, 1), 1.0)
     assert len(p) == 100  # left as it was
-    # What has no estimate still says what to reduce: a domain of 1e14 cells for the neighbour search.
-    with pytest.raises(MemoryError, match=r"^out of memory: this needs more memory than the machine has; use fewer "
-                                          r"particles \(a larger l0, a smaller rectangle or domain\) or a smaller "
-                                          r"matrix$"):
+    # A domain of 1e14 cells for the neighbour search is refused by the grid before it allocates (it had raised
+    # the MemoryError of a std::bad_alloc).
+    with pytest.raises(ValueError, match=r"^CellGrid: the domain, 2e\+06 m x 2e\+06 m, would hold 9.52e\+13 cells .* "
+                                         r"more than the 1e8 a grid may hold"):
         sparsemps.Simulation(p, (-1e6, 1e6, -1e6, 1e6), l0=0.1, dt_max=1e-3)

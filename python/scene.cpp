@@ -564,7 +564,8 @@ void bind_scene(py::module_& m) {
       .def_readwrite("ymax", &mps::Domain::ymax)
       .def_readwrite("periodic_x", &mps::Domain::periodic_x)
       .def_readwrite("periodic_y", &mps::Domain::periodic_y)
-      .def("contains", &mps::Domain::contains, py::arg("x"), py::arg("y"))
+      .def("contains", [](const mps::Domain& d, double x, double y) { return d.contains(x, y); }, py::arg("x"),
+           py::arg("y"))
       .def("__repr__", [](const mps::Domain& d) {
         std::ostringstream s;
         s.precision(17);

@@ -14,7 +14,8 @@ namespace tank_bound {
 // e = A^-1 r. |e|_inf <= ||A^-1||_inf |r|_2 with |r|_2 <= tol |b|_2 (the solver's relative residual), and A is an
 // M-matrix (off-diagonals <= 0, rows summing to >= 0, > 0 at the surface), so A^-1 >= 0 and ||A^-1||_inf = max A^-1 1.
 // Returns tol |b|_2 max(A^-1 1) for the simulation's last PPE [Pa].
-inline double solve_error_bound(const mps::Simulation& sim, double tol) {
+template <int D>
+inline double solve_error_bound(const mps::BasicSimulation<D>& sim, double tol) {
   const mps::PpeSystem& ppe = sim.last_ppe();
   const std::vector<double> ones(ppe.size(), 1.0);
   std::vector<double> z(ppe.size(), 0.0);

@@ -1,16 +1,12 @@
 #include "mps/components.hpp"
 #include "mps/parallel.hpp"
+#include "mps/vec.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 
 namespace mps {
-
-BoundaryMotion::BoundaryMotion(Motion motion)
-    : motion_([motion = std::move(motion)](Particles& p, double time, std::size_t) { motion(p, time); }) {}
-
-void BoundaryMotion::after_predictor(StepContext& c) { motion_(c.particles, c.fields.time, c.sim.owned_particles()); }
 
 MirrorNoSlip::MirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }
 
@@ -78,25 +74,28 @@ void OpenOutlet::after_pressure(StepContext& c) {
     }
 }
 
-void SurfaceRegion::before_source(StepContext& c) {
-  const Particles& p = c.particles;
+template <int D>
+void BasicSurfaceRegion<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
   std::vector<char>& surface = c.fields.surface;
   for (std::size_t i = 0; i < surface.size(); ++i)
-    if (surface[i] && !region_(p.x[i], p.y[i])) surface[i] = 0;
+    if (surface[i] && !region_(p.position(i))) surface[i] = 0;
 }
 
-void AsymmetrySurface::before_source(StepContext& c) {
-  const Particles& p = c.particles;
+template <int D>
+void BasicAsymmetrySurface<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
   const Kernel& k = c.sim.surface_kernel();
-  neighbour_asymmetry({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
+  neighbour_asymmetry<D>({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
   const double limit = fraction_ * asymmetry_of_flat_surface(k, c.sim.config().l0);
   std::vector<char>& surface = c.fields.surface;
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
 }
 
-void WetWalls::before_source(StepContext& c) {
-  const Particles& p = c.particles;
+template <int D>
+void BasicWetWalls<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
   const NeighborList& near = c.sim.neighbors_at_star(c.sim.surface_kernel());
   std::vector<char>& surface = c.fields.surface;
   // Decided from the flags as the density test left them, so a wall made wet wets no other.
@@ -113,48 +112,57 @@ void WetWalls::before_source(StepContext& c) {
     if (wet_[i]) surface[i] = 0;
 }
 
-void ParticleCollision::after_predictor(StepContext& c) {
-  Particles& p = c.particles;
-  const StepFields& f = c.fields;
+template <int D>
+void BasicParticleCollision<D>::after_predictor(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const BasicStepFields<D>& f = c.fields;
   movable_.assign(p.size(), 0);
   for (std::size_t i = 0; i < p.size(); ++i) movable_[i] = !f.prescribed[i];
-  collision_velocity_changes(p, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
-                             movable_, du_, dv_);
+  collision_velocity_changes<D>(p, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
+                                movable_, change_);
+  const auto pos = p.positions();
+  const auto vel = p.velocities();
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] == Kind::fluid && movable_[i]) {
-      p.u[i] += du_[i];
-      p.v[i] += dv_[i];
-      p.x[i] += f.dt * du_[i];  // the predictor having moved it by dt u*
-      p.y[i] += f.dt * dv_[i];
-      c.sim.domain().wrap(p.x[i], p.y[i]);
+      Vec<D> r;
+      for (std::size_t a = 0; a < D; ++a) {
+        (*vel[a])[i] += change_[a][i];
+        r[a] = (*pos[a])[i] + f.dt * change_[a][i];  // the predictor having moved it by dt u*
+      }
+      c.sim.domain().wrap(r);
+      for (std::size_t a = 0; a < D; ++a) (*pos[a])[i] = r[a];
     }
 }
 
-void RemoveEscaped::after_corrector(StepContext& c) {
-  Particles& p = c.particles;
+template <int D>
+void BasicRemoveEscaped<D>::after_corrector(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const auto vel = p.velocities();
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::fluid && !inside_(p.x[i], p.y[i])) {
+    if (p.kind[i] == Kind::fluid && !inside_(p.position(i))) {
       p.kind[i] = Kind::ghost;
-      p.u[i] = p.v[i] = p.p[i] = 0.0;
+      for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = 0.0;
+      p.p[i] = 0.0;
       ++removed_;
     }
 }
 
-void HydrostaticSplit::before_predictor(StepContext& c) {
-  c.fields.balanced_fx = fx_;
-  c.fields.balanced_fy = fy_;
+template <int D>
+void BasicHydrostaticSplit<D>::before_predictor(StepContext& c) {
+  c.fields.balanced = force_;
 }
 
 // The unknown is P' = P - P_h. Walls stay zero-flux for P', i.e. dP/dn = rho f . n for P.
-void HydrostaticSplit::before_assembly(StepContext& c) {
-  const Particles& p = c.particles;
+template <int D>
+void BasicHydrostaticSplit<D>::before_assembly(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
   const SimulationConfig& config = c.sim.config();
-  StepFields& f = c.fields;
+  BasicStepFields<D>& f = c.fields;
   f.pressure_offset.resize(p.size());
   f.held_value.resize(p.size());
-  const double surface_pressure = 0.5 * config.l0 * config.rho * std::hypot(fx_, fy_);
+  const double surface_pressure = 0.5 * config.l0 * config.rho * norm<D>(force_);
   for (std::size_t i = 0; i < p.size(); ++i) {
-    f.pressure_offset[i] = config.rho * (fx_ * p.x[i] + fy_ * p.y[i]);
+    f.pressure_offset[i] = config.rho * dot<D>(force_, p.position(i));
     f.held_value[i] = surface_pressure - f.pressure_offset[i];
   }
   // The minimum reference balances only where the kernel is full: at a cut-off surface kernel it pushed particles
@@ -162,11 +170,13 @@ void HydrostaticSplit::before_assembly(StepContext& c) {
   f.surface_own_reference = true;
 }
 
-InitialReferenceDensity::InitialReferenceDensity(const Particles& initial, const Domain& domain, CellGrid& grid,
-                                                 const Kernel& density) {
+template <int D>
+BasicInitialReferenceDensity<D>::BasicInitialReferenceDensity(const BasicParticles<D>& initial,
+                                                              const BasicDomain<D>& domain, BasicCellGrid<D>& grid,
+                                                              const Kernel& density) {
   grid.bin(initial);
   const NeighborList near = grid.neighbors(initial, density.re);
-  const std::vector<double> n = mps::number_density({initial, domain, near, density});
+  const std::vector<double> n = mps::number_density<D>({initial, domain, near, density});
   double fluid_sum = 0.0;
   int max_id = 0;
   for (std::size_t i = 0; i < initial.size(); ++i) {
@@ -181,9 +191,10 @@ InitialReferenceDensity::InitialReferenceDensity(const Particles& initial, const
 }
 
 // Scaled so that the source's (n - n0)/n0 reads (n* - n_ref)/n_ref.
-void InitialReferenceDensity::before_source(StepContext& c) {
-  const Particles& p = c.particles;
-  StepFields& f = c.fields;
+template <int D>
+void BasicInitialReferenceDensity<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  BasicStepFields<D>& f = c.fields;
   const double n0 = c.sim.density_kernel().n0;
   f.n_source = f.n_star;
   for (std::size_t i = 0; i < p.size(); ++i) {
@@ -192,9 +203,10 @@ void InitialReferenceDensity::before_source(StepContext& c) {
   }
 }
 
-void ParticleShifting::shift_positions(StepContext& c) {
-  Particles& p = c.particles;
-  const StepFields& f = c.fields;
+template <int D>
+void BasicParticleShifting<D>::shift_positions(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const BasicStepFields<D>& f = c.fields;
   const Kernel& k = c.sim.gradient_kernel();
   const NeighborList& close = c.sim.neighbors_at_star(k);
   const auto n = static_cast<std::ptrdiff_t>(p.size());
@@ -212,16 +224,35 @@ void ParticleShifting::shift_positions(StepContext& c) {
   }
   const double l0 = c.sim.config().l0;
   const double diffusion = coefficient_ * l0 * std::sqrt(c.sim.max_over_ranks(max_fluid_speed_squared(p))) * f.dt;
-  const Stencil stencil{p, c.sim.domain(), close, k};
+  const BasicStencil<D> stencil{p, c.sim.domain(), close, k};
   if (!along_surface_) {
-    shift_particles(stencil, diffusion, 0.2 * l0, movable_, p);
+    shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p);
     return;
   }
   // The normal from the wider density kernel follows the surface; at the shift's own radius it would point along
   // the shift itself and leave nothing to move.
   const Kernel& wide = c.sim.density_kernel();
-  surface_normals({p, c.sim.domain(), c.sim.neighbors_at_star(wide), wide}, near_surface_, normal_x_, normal_y_);
-  shift_particles(stencil, diffusion, 0.2 * l0, movable_, p, normal_x_, normal_y_);
+  surface_normals<D>({p, c.sim.domain(), c.sim.neighbors_at_star(wide), wide}, near_surface_, normal_);
+  ConstComponents<D> normal;
+  for (std::size_t a = 0; a < D; ++a) normal[a] = normal_[a];
+  shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p, normal);
 }
+
+template class BasicSurfaceRegion<2>;
+template class BasicSurfaceRegion<3>;
+template class BasicAsymmetrySurface<2>;
+template class BasicAsymmetrySurface<3>;
+template class BasicWetWalls<2>;
+template class BasicWetWalls<3>;
+template class BasicParticleCollision<2>;
+template class BasicParticleCollision<3>;
+template class BasicRemoveEscaped<2>;
+template class BasicRemoveEscaped<3>;
+template class BasicHydrostaticSplit<2>;
+template class BasicHydrostaticSplit<3>;
+template class BasicInitialReferenceDensity<2>;
+template class BasicInitialReferenceDensity<3>;
+template class BasicParticleShifting<2>;
+template class BasicParticleShifting<3>;
 
 }  // namespace mps

@@ -102,7 +102,7 @@ void zoltan_objects(void* data, int, int, ZOLTAN_ID_PTR global, ZOLTAN_ID_PTR lo
 }
 int zoltan_dimension(void*, int* ierr) {
   *ierr = ZOLTAN_OK;
-  return kDim;
+  return Particles::dim;
 }
 void zoltan_positions(void* data, int, int, int count, ZOLTAN_ID_PTR, ZOLTAN_ID_PTR local, int, double* xy, int* ierr) {
   const Particles& s = *static_cast<ZoltanInput*>(data)->particles;

@@ -50,6 +50,43 @@ void add_rectangle_walls(Particles& particles, Rect inner, double l0, unsigned s
   }
 }
 
+void fill_box(Particles3& particles, Box box, double l0, Kind kind, int group) {
+  require_positive(l0, "particle spacing l0");
+  const int nx = cells(box.x1 - box.x0, l0), ny = cells(box.y1 - box.y0, l0), nz = cells(box.z1 - box.z0, l0);
+  if (nx <= 0 || ny <= 0 || nz <= 0)
+    throw std::invalid_argument("fill_box: the box holds no lattice point at spacing " + std::to_string(l0) +
+                                ": each side must be at least half a spacing long, upper corner above the lower");
+  particles.reserve(particles.size() + static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny) *
+                                           static_cast<std::size_t>(nz));
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        particles.add({box.x0 + (i + 0.5) * l0, box.y0 + (j + 0.5) * l0, box.z0 + (k + 0.5) * l0}, kind, group);
+}
+
+void add_box_walls(Particles3& particles, Box inner, double l0, unsigned faces, int wall_layers, int dummy_layers,
+                   int group) {
+  require_positive(l0, "particle spacing l0");
+  if (wall_layers < 0 || dummy_layers < 0 || wall_layers + dummy_layers == 0)
+    throw std::invalid_argument("add_box_walls: need at least one wall or dummy layer");
+  const int layers = wall_layers + dummy_layers;
+  const int n[3] = {cells(inner.x1 - inner.x0, l0), cells(inner.y1 - inner.y0, l0), cells(inner.z1 - inner.z0, l0)};
+  int lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = (faces & (1u << (2 * a))) != 0u ? -layers : 0;
+    hi[a] = (faces & (1u << (2 * a + 1))) != 0u ? n[a] + layers : n[a];
+  }
+  for (int k = lo[2]; k < hi[2]; ++k)
+    for (int j = lo[1]; j < hi[1]; ++j)
+      for (int i = lo[0]; i < hi[0]; ++i) {
+        // Chebyshev distance (in layers) outside the inner box; 0 means inside.
+        const int layer = std::max({-i, i - n[0] + 1, -j, j - n[1] + 1, -k, k - n[2] + 1, 0});
+        if (layer == 0) continue;
+        particles.add({inner.x0 + (i + 0.5) * l0, inner.y0 + (j + 0.5) * l0, inner.z0 + (k + 0.5) * l0},
+                      layer <= wall_layers ? Kind::wall : Kind::dummy, group);
+      }
+}
+
 void fill_annular_sector(Particles& particles, double r0, double r1, double theta0, double theta1, double l0,
                          Kind kind, Lattice lattice, int group, double cx, double cy) {
   require_positive(l0, "particle spacing l0");

@@ -24,6 +24,24 @@ enum Side : unsigned { left = 1u, right = 2u, bottom = 4u, top = 8u };
 void add_rectangle_walls(Particles& particles, Rect inner, double l0, unsigned sides, int wall_layers,
                          int dummy_layers, int group = 0);
 
+/// An axis-aligned box [x0, x1] x [y0, y1] x [z0, z1] (3-D).
+struct Box {
+  /// @{ lower corner (x0, y0, z0) and upper corner (x1, y1, z1) [m]
+  double x0, y0, z0, x1, y1, z1;  /// @}
+};
+
+/// Cubic lattice filling box; points sit at cell centres, as fill_rectangle's.
+void fill_box(Particles3& particles, Box box, double l0, Kind kind, int group = 0);
+
+/// Faces of a box, combined with |, e.g. everything but z_high for a tank open at the top (gravity along -z). The
+/// first four have the values of the rectangle's sides.
+enum Face : unsigned { x_low = 1u, x_high = 2u, y_low = 4u, y_high = 8u, z_low = 16u, z_high = 32u };
+
+/// Adds boundary layers outside `inner` on the given faces (edges and corners between walled faces included), on the
+/// lattice of fill_box: the first `wall_layers` layers are Kind::wall, the next `dummy_layers` Kind::dummy.
+void add_box_walls(Particles3& particles, Box inner, double l0, unsigned faces, int wall_layers, int dummy_layers,
+                   int group = 0);
+
 /// How fill_annular_sector places particles.
 enum class Lattice { square, rings };
 

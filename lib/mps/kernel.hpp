@@ -20,6 +20,7 @@ struct Kernel {
   double n0 = 0;      ///< sum of w over the neighbours of an interior particle of the perfect lattice
   double lambda = 0;  ///< sum w r^2 / sum w on that lattice (Laplacian normalisation)
   int lattice_neighbors = 0;  ///< how many neighbours that interior particle has
+  int dim = 2;        ///< the dimension of the lattice n0 and lambda were summed on
 
   /// The weight at distance r (0 from re on).
   [[nodiscard]] double w(double r) const {
@@ -31,8 +32,9 @@ struct Kernel {
 /// The largest kernel radius, in l0, that make_kernel and SimulationConfig accept.
 inline constexpr double kMaxRadius = 10.0;
 
-/// A kernel of radius radius_over_l0 * l0 whose n0 and lambda are summed over the perfect 2-D square lattice
-/// of spacing l0 around an interior particle; throws std::invalid_argument for a radius outside (1, kMaxRadius].
-Kernel make_kernel(double radius_over_l0, double l0, Weight weight = Weight::bounded);
+/// A kernel of radius radius_over_l0 * l0 whose n0 and lambda are summed over the perfect square (dim 2) or cubic
+/// (dim 3) lattice of spacing l0 around an interior particle; throws std::invalid_argument for a radius outside
+/// (1, kMaxRadius] or a dimension other than 2 or 3.
+Kernel make_kernel(double radius_over_l0, double l0, Weight weight = Weight::bounded, int dim = 2);
 
 }  // namespace mps

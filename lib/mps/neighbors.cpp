@@ -13,10 +13,14 @@
 
 namespace mps {
 
-bool Domain::contains(double x, double y) const {
-  const bool in_x = periodic_x || (x >= xmin && x <= xmax);
-  const bool in_y = periodic_y || (y >= ymin && y <= ymax);
-  return in_x && in_y && std::isfinite(x) && std::isfinite(y);
+template <int D>
+bool BasicDomain<D>::contains(const Vec<D>& r) const {
+  const auto lower = this->lower(), upper = this->upper();
+  const auto periodic = this->periodic();
+  bool inside = true;
+  for (std::size_t a = 0; a < D; ++a)
+    inside = inside && (periodic[a] || (r[a] >= lower[a] && r[a] <= upper[a])) && std::isfinite(r[a]);
+  return inside;
 }
 
 namespace {
@@ -30,108 +34,142 @@ std::string fmt_g(double v) {
 
 // fmod(t, L) is t itself for |t| < L, the common case, which skips the library call and gives the same bits.
 double remainder_of(double t, double length) { return std::abs(t) < length ? t : std::fmod(t, length); }
+
+void wrap_axis(double& t, double lower, double upper) {
+  const double length = upper - lower;
+  t = lower + remainder_of(t - lower, length);
+  if (t < lower) t += length;
+  if (t >= upper) t -= length;
+}
 }  // namespace
 
-void Domain::wrap(double& x, double& y) const {
-  if (periodic_x) {
-    x = xmin + remainder_of(x - xmin, width());
-    if (x < xmin) x += width();
-    if (x >= xmax) x -= width();
-  }
-  if (periodic_y) {
-    y = ymin + remainder_of(y - ymin, height());
-    if (y < ymin) y += height();
-    if (y >= ymax) y -= height();
-  }
+template <int D>
+void BasicDomain<D>::wrap(Vec<D>& r) const {
+  const auto lower = this->lower(), upper = this->upper();
+  const auto periodic = this->periodic();
+  for (std::size_t a = 0; a < D; ++a)
+    if (periodic[a]) wrap_axis(r[a], lower[a], upper[a]);
 }
 
-void Domain::validate() const {
-  if (!(xmax > xmin) || !(ymax > ymin) || !std::isfinite(xmin) || !std::isfinite(xmax) ||
-      !std::isfinite(ymin) || !std::isfinite(ymax))
-    throw std::invalid_argument("Domain: need finite bounds with xmax > xmin and ymax > ymin");
+template <int D>
+void BasicDomain<D>::wrap(double& x, double& y) const
+  requires(D == 2)
+{
+  if (this->periodic_x) wrap_axis(x, this->xmin, this->xmax);
+  if (this->periodic_y) wrap_axis(y, this->ymin, this->ymax);
 }
 
-CellGrid::CellGrid(const Domain& domain, double cell_size) : domain_(domain), cell_size_(cell_size) {
+template <int D>
+void BasicDomain<D>::validate() const {
+  const auto lower = this->lower(), upper = this->upper();
+  for (std::size_t a = 0; a < D; ++a)
+    if (!(upper[a] > lower[a]) || !std::isfinite(lower[a]) || !std::isfinite(upper[a]))
+      throw std::invalid_argument(D == 2 ? "Domain: need finite bounds with xmax > xmin and ymax > ymin"
+                                         : "Domain: need finite bounds with xmax > xmin, ymax > ymin and zmax > zmin");
+}
+
+template <int D>
+BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size) : domain_(domain), cell_size_(cell_size) {
   domain_.validate();
   if (!(cell_size > 0.0) || !std::isfinite(cell_size))
     throw std::invalid_argument("CellGrid: cell size (the largest search radius) must be positive, got " +
                                 std::to_string(cell_size));
   // A periodic axis shorter than three radii would let a particle meet two images of the same neighbour.
-  if ((domain_.periodic_x && domain_.width() < 3.0 * cell_size) ||
-      (domain_.periodic_y && domain_.height() < 3.0 * cell_size))
-    throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
+  const auto periodic = domain_.periodic();
+  for (std::size_t a = 0; a < D; ++a)
+    if (periodic[a] && domain_.extent(static_cast<int>(a)) < 3.0 * cell_size)
+      throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
   // Half-radius cells: the runs scanned for a radius-r search cover (2r + h)^2 = 6.25 r^2 instead of the
   // 9 r^2 of radius-wide cells, so a third fewer distance tests.
-  const double cells_x = std::floor(domain_.width() / (0.5 * cell_size));
-  const double cells_y = std::floor(domain_.height() / (0.5 * cell_size));
+  Vec<D> cells;
+  double total = 1.0;
+  for (std::size_t a = 0; a < D; ++a) {
+    cells[a] = std::floor(domain_.extent(static_cast<int>(a)) / (0.5 * cell_size));
+    total *= std::max(cells[a], 1.0);
+  }
   // A domain far larger than its particles' spacing (a particle far from the rest) would need more memory than the
   // particles themselves.
-  const double cells = std::max(cells_x, 1.0) * std::max(cells_y, 1.0);
-  if (!(cells <= kMaxCells))
-    throw std::invalid_argument("CellGrid: the domain, " + fmt_g(domain_.width()) + " m x " +
-                                fmt_g(domain_.height()) + " m, would hold " + fmt_g(cells) +
+  if (!(total <= kMaxCells)) {
+    std::string size = fmt_g(domain_.extent(0));
+    for (std::size_t a = 1; a < D; ++a) size += " m x " + fmt_g(domain_.extent(static_cast<int>(a)));
+    throw std::invalid_argument("CellGrid: the domain, " + size + " m, would hold " + fmt_g(total) +
                                 " cells of half the search radius (" + fmt_g(cell_size) +
                                 " m), more than the 1e8 a grid may hold: is a particle far from the others?");
-  nx_ = std::max(1, static_cast<int>(cells_x));
-  ny_ = std::max(1, static_cast<int>(cells_y));
-  hx_ = domain_.width() / nx_;
-  hy_ = domain_.height() / ny_;
+  }
+  for (std::size_t a = 0; a < D; ++a) {
+    n_[a] = std::max(1, static_cast<int>(cells[a]));
+    h_[a] = domain_.extent(static_cast<int>(a)) / n_[a];
+  }
 }
 
-std::array<int, 2> CellGrid::cell_of(double x, double y) const {
+template <int D>
+int BasicCellGrid<D>::cell_of(const Vec<D>& r) const {
   // Clamping keeps escaped particles binned (at the edge) so the search stays correct; the guard reports them.
-  int cx = static_cast<int>(std::floor((x - domain_.xmin) / hx_));
-  int cy = static_cast<int>(std::floor((y - domain_.ymin) / hy_));
-  return {std::clamp(cx, 0, nx_ - 1), std::clamp(cy, 0, ny_ - 1)};
+  const auto lower = domain_.lower();
+  int index = 0;
+  for (std::size_t a = D; a-- > 0;) {
+    const int c = static_cast<int>(std::floor((r[a] - lower[a]) / h_[a]));
+    index = index * n_[a] + std::clamp(c, 0, n_[a] - 1);
+  }
+  return index;
 }
 
-void CellGrid::bin(const Particles& particles) {
+template <int D>
+void BasicCellGrid<D>::bin(const BasicParticles<D>& particles) {
   const std::size_t n = particles.size();
+  const auto positions = particles.positions();
   n_particles_ = n;
   std::vector<int> cell(n, -1);
-  cell_start_.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+  std::size_t cells = 1;
+  for (std::size_t a = 0; a < D; ++a) cells *= static_cast<std::size_t>(n_[a]);
+  cell_start_.assign(cells + 1, 0);
   ghosts_.clear();
   for (std::size_t i = 0; i < n; ++i) {
     if (particles.kind[i] == Kind::ghost) {
       ghosts_.push_back(static_cast<int>(i));
       continue;
     }
-    if (!std::isfinite(particles.x[i]) || !std::isfinite(particles.y[i]))
-      throw std::runtime_error("CellGrid: particle " + std::to_string(i) + " has a non-finite position");
-    double x = particles.x[i], y = particles.y[i];
-    domain_.wrap(x, y);
-    const auto [cx, cy] = cell_of(x, y);
-    cell[i] = cell_index(cx, cy);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) {
+      r[a] = (*positions[a])[i];
+      if (!std::isfinite(r[a]))
+        throw std::runtime_error("CellGrid: particle " + std::to_string(i) + " has a non-finite position");
+    }
+    domain_.wrap(r);
+    cell[i] = cell_of(r);
     ++cell_start_[static_cast<std::size_t>(cell[i]) + 1];
   }
   for (std::size_t c = 1; c < cell_start_.size(); ++c) cell_start_[c] += cell_start_[c - 1];
   const std::size_t binned = n - ghosts_.size();
   ids_.resize(binned);
-  xs_.resize(binned);
-  ys_.resize(binned);
+  for (auto& c : coords_) c.resize(binned);
   std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
   for (std::size_t i = 0; i < n; ++i) {
     if (cell[i] < 0) continue;
     const auto k = static_cast<std::size_t>(fill[static_cast<std::size_t>(cell[i])]++);
     ids_[k] = static_cast<int>(i);
-    xs_[k] = particles.x[i];
-    ys_[k] = particles.y[i];
-    domain_.wrap(xs_[k], ys_[k]);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[i];
+    domain_.wrap(r);
+    for (std::size_t a = 0; a < D; ++a) coords_[a][k] = r[a];
   }
 }
 
-NeighborList CellGrid::neighbors(const Particles& particles, double radius) const {
+template <int D>
+NeighborList BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius) const {
   NeighborList list;
   neighbors(particles, radius, list);
   return list;
 }
 
-void CellGrid::neighbors(const Particles& particles, double radius, NeighborList& list) const {
+template <int D>
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list) const {
   search(particles, radius, list, nullptr);
 }
 
-void CellGrid::neighbors(const Particles& particles, double radius, NeighborList& list, double inner_radius,
-                         NeighborList& inner) const {
+template <int D>
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                                 double inner_radius, NeighborList& inner) const {
   if (!(inner_radius > 0.0) || inner_radius > radius)
     throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
   if (&inner == &list) throw std::invalid_argument("CellGrid::neighbors: the inner list must be another list");
@@ -170,7 +208,9 @@ void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<i
 
 }  // namespace
 
-void CellGrid::search(const Particles& particles, double radius, NeighborList& list, NeighborList* inner) const {
+template <int D>
+void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                              NeighborList* inner) const {
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
   if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
     throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
@@ -185,12 +225,18 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
   // One pass: each thread fills its contiguous share of the rows, then copies it into place; the first share is
   // written straight into the kept list, so one thread copies and allocates nothing after the first step. The
   // loops write every candidate and advance the count of kept ones: no branch to mispredict.
+  const auto positions = particles.positions();
+  std::array<const double*, D> coords;
+  for (std::size_t a = 0; a < D; ++a) coords[a] = coords_[a].data();
   auto scan = [&](std::ptrdiff_t i, auto&& run_kernel) {
     const auto si = static_cast<std::size_t>(i);
-    double x = particles.x[si], y = particles.y[si];
-    domain_.wrap(x, y);
-    for_each_run(x, y, radius, [&](int begin, int end, double sx, double sy) {
-      run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), x - sx, y - sy);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[si];
+    domain_.wrap(r);
+    for_each_run(r, radius, [&](int begin, int end, const Vec<D>& shift) {
+      Vec<D> at;
+      for (std::size_t a = 0; a < D; ++a) at[a] = r[a] - shift[a];
+      run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), at);
     });
   };
 #pragma omp parallel if (detail::worth_threads(n))
@@ -215,13 +261,18 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
       if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
       std::size_t kept = 0, inner_kept = 0;
       const int self = static_cast<int>(i);
-      scan(i, [&](std::size_t first, std::size_t last, double x, double y) {
+      scan(i, [&](std::size_t first, std::size_t last, const Vec<D>& at) {
         if (row.size() < kept + (last - first)) {
           row.resize(2 * (kept + (last - first)));
           inner_row.resize(row.size());
         }
         for (std::size_t k = first; k < last; ++k) {
-          const double dx = xs_[k] - x, dy = ys_[k] - y, d2 = dx * dx + dy * dy;
+          const double dx = coords[0][k] - at[0];
+          double d2 = dx * dx;
+          for (std::size_t a = 1; a < D; ++a) {
+            const double da = coords[a][k] - at[a];
+            d2 += da * da;
+          }
           const int j = ids_[k];
           row[kept] = j;
           inner_row[inner_kept] = j;
@@ -256,20 +307,24 @@ void CellGrid::search(const Particles& particles, double radius, NeighborList& l
   }
 }
 
-std::vector<int> CellGrid::cell_order() const {
+template <int D>
+std::vector<int> BasicCellGrid<D>::cell_order() const {
   std::vector<int> order(ids_);
   order.insert(order.end(), ghosts_.begin(), ghosts_.end());
   return order;
 }
 
-NeighborList restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius) {
+template <int D>
+NeighborList restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                             double radius) {
   NeighborList out;
   restrict_radius(list, particles, domain, radius, out);
   return out;
 }
 
-void restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius,
-                     NeighborList& out) {
+template <int D>
+void restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                     double radius, NeighborList& out) {
   if (!(radius > 0.0) || radius > list.radius * (1.0 + 1e-12))
     throw std::invalid_argument("restrict_radius: radius must be in (0, the list's radius]");
   if (&out == &list) throw std::invalid_argument("restrict_radius: out must not be the input list");
@@ -278,9 +333,10 @@ void restrict_radius(const NeighborList& list, const Particles& particles, const
   out.radius = radius;
   out.offsets.assign(list.offsets.size(), 0);
   auto distance2 = [&](std::size_t i, int j) {
-    const auto d = domain.displacement(particles.x[i], particles.y[i], particles.x[static_cast<std::size_t>(j)],
-                                       particles.y[static_cast<std::size_t>(j)]);
-    return d[0] * d[0] + d[1] * d[1];
+    const Vec<D> d = domain.displacement(particles.position(i), particles.position(static_cast<std::size_t>(j)));
+    double s = d[0] * d[0];
+    for (std::size_t a = 1; a < D; ++a) s += d[a] * d[a];
+    return s;
   };
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
@@ -310,10 +366,22 @@ void restrict_radius(const NeighborList& list, const Particles& particles, const
   }
 }
 
-NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius) {
-  CellGrid grid(domain, radius);
+template <int D>
+NeighborList find_neighbors(const BasicParticles<D>& particles, const BasicDomain<D>& domain, double radius) {
+  BasicCellGrid<D> grid(domain, radius);
   grid.bin(particles);
   return grid.neighbors(particles, radius);
 }
+
+template struct BasicDomain<2>;
+template struct BasicDomain<3>;
+template class BasicCellGrid<2>;
+template class BasicCellGrid<3>;
+template NeighborList restrict_radius(const NeighborList&, const Particles&, const Domain&, double);
+template NeighborList restrict_radius(const NeighborList&, const Particles3&, const Domain3&, double);
+template void restrict_radius(const NeighborList&, const Particles&, const Domain&, double, NeighborList&);
+template void restrict_radius(const NeighborList&, const Particles3&, const Domain3&, double, NeighborList&);
+template NeighborList find_neighbors(const Particles&, const Domain&, double);
+template NeighborList find_neighbors(const Particles3&, const Domain3&, double);
 
 }  // namespace mps

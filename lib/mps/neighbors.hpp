@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Neighbour search on a uniform cell grid, producing CSR neighbour lists (one per radius).
+/// The domain, and neighbour search on a uniform cell grid producing CSR neighbour lists (one per radius), in 2-D and
+/// 3-D.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,20 +12,60 @@
 
 namespace mps {
 
-/// The region particles may occupy. A particle outside a non-periodic extent has escaped (the stability
-/// guard reports it); a periodic axis wraps positions and measures distances by the minimum image.
-struct Domain {
+/// The extent of a D-dimensional domain, by axis name (specialised for D = 2 and 3).
+template <int D>
+struct Extent;
+
+/// [xmin, xmax] x [ymin, ymax], each axis closed or periodic.
+template <>
+struct Extent<2> {
   /// @{ extent [m]
   double xmin = 0, xmax = 0, ymin = 0, ymax = 0;  /// @}
-  /// @{ whether an axis wraps around (period: width() or height())
+  /// @{ whether an axis wraps around (period: its extent)
   bool periodic_x = false, periodic_y = false;  /// @}
+  /// The lower and upper bounds and the periodicity, by axis.
+  [[nodiscard]] std::array<double, 2> lower() const { return {xmin, ymin}; }
+  [[nodiscard]] std::array<double, 2> upper() const { return {xmax, ymax}; }  ///< same, upper bounds
+  [[nodiscard]] std::array<bool, 2> periodic() const { return {periodic_x, periodic_y}; }  ///< same, periodicity
+};
 
-  [[nodiscard]] double width() const { return xmax - xmin; }   ///< xmax - xmin
-  [[nodiscard]] double height() const { return ymax - ymin; }  ///< ymax - ymin
+/// [xmin, xmax] x [ymin, ymax] x [zmin, zmax], each axis closed or periodic.
+template <>
+struct Extent<3> {
+  /// @{ extent [m]
+  double xmin = 0, xmax = 0, ymin = 0, ymax = 0, zmin = 0, zmax = 0;  /// @}
+  /// @{ whether an axis wraps around (period: its extent)
+  bool periodic_x = false, periodic_y = false, periodic_z = false;  /// @}
+  /// The lower and upper bounds and the periodicity, by axis.
+  [[nodiscard]] std::array<double, 3> lower() const { return {xmin, ymin, zmin}; }
+  [[nodiscard]] std::array<double, 3> upper() const { return {xmax, ymax, zmax}; }  ///< same, upper bounds
+  [[nodiscard]] std::array<bool, 3> periodic() const { return {periodic_x, periodic_y, periodic_z}; }  ///< same
+};
+
+/// The region particles may occupy. A particle outside a non-periodic extent has escaped (the stability
+/// guard reports it); a periodic axis wraps positions and measures distances by the minimum image.
+template <int D>
+struct BasicDomain : Extent<D> {
+  /// The extent along axis d.
+  [[nodiscard]] double extent(int d) const {
+    return this->upper()[static_cast<std::size_t>(d)] - this->lower()[static_cast<std::size_t>(d)];
+  }
+  [[nodiscard]] double width() const { return this->xmax - this->xmin; }   ///< xmax - xmin
+  [[nodiscard]] double height() const { return this->ymax - this->ymin; }  ///< ymax - ymin
   /// r_j - r_i, by the minimum image on periodic axes.
-  [[nodiscard]] std::array<double, 2> displacement(double xi, double yi, double xj, double yj) const {
-    return {periodic_x ? nearest_image(xj - xi, width()) : xj - xi,
-            periodic_y ? nearest_image(yj - yi, height()) : yj - yi};
+  [[nodiscard]] Vec<D> displacement(const Vec<D>& ri, const Vec<D>& rj) const {
+    Vec<D> d;
+    const auto periodic = this->periodic();
+    for (std::size_t a = 0; a < D; ++a)
+      d[a] = periodic[a] ? nearest_image(rj[a] - ri[a], extent(static_cast<int>(a))) : rj[a] - ri[a];
+    return d;
+  }
+  /// 2-D: r_j - r_i from coordinates.
+  [[nodiscard]] std::array<double, 2> displacement(double xi, double yi, double xj, double yj) const
+    requires(D == 2)
+  {
+    return {this->periodic_x ? nearest_image(xj - xi, width()) : xj - xi,
+            this->periodic_y ? nearest_image(yj - yi, height()) : yj - yi};
   }
   /// d - L round(d / L), rounding half to even; the comparisons settle the usual |d| < 1.5 L without a
   /// division (this sits in every pair loop of a periodic channel).
@@ -35,10 +76,22 @@ struct Domain {
     if (d >= -half && d <= half) return d;
     return d - length * std::nearbyint(d / length);
   }
-  [[nodiscard]] bool contains(double x, double y) const;  ///< finite and inside the extent on non-periodic axes
-  void wrap(double& x, double& y) const;  ///< into [min, max) on periodic axes
-  void validate() const;                  ///< throws std::invalid_argument with the reason
+  [[nodiscard]] bool contains(const Vec<D>& r) const;  ///< finite and inside the extent on non-periodic axes
+  /// 2-D: the same for (x, y).
+  [[nodiscard]] bool contains(double x, double y) const
+    requires(D == 2)
+  {
+    return contains(Vec<2>{x, y});
+  }
+  void wrap(Vec<D>& r) const;  ///< into [min, max) on periodic axes
+  /// 2-D: the same for (x, y).
+  void wrap(double& x, double& y) const
+    requires(D == 2);
+  void validate() const;  ///< throws std::invalid_argument with the reason
 };
+
+using Domain = BasicDomain<2>;   ///< a 2-D domain
+using Domain3 = BasicDomain<3>;  ///< a 3-D domain
 
 /// Neighbours in CSR form: those of particle i are index[offsets[i] .. offsets[i+1]), sorted ascending, i itself
 /// excluded.
@@ -55,59 +108,93 @@ struct NeighborList {
   [[nodiscard]] std::size_t pairs() const { return index.size(); }  ///< entries, each pair counted from both sides
 };
 
-/// Bins the active (non-ghost) particles into square cells at least half of `cell_size` wide; one binning
+/// Bins the active (non-ghost) particles into square (cubic) cells at least half of `cell_size` wide; one binning
 /// serves every radius up to cell_size. The binned coordinates are kept in cell order, so a search scans a few
-/// contiguous runs of memory (one per row of cells) instead of chasing particle indices.
-class CellGrid {
+/// contiguous runs of memory (one per row of cells along x) instead of chasing particle indices.
+template <int D>
+class BasicCellGrid {
  public:
-  CellGrid(const Domain& domain, double cell_size);  ///< an empty grid; throws for a bad domain or size
-  void bin(const Particles& particles);  ///< sorts the particles' current positions into the cells
+  BasicCellGrid(const BasicDomain<D>& domain, double cell_size);  ///< an empty grid; throws for a bad domain or size
+  void bin(const BasicParticles<D>& particles);  ///< sorts the particles' current positions into the cells
   /// `particles` must be those last passed to bin(), not moved since.
-  [[nodiscard]] NeighborList neighbors(const Particles& particles, double radius) const;
+  [[nodiscard]] NeighborList neighbors(const BasicParticles<D>& particles, double radius) const;
   /// Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
   /// the kernel hand out (and zero) fresh pages every step.
-  void neighbors(const Particles& particles, double radius, NeighborList& out) const;
+  void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out) const;
   /// One search filling the lists of two radii, `inner` for inner_radius <= radius: cheaper than searching
   /// once and restricting the list.
-  void neighbors(const Particles& particles, double radius, NeighborList& out, double inner_radius,
+  void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out, double inner_radius,
                  NeighborList& inner) const;
   /// A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
   /// neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
   [[nodiscard]] double cell_size() const { return cell_size_; }  ///< the largest radius a search may use
-  /// Calls f(j, dx, dy) for every binned particle j closer than radius (<= cell size) to the point (x, y),
-  /// with (dx, dy) = r_j - (x, y) by the minimum image.
+  /// Calls f(j, d) for every binned particle j closer than radius (<= cell size) to the point r, with d = r_j - r
+  /// by the minimum image.
   template <class F>
-  void for_each_near(double x, double y, double radius, F&& f) const {
-    if (domain_.periodic_x || domain_.periodic_y) domain_.wrap(x, y);
+  void for_each_near(Vec<D> r, double radius, F&& f) const {
+    domain_.wrap(r);
     const double r2 = radius * radius;
-    for_each_run(x, y, radius, [&](int begin, int end, double sx, double sy) {
+    for_each_run(r, radius, [&](int begin, int end, const Vec<D>& shift) {
       for (int k = begin; k < end; ++k) {
         const auto kk = static_cast<std::size_t>(k);
-        const double dx = xs_[kk] + sx - x, dy = ys_[kk] + sy - y;
-        if (dx * dx + dy * dy < r2) f(ids_[kk], dx, dy);
+        Vec<D> d;
+        for (std::size_t a = 0; a < D; ++a) d[a] = coords_[a][kk] + shift[a] - r[a];
+        if (norm2(d) < r2) f(ids_[kk], d);
       }
     });
   }
+  /// 2-D: calls f(j, dx, dy) for every binned particle j closer than radius to (x, y).
+  template <class F>
+  void for_each_near(double x, double y, double radius, F&& f) const
+    requires(D == 2)
+  {
+    for_each_near(Vec<2>{x, y}, radius, [&](int j, const Vec<2>& d) { f(j, d[0], d[1]); });
+  }
 
  private:
-  void search(const Particles& particles, double radius, NeighborList& list, NeighborList* inner) const;
-  // The cell-ordered runs [begin, end) that hold every binned particle within radius of (x, y) (wrapped into
-  // the domain), each with the shift (sx, sy) that turns its coordinates into the nearest periodic image.
+  static double norm2(const Vec<D>& d) {
+    double s = d[0] * d[0];
+    for (std::size_t a = 1; a < D; ++a) s += d[a] * d[a];
+    return s;
+  }
+  void search(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner) const;
+  // The cell-ordered runs [begin, end) along x that hold every binned particle within radius of r (wrapped into the
+  // domain), each with the shift that turns its coordinates into the nearest periodic image.
   template <class Run>
-  void for_each_run(double x, double y, double radius, Run&& run) const {
-    const auto [ylo, yhi] = span(y - domain_.ymin, radius, hy_, ny_, domain_.periodic_y);
-    const auto [xlo, xhi] = span(x - domain_.xmin, radius, hx_, nx_, domain_.periodic_x);
-    for (int ky = ylo; ky <= yhi; ++ky) {
-      const int row = ky < 0 ? ky + ny_ : ky >= ny_ ? ky - ny_ : ky;
-      const double sy = ky < 0 ? -domain_.height() : ky >= ny_ ? domain_.height() : 0.0;
+  void for_each_run(const Vec<D>& r, double radius, Run&& run) const {
+    const auto lower = domain_.lower();
+    const auto periodic = domain_.periodic();
+    std::array<std::array<int, 2>, D> range;
+    for (std::size_t a = 0; a < D; ++a) range[a] = span(r[a] - lower[a], radius, h_[a], n_[a], periodic[a]);
+    // Each row of cells along x at the (y, z) cells of the range, lowest axis fastest after x.
+    std::array<int, D> k{};
+    for (std::size_t a = 1; a < D; ++a) k[a] = range[a][0];
+    const int xlo = range[0][0], xhi = range[0][1], nx = n_[0];
+    while (true) {
+      int row = 0;
+      Vec<D> shift{};
+      for (std::size_t a = D - 1; a >= 1; --a) {
+        const int ka = k[a] < 0 ? k[a] + n_[a] : k[a] >= n_[a] ? k[a] - n_[a] : k[a];
+        shift[a] = k[a] < 0 ? -domain_.extent(static_cast<int>(a)) : k[a] >= n_[a] ? domain_.extent(static_cast<int>(a))
+                                                                                    : 0.0;
+        row = row * n_[a] + ka;
+      }
       const auto row_run = [&](int x0, int x1, double sx) {  // cells x0..x1 of the row are contiguous
-        run(cell_start_[static_cast<std::size_t>(cell_index(x0, row))],
-            cell_start_[static_cast<std::size_t>(cell_index(x1, row)) + 1], sx, sy);
+        Vec<D> s = shift;
+        s[0] = sx;
+        run(cell_start_[static_cast<std::size_t>(row * nx + x0)], cell_start_[static_cast<std::size_t>(row * nx + x1) + 1],
+            s);
       };
-      if (xlo < 0) row_run(xlo + nx_, nx_ - 1, -domain_.width());
-      row_run(std::max(xlo, 0), std::min(xhi, nx_ - 1), 0.0);
-      if (xhi >= nx_) row_run(0, xhi - nx_, domain_.width());
+      if (xlo < 0) row_run(xlo + nx, nx - 1, -domain_.extent(0));
+      row_run(std::max(xlo, 0), std::min(xhi, nx - 1), 0.0);
+      if (xhi >= nx) row_run(0, xhi - nx, domain_.extent(0));
+      std::size_t a = 1;
+      for (; a < D; ++a) {
+        if (++k[a] <= range[a][1]) break;
+        k[a] = range[a][0];
+      }
+      if (a == D) break;
     }
   }
   // The cells along one axis that can hold a particle within radius of offset u: clamped to the grid on a
@@ -117,26 +204,33 @@ class CellGrid {
     if (!periodic) return {std::clamp(lo, 0, cells - 1), std::clamp(hi, 0, cells - 1)};
     return {std::max(lo, hi - cells + 1), hi};  // never more than one lap
   }
-  [[nodiscard]] int cell_index(int cx, int cy) const { return cy * nx_ + cx; }
-  [[nodiscard]] std::array<int, 2> cell_of(double x, double y) const;
+  [[nodiscard]] int cell_of(const Vec<D>& r) const;
 
-  Domain domain_;
-  double cell_size_ = 0, hx_ = 0, hy_ = 0;
-  int nx_ = 0, ny_ = 0;
+  BasicDomain<D> domain_;
+  double cell_size_ = 0;
+  Vec<D> h_{};
+  std::array<int, D> n_{};
   std::size_t n_particles_ = 0;
   std::vector<int> cell_start_;  // CSR over cells
   std::vector<int> ids_;         // particle indices, grouped by cell
-  std::vector<double> xs_, ys_;  // their coordinates, in the same order
+  std::array<std::vector<double>, D> coords_;  // their coordinates, in the same order
   std::vector<int> ghosts_;
 };
 
+using CellGrid = BasicCellGrid<2>;   ///< the 2-D grid
+using CellGrid3 = BasicCellGrid<3>;  ///< the 3-D grid
+
 /// The pairs of `list` closer than radius (<= list.radius): a smaller kernel's list without a second search.
-NeighborList restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius);
+template <int D>
+NeighborList restrict_radius(const NeighborList& list, const BasicParticles<D>& particles,
+                             const BasicDomain<D>& domain, double radius);
 /// Same, refilling `out` in place (reusing its memory).
-void restrict_radius(const NeighborList& list, const Particles& particles, const Domain& domain, double radius,
-                     NeighborList& out);
+template <int D>
+void restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                     double radius, NeighborList& out);
 
 /// One-off search (bins and searches once).
-NeighborList find_neighbors(const Particles& particles, const Domain& domain, double radius);
+template <int D>
+NeighborList find_neighbors(const BasicParticles<D>& particles, const BasicDomain<D>& domain, double radius);
 
 }  // namespace mps

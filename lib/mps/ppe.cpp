@@ -1,4 +1,5 @@
 #include "mps/ppe.hpp"
+#include "mps/vec.hpp"
 #include "mps/parallel.hpp"
 
 #include <algorithm>
@@ -90,14 +91,16 @@ void mixed_source(std::span<const double> n_star, double n0, std::span<const dou
     s[i] = (1.0 - gamma) * rho / dt * div_u_star[i] - gamma * rho / (dt * dt) * (n_star[i] - n0) / n0;
 }
 
-std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
+template <int D>
+std::vector<char> detect_free_surface(const BasicParticles<D>& particles, std::span<const double> n_star, double n0,
                                       double beta, const NeighborList* neighbors, int lattice_neighbors, double theta) {
   std::vector<char> surface;
   detect_free_surface(particles, n_star, n0, beta, neighbors, lattice_neighbors, theta, surface);
   return surface;
 }
 
-void detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0, double beta,
+template <int D>
+void detect_free_surface(const BasicParticles<D>& particles, std::span<const double> n_star, double n0, double beta,
                          const NeighborList* neighbors, int lattice_neighbors, double theta,
                          std::vector<char>& surface) {
   if (!(beta > 0.0 && beta < 1.0)) throw std::invalid_argument("free surface: beta must be in (0, 1)");
@@ -110,22 +113,24 @@ void detect_free_surface(const Particles& particles, std::span<const double> n_s
                   static_cast<double>(neighbors->of(i).size()) < max_count);
 }
 
-PpeSystem assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
+template <int D>
+PpeSystem assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
                        std::span<const double> dirichlet, double shift, ClosedGroups closed) {
   PpeSystem sys;
   assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed);
   return sys;
 }
 
-void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::span<const double> source,
+template <int D>
+void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
                   PpeSystem& sys, std::span<const double> dirichlet, double shift, ClosedGroups closed) {
-  const Particles& p = s.particles;
+  const BasicParticles<D>& p = s.particles;
   const std::size_t n = p.size();
   if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n))
     throw std::invalid_argument(
         "assemble_ppe: free-surface flags, source and Dirichlet values must have one entry per particle");
   if (!(shift >= 0.0) || !std::isfinite(shift)) throw std::invalid_argument("assemble_ppe: shift must be >= 0");
-  const double c = 2.0 * kDim / (s.kernel.lambda * s.kernel.n0);
+  const double c = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
 
   // Who enters a Laplacian sum: fluid particles (free-surface ones as Dirichlet P = 0) and wet walls. A dry
   // wall (a wall flagged free surface: above the water line) is a zero-flux boundary like a dummy, not a
@@ -138,8 +143,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   auto coupled = [&](std::size_t i, std::size_t j) {
     if (!in_sum(j)) return false;
     if (all_in_kernel) return true;
-    const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
-    return s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1])) > 0.0;
+    return s.kernel.w(std::sqrt(norm2<D>(s.domain.displacement(p.position(i), p.position(j))))) > 0.0;
   };
   // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
   auto ppe_weight = [&](std::size_t i, auto&& each) {
@@ -147,8 +151,7 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
       if (!in_sum(j)) continue;
-      const auto d = s.domain.displacement(p.x[i], p.y[i], p.x[j], p.y[j]);
-      const double w = s.kernel.w(std::sqrt(d[0] * d[0] + d[1] * d[1]));
+      const double w = s.kernel.w(std::sqrt(norm2<D>(s.domain.displacement(p.position(i), p.position(j)))));
       if (w <= 0.0) continue;
       diag += w;
       each(j, w);
@@ -233,13 +236,15 @@ void assemble_ppe(const Stencil& s, std::span<const char> free_surface, std::spa
   }
 }
 
-std::vector<double> PpeSystem::gather(const Particles& particles, std::span<const double> offset) const {
+template <int D>
+std::vector<double> PpeSystem::gather(const BasicParticles<D>& particles, std::span<const double> offset) const {
   std::vector<double> x;
   gather(particles, x, offset);
   return x;
 }
 
-void PpeSystem::gather(const Particles& particles, std::vector<double>& x, std::span<const double> offset) const {
+template <int D>
+void PpeSystem::gather(const BasicParticles<D>& particles, std::vector<double>& x, std::span<const double> offset) const {
   x.resize(particle.size());
   for (std::size_t r = 0; r < x.size(); ++r) {
     const auto i = static_cast<std::size_t>(particle[r]);
@@ -247,7 +252,8 @@ void PpeSystem::gather(const Particles& particles, std::vector<double>& x, std::
   }
 }
 
-void PpeSystem::scatter(std::span<const double> solution, Particles& particles, bool clamp_negative,
+template <int D>
+void PpeSystem::scatter(std::span<const double> solution, BasicParticles<D>& particles, bool clamp_negative,
                         std::span<const double> offset) const {
   if (solution.size() != particle.size()) throw std::invalid_argument("PpeSystem::scatter: wrong solution length");
   if (!offset.empty() && offset.size() != particles.size())
@@ -267,15 +273,17 @@ void PpeSystem::scatter(std::span<const double> solution, Particles& particles, 
   }
 }
 
-std::vector<char> set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> free_surface, double rho,
-                                     double fx, double fy) {
+template <int D>
+std::vector<char> set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::span<const char> free_surface,
+                                     double rho, const std::type_identity_t<Vec<D>>& f) {
   std::vector<char> carrier;
-  set_dummy_pressure(s, p, free_surface, rho, fx, fy, carrier);
+  set_dummy_pressure(s, p, free_surface, rho, f, carrier);
   return carrier;
 }
 
-void set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> free_surface, double rho, double fx,
-                        double fy, std::vector<char>& carrier) {
+template <int D>
+void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::span<const char> free_surface, double rho,
+                        const std::type_identity_t<Vec<D>>& f, std::vector<char>& carrier) {
   const auto n = static_cast<Index>(p.size());
   carrier.assign(p.size(), 0);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
@@ -287,16 +295,36 @@ void set_dummy_pressure(const Stencil& s, Particles& p, std::span<const char> fr
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
       if (p.kind[j] != Kind::wall || free_surface[j]) continue;
-      const auto d = s.domain.displacement(p.x[j], p.y[j], p.x[i], p.y[i]);  // r_dummy - r_wall
-      const double r2 = d[0] * d[0] + d[1] * d[1];
+      const Vec<D> d = s.domain.displacement(p.position(j), p.position(i));  // r_dummy - r_wall
+      const double r2 = norm2<D>(d);
       if (r2 < best_r2) {  // strict: the lowest-numbered of equally near walls wins, whatever the threads do
         best_r2 = r2;
-        pressure = p.p[j] + rho * (fx * d[0] + fy * d[1]);
+        pressure = p.p[j] + rho * dot<D>(f, d);
         carrier[i] = 1;
       }
     }
     p.p[i] = pressure;
   }
 }
+
+#define MPS_PPE_FOR(D)                                                                                                \
+  template std::vector<char> detect_free_surface(const BasicParticles<D>&, std::span<const double>, double, double,  \
+                                                 const NeighborList*, int, double);                                   \
+  template void detect_free_surface(const BasicParticles<D>&, std::span<const double>, double, double,                \
+                                    const NeighborList*, int, double, std::vector<char>&);                            \
+  template PpeSystem assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>,             \
+                                  std::span<const double>, double, ClosedGroups);                                     \
+  template void assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>, PpeSystem&,      \
+                             std::span<const double>, double, ClosedGroups);                                          \
+  template std::vector<double> PpeSystem::gather(const BasicParticles<D>&, std::span<const double>) const;            \
+  template void PpeSystem::gather(const BasicParticles<D>&, std::vector<double>&, std::span<const double>) const;     \
+  template void PpeSystem::scatter(std::span<const double>, BasicParticles<D>&, bool, std::span<const double>) const; \
+  template std::vector<char> set_dummy_pressure<D>(const BasicStencil<D>&, BasicParticles<D>&, std::span<const char>,   \
+                                                double, const Vec<D>&);                                               \
+  template void set_dummy_pressure<D>(const BasicStencil<D>&, BasicParticles<D>&, std::span<const char>, double,         \
+                                   const Vec<D>&, std::vector<char>&);
+MPS_PPE_FOR(2)
+MPS_PPE_FOR(3)
+#undef MPS_PPE_FOR
 
 }  // namespace mps

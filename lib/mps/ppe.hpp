@@ -34,10 +34,12 @@ void mixed_source(std::span<const double> n_star, double n0, std::span<const dou
 /// Wall particles with n* < beta n0, and fluid particles with n* < beta n0 and fewer than theta N0 neighbours
 /// (N0: the perfect lattice's count; theta <= 0 skips the count test). Dummies and ghosts are never flagged. The
 /// count keeps the row under the surface from flickering; walls take the density test alone (docs/numerics.md).
-std::vector<char> detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0,
+template <int D>
+std::vector<char> detect_free_surface(const BasicParticles<D>& particles, std::span<const double> n_star, double n0,
                                       double beta, const NeighborList* neighbors = nullptr, int lattice_neighbors = 0,
                                       double theta = 0.0);
-void detect_free_surface(const Particles& particles, std::span<const double> n_star, double n0, double beta,
+template <int D>
+void detect_free_surface(const BasicParticles<D>& particles, std::span<const double> n_star, double n0, double beta,
                          const NeighborList* neighbors, int lattice_neighbors, double theta,
                          std::vector<char>& out);  ///< same, reusing out's memory
 
@@ -62,8 +64,10 @@ struct PpeSystem {
   [[nodiscard]] std::size_t size() const { return particle.size(); }  ///< number of unknowns
   /// Particle pressures of the unknowns, as an initial guess (warm start).
   /// `offset` (per particle, optional): the unknowns are p - offset (see assemble_ppe's `dirichlet`).
-  [[nodiscard]] std::vector<double> gather(const Particles& particles, std::span<const double> offset = {}) const;
-  void gather(const Particles& particles, std::vector<double>& out,
+  template <int D>
+  [[nodiscard]] std::vector<double> gather(const BasicParticles<D>& particles, std::span<const double> offset = {}) const;
+  template <int D>
+  void gather(const BasicParticles<D>& particles, std::vector<double>& out,
               std::span<const double> offset = {}) const;  ///< same, reusing out's memory
   /// Writes the solution to the particles: unknowns get it (floating groups shifted to zero mean), fluid
   /// and wall particles that are not unknowns get 0; dummies are left for set_dummy_pressure.
@@ -72,7 +76,8 @@ struct PpeSystem {
   /// tensile instability. Floating groups are never clamped, their level being a gauge.
   /// With `offset` the unknowns solved for are p - offset: each unknown's pressure is solution + offset (the clamp
   /// applying to that sum).
-  void scatter(std::span<const double> solution, Particles& particles, bool clamp_negative = false,
+  template <int D>
+  void scatter(std::span<const double> solution, BasicParticles<D>& particles, bool clamp_negative = false,
                std::span<const double> offset = {}) const;
 };
 
@@ -89,11 +94,13 @@ enum class ClosedGroups {
 /// `shift` (>= 0) is added to every diagonal entry, A = -lap + shift I: a compressibility term (see
 /// SimulationConfig::sound_speed). With shift > 0 no group is singular and none gets the gauge.
 /// `closed`: whether closed groups get the gauge (the default) or are left singular.
-PpeSystem assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet = {}, double shift = 0.0,
+template <int D = 2>
+PpeSystem assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface,
+                       std::span<const double> source, std::span<const double> dirichlet = {}, double shift = 0.0,
                        ClosedGroups closed = ClosedGroups::gauge);
 /// Same, refilling `out` in place (reusing its memory across time steps).
-void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, std::span<const double> source,
+template <int D = 2>
+void assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface, std::span<const double> source,
                   PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0,
                   ClosedGroups closed = ClosedGroups::gauge);
 
@@ -103,9 +110,23 @@ void assemble_ppe(const Stencil& laplacian, std::span<const char> free_surface, 
 /// Returns the pressure carriers: fluid particles, wet walls, and dummies that found a wet wall. Dry walls and
 /// the dummies behind them hold no pressure and must stay out of the pressure gradient: counted there as
 /// P = 0 neighbours, they change a contact-line particle's support from that of the open surface next to it.
-std::vector<char> set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface,
-                                     double rho, double fx, double fy);
-void set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface, double rho,
-                        double fx, double fy, std::vector<char>& carriers);  ///< same, reusing carriers' memory
+template <int D = 2>
+std::vector<char> set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& particles,
+                                     std::span<const char> free_surface, double rho,
+                                     const std::type_identity_t<Vec<D>>& f);
+template <int D = 2>
+void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& particles, std::span<const char> free_surface,
+                        double rho, const std::type_identity_t<Vec<D>>& f,
+                        std::vector<char>& carriers);  ///< same, reusing carriers' memory
+/// 2-D: the same with the body force as (fx, fy).
+inline std::vector<char> set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface,
+                                            double rho, double fx, double fy) {
+  return set_dummy_pressure<2>(s, particles, free_surface, rho, Vec<2>{fx, fy});
+}
+/// 2-D: the same, reusing carriers' memory.
+inline void set_dummy_pressure(const Stencil& s, Particles& particles, std::span<const char> free_surface, double rho,
+                               double fx, double fy, std::vector<char>& carriers) {
+  set_dummy_pressure<2>(s, particles, free_surface, rho, Vec<2>{fx, fy}, carriers);
+}
 
 }  // namespace mps

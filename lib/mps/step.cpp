@@ -1,5 +1,6 @@
 #include "mps/step.hpp"
 #include "mps/parallel.hpp"
+#include "mps/vec.hpp"
 
 #include "mps/components.hpp"
 
@@ -34,13 +35,26 @@ std::string fmt(double v) {
 
 // What the first step would turn into NaN without a word: a non-finite velocity or pressure, and two particles at one
 // point (r_ij / |r_ij|^2 in the gradient and divergence). Ghosts are inactive and may hold anything.
-void check_initial_state(const Particles& p, CellGrid& grid, double l0) {
+template <int D>
+std::string fmt(const Vec<D>& r) {
+  std::string text = "(" + fmt(r[0]);
+  for (std::size_t a = 1; a < D; ++a) text += ", " + fmt(r[a]);
+  return text + ")";
+}
+
+template <int D>
+void check_initial_state(const BasicParticles<D>& p, BasicCellGrid<D>& grid, double l0) {
+  static constexpr const char* velocity_names[3] = {"velocity u", "velocity v", "velocity w"};
+  const auto vel = p.velocities();
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (p.kind[i] == Kind::ghost) continue;
-    for (const auto& [field, value] : {std::pair{"velocity u", p.u[i]}, {"velocity v", p.v[i]}, {"pressure p", p.p[i]}})
+    for (std::size_t a = 0; a <= D; ++a) {
+      const double value = a < D ? (*vel[a])[i] : p.p[i];
       if (!std::isfinite(value))
-        throw std::invalid_argument("simulation: particle " + std::to_string(i) + " has " + field + " = " + fmt(value) +
+        throw std::invalid_argument("simulation: particle " + std::to_string(i) + " has " +
+                                    (a < D ? velocity_names[a] : "pressure p") + " = " + fmt(value) +
                                     "; every particle but ghosts needs a finite velocity and pressure");
+    }
   }
   // "One point" up to round-off: a periodic image one period away lands within a few ulps, not exactly.
   const double same = 1e-6 * l0;
@@ -48,12 +62,12 @@ void check_initial_state(const Particles& p, CellGrid& grid, double l0) {
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (p.kind[i] == Kind::ghost) continue;
     int twin = -1;
-    grid.for_each_near(p.x[i], p.y[i], same, [&](int j, double, double) {
+    grid.for_each_near(p.position(i), same, [&](int j, const Vec<D>&) {
       if (static_cast<std::size_t>(j) > i && (twin < 0 || j < twin)) twin = j;
     });
     if (twin >= 0)
       throw std::invalid_argument("simulation: particles " + std::to_string(i) + " and " + std::to_string(twin) +
-                                  " sit at one position (" + fmt(p.x[i]) + ", " + fmt(p.y[i]) + "), closer than " +
+                                  " sit at one position " + fmt<D>(p.position(i)) + ", closer than " +
                                   fmt(same / l0) + " l0; remove or move one of them");
   }
 }
@@ -78,7 +92,7 @@ void SimulationConfig::validate() const {
   radius_in_range(radius_laplacian, "radius_laplacian");
   require(positive(rho), "density rho must be positive, got " + fmt(rho));
   require(nu >= 0.0 && std::isfinite(nu), "viscosity nu must be >= 0, got " + fmt(nu));
-  require(std::isfinite(fx) && std::isfinite(fy), "body force must be finite");
+  require(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(fz), "body force must be finite");
   require(gamma >= 0.0 && gamma <= 1.0, "gamma must be in [0, 1], got " + fmt(gamma));
   require(beta > 0.0 && beta < 1.0, "beta must be in (0, 1), got " + fmt(beta));
   require(theta >= 0.0 && theta <= 1.0, "theta must be in [0, 1], got " + fmt(theta));
@@ -93,61 +107,81 @@ void SimulationConfig::validate() const {
           "sound_speed must be >= 0 (0: incompressible), got " + fmt(sound_speed));
 }
 
-Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config)
-    : Simulation(std::move(particles), domain, config, make_solver(config.solver)) {}
+template <int D>
+BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config)
+    : BasicSimulation(std::move(particles), domain, config, make_solver(config.solver)) {}
 
-Simulation::Simulation(Particles particles, Domain domain, SimulationConfig config,
-                       std::unique_ptr<LinearSolver> solver)
+template <int D>
+BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config,
+                                    std::unique_ptr<LinearSolver> solver)
     : particles_(std::move(particles)),
       solver_(std::move(solver)),
       domain_(domain),
       config_(validated(std::move(config))),  // before the kernels, so that a bad radius is named as the field
-      k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight)),
-      k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight)),
-      k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight)),
-      k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight)),
+      k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight, D)),
+      k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight, D)),
+      k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight, D)),
+      k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight, D)),
       grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
                                             config_.radius_laplacian})) {
   if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
+  if (D == 2 && config_.fz != 0.0)
+    throw std::invalid_argument("simulation config: fz = " + fmt(config_.fz) + " is a 3-D body force; a 2-D "
+                                "simulation takes fx and fy");
   if (config_.implicit_viscosity) viscosity_solver_ = make_solver(config_.viscosity_solver);
   if (particles_.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: the domain holds no fluid particles");
   for (std::size_t i = 0; i < particles_.size(); ++i)
-    if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.x[i], particles_.y[i]))
-      throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at (" + fmt(particles_.x[i]) + ", " +
-                                  fmt(particles_.y[i]) + ") starts outside the domain");
+    if (particles_.kind[i] != Kind::ghost && !domain_.contains(particles_.position(i)))
+      throw std::invalid_argument("simulation: particle " + std::to_string(i) + " at " + fmt<D>(particles_.position(i)) +
+                                  " starts outside the domain");
   check_initial_state(particles_, grid_, config_.l0);
   // The configuration's own components, ahead of any a scene adds (the outlet reads the hydrostatic offset).
   const bool split = config_.hydrostatic_split && config_.min_reference_tilt;
-  const double fhx = split && !domain_.periodic_x ? config_.fx : 0.0;
-  const double fhy = split && !domain_.periodic_y ? config_.fy : 0.0;
-  if (fhx != 0.0 || fhy != 0.0) add<HydrostaticSplit>(fhx, fhy);
-  if (config_.initial_reference_density) add<InitialReferenceDensity>(particles_, domain_, grid_, k_density_);
-  if (config_.shifting > 0.0) add<ParticleShifting>(config_.shifting, config_.shift_along_free_surface);
+  const Vec<D> f = config_.body_force<D>();
+  const auto periodic = domain_.periodic();
+  Vec<D> balanced{};
+  bool any = false;
+  for (std::size_t a = 0; a < D; ++a) {
+    balanced[a] = split && !periodic[a] ? f[a] : 0.0;
+    any = any || balanced[a] != 0.0;
+  }
+  if (any) add<BasicHydrostaticSplit<D>>(balanced);
+  if (config_.initial_reference_density)
+    add<BasicInitialReferenceDensity<D>>(particles_, domain_, grid_, k_density_);
+  if (config_.shifting > 0.0) add<BasicParticleShifting<D>>(config_.shifting, config_.shift_along_free_surface);
 }
 
-void Simulation::run(void (StepComponent::*hook)(StepContext&)) {
+template <int D>
+void BasicSimulation<D>::run(void (StepComponent::*hook)(StepContext&)) {
   StepContext context{*this, particles_, fields_};
   for (const auto& component : components_) ((*component).*hook)(context);
 }
 
-double Simulation::components_reach() const {
+template <int D>
+double BasicSimulation<D>::components_reach() const {
   double reach = 0.0;
   for (const auto& component : components_) reach = std::max(reach, component->reach(*this));
   return reach;
 }
 
-double max_fluid_speed_squared(const Particles& p) {
+template <int D>
+double max_fluid_speed_squared(const BasicParticles<D>& p) {
   double umax2 = 0.0;
   const auto n = static_cast<Index>(p.size());
+  const auto vel = p.velocities();
 #pragma omp parallel for schedule(static) reduction(max : umax2) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    if (p.kind[i] == Kind::fluid) umax2 = std::max(umax2, p.u[i] * p.u[i] + p.v[i] * p.v[i]);
+    if (p.kind[i] != Kind::fluid) continue;
+    double speed2 = (*vel[0])[i] * (*vel[0])[i];
+    for (std::size_t a = 1; a < D; ++a) speed2 += (*vel[a])[i] * (*vel[a])[i];
+    umax2 = std::max(umax2, speed2);
   }
   return umax2;
 }
 
-double Simulation::choose_dt(std::string& limit) const {
+template <int D>
+double BasicSimulation<D>::choose_dt(std::string& limit) const {
   const double umax2 = max_over_ranks(max_fluid_speed_squared(particles_));
   double dt = config_.dt_max;
   limit = "dt_max";
@@ -164,7 +198,8 @@ double Simulation::choose_dt(std::string& limit) const {
   return dt;
 }
 
-const StepInfo& Simulation::step() {
+template <int D>
+const StepInfo& BasicSimulation<D>::step() {
   check_components();
   before_step_ = particles_;
   const StepInfo info_before = info_;
@@ -189,14 +224,15 @@ const StepInfo& Simulation::step() {
   throw SimulationError(failure);
 }
 
-void Simulation::advance() {
+template <int D>
+void BasicSimulation<D>::advance() {
   StepFields& f = fields_;
   begin_step();
   auto t = Clock::now();
   f.dt = choose_dt(info_.dt_limit);
   f.time = info_.time + f.dt;
   info_.dt = f.dt;
-  f.balanced_fx = f.balanced_fy = 0.0;
+  f.balanced = {};
   f.n_source.clear();
   f.held.clear();
   f.held_value.clear();
@@ -243,7 +279,8 @@ void Simulation::advance() {
   times_.correct += lap(t);
 }
 
-void Simulation::find_neighbors_now() {
+template <int D>
+void BasicSimulation<D>::find_neighbors_now() {
   Particles& p = particles_;
   if (config_.reorder_every > 0 && info_.step % config_.reorder_every == 0) {
     grid_.bin(p);
@@ -255,42 +292,56 @@ void Simulation::find_neighbors_now() {
 }
 
 // Walls and dummies carry their (prescribed or mirrored) velocity into the viscous sum: the no-slip condition.
-void Simulation::predict() {
+template <int D>
+void BasicSimulation<D>::predict() {
   if (config_.implicit_viscosity) implicit_viscous_predictor();
   else explicit_viscous_predictor();
 }
 
-void Simulation::explicit_viscous_predictor() {
+template <int D>
+void BasicSimulation<D>::explicit_viscous_predictor() {
   Particles& p = particles_;
   StepFields& f = fields_;
   const auto n = static_cast<Index>(p.size());
   const double dt = f.dt;
-  f.lu.assign(p.size(), 0.0);
-  f.lv.assign(p.size(), 0.0);
-  laplacian({p, domain_, neighbors_now(), k_laplacian_}, p.u, p.v, f.lu, f.lv);
+  const auto pos = p.positions();
+  const auto vel = p.velocities();
+  ConstComponents<D> u;
+  Components<D> lap;
+  for (std::size_t a = 0; a < D; ++a) {
+    f.lap_u[a].assign(p.size(), 0.0);
+    u[a] = *vel[a];
+    lap[a] = f.lap_u[a];
+  }
+  laplacian<D>({p, domain_, neighbors_now(), k_laplacian_}, u, lap);
+  const Vec<D> force = config_.body_force<D>();
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid) continue;
-    if (!f.prescribed[i]) {
-      p.u[i] += dt * (config_.nu * f.lu[i] + config_.fx - f.balanced_fx);
-      p.v[i] += dt * (config_.nu * f.lv[i] + config_.fy - f.balanced_fy);
-    }
-    p.x[i] += dt * p.u[i];
-    p.y[i] += dt * p.v[i];
-    domain_.wrap(p.x[i], p.y[i]);
+    if (!f.prescribed[i])
+      for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] += dt * (config_.nu * f.lap_u[a][i] + force[a] - f.balanced[a]);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*pos[a])[i] + dt * (*vel[a])[i];
+    domain_.wrap(r);
+    for (std::size_t a = 0; a < D; ++a) (*pos[a])[i] = r[a];
   }
 }
 
 // The boundary velocities are lagged by a step. For the mode a wall's mirror values feed back on (u beside
 // the wall, its mirror -u) that gives the factor (1 - a)/(1 + a), a > 0: stable for any dt.
-void Simulation::implicit_viscous_predictor() {
+template <int D>
+void BasicSimulation<D>::implicit_viscous_predictor() {
   Particles& p = particles_;
   const StepFields& f = fields_;
-  const double dt = f.dt, fx = config_.fx - f.balanced_fx, fy = config_.fy - f.balanced_fy;
-  const CsrMatrix lap = laplacian_matrix({p, domain_, neighbors_now(), k_laplacian_});
+  const double dt = f.dt;
+  Vec<D> force = config_.body_force<D>();
+  for (std::size_t a = 0; a < D; ++a) force[a] -= f.balanced[a];
+  const auto pos = p.positions();
+  const auto vel = p.velocities();
+  const CsrMatrix lap = laplacian_matrix<D>({p, domain_, neighbors_now(), k_laplacian_});
   // Kept between steps for their memory: the system over the fluid, its right-hand sides and solutions.
-  auto& [row, fluid, m, bu, bv, u, v] = viscous_;
+  auto& [row, fluid, m, b, u] = viscous_;
   row.assign(p.size(), -1);
   fluid.clear();
   for (std::size_t i = 0; i < p.size(); ++i)
@@ -305,50 +356,52 @@ void Simulation::implicit_viscous_predictor() {
   m.val.clear();
   m.col.reserve(lap.nnz());
   m.val.reserve(lap.nnz());
-  for (auto* vec : {&bu, &bv, &u, &v}) vec->resize(fluid.size());
+  for (std::size_t c = 0; c < D; ++c) {
+    b[c].resize(fluid.size());
+    u[c].resize(fluid.size());
+  }
   for (std::size_t r = 0; r < fluid.size(); ++r) {
     const std::size_t i = fluid[r];
-    bu[r] = p.u[i] + dt * fx;
-    bv[r] = p.v[i] + dt * fy;
-    u[r] = p.u[i];
-    v[r] = p.v[i];
+    for (std::size_t c = 0; c < D; ++c) {
+      b[c][r] = (*vel[c])[i] + dt * force[c];
+      u[c][r] = (*vel[c])[i];
+    }
     for (auto k = static_cast<std::size_t>(lap.row_ptr[i]); k < static_cast<std::size_t>(lap.row_ptr[i + 1]); ++k) {
       const auto j = static_cast<std::size_t>(lap.col[k]);
       if (row[j] >= 0) {
         m.col.push_back(row[j]);
         m.val.push_back((j == i ? 1.0 : 0.0) - a * lap.val[k]);
       } else {
-        bu[r] += a * lap.val[k] * p.u[j];
-        bv[r] += a * lap.val[k] * p.v[j];
+        for (std::size_t c = 0; c < D; ++c) b[c][r] += a * lap.val[k] * (*vel[c])[j];
       }
     }
     m.row_ptr[r + 1] = static_cast<int>(m.col.size());
   }
   try {
-    info_.viscosity_iterations = viscosity_solver_->solve(m, bu, u).iterations;
-    info_.viscosity_iterations += viscosity_solver_->solve(m, bv, v).iterations;
+    info_.viscosity_iterations = 0;
+    for (std::size_t c = 0; c < D; ++c) info_.viscosity_iterations += viscosity_solver_->solve(m, b[c], u[c]).iterations;
   } catch (const SolverError& e) {
     throw SimulationError("step " + std::to_string(info_.step + 1) + " (t = " + fmt(info_.time) +
                           " s): implicit viscosity solve failed: " + e.what());
   }
+  auto move = [&](std::size_t i) {
+    Vec<D> r;
+    for (std::size_t c = 0; c < D; ++c) r[c] = (*pos[c])[i] + dt * (*vel[c])[i];
+    domain_.wrap(r);
+    for (std::size_t c = 0; c < D; ++c) (*pos[c])[i] = r[c];
+  };
   for (std::size_t r = 0; r < fluid.size(); ++r) {
     const std::size_t i = fluid[r];
-    p.u[i] = u[r];
-    p.v[i] = v[r];
-    p.x[i] += dt * u[r];
-    p.y[i] += dt * v[r];
-    domain_.wrap(p.x[i], p.y[i]);
+    for (std::size_t c = 0; c < D; ++c) (*vel[c])[i] = u[c][r];
+    move(i);
   }
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::fluid && f.prescribed[i]) {
-      p.x[i] += dt * p.u[i];
-      p.y[i] += dt * p.v[i];
-      domain_.wrap(p.x[i], p.y[i]);
-    }
+    if (p.kind[i] == Kind::fluid && f.prescribed[i]) move(i);
 }
 
 // One binning and two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
-void Simulation::find_neighbors_at_star() {
+template <int D>
+void BasicSimulation<D>::find_neighbors_at_star() {
   grid_.bin(particles_);
   small_radius_ = 0.0;
   for (const Kernel* k : {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_})
@@ -357,23 +410,29 @@ void Simulation::find_neighbors_at_star() {
   else grid_.neighbors(particles_, grid_.cell_size(), near_star_);
 }
 
-void Simulation::number_density_and_divergence() {
+template <int D>
+void BasicSimulation<D>::number_density_and_divergence() {
   const Particles& p = particles_;
-  mps::number_density({p, domain_, neighbors_at_star(k_density_), k_density_}, fields_.n_star);
+  mps::number_density<D>({p, domain_, neighbors_at_star(k_density_), k_density_}, fields_.n_star);
   fields_.div.assign(p.size(), 0.0);
-  divergence({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, p.u, p.v, fields_.div);
+  ConstComponents<D> u;
+  const auto vel = p.velocities();
+  for (std::size_t a = 0; a < D; ++a) u[a] = *vel[a];
+  divergence<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, u, fields_.div);
 }
 
-void Simulation::detect_surface() {
+template <int D>
+void BasicSimulation<D>::detect_surface() {
   const Particles& p = particles_;
   const NeighborList& list = neighbors_at_star(k_surface_);
   const bool own_radius = k_surface_.re != k_density_.re;
-  if (own_radius) mps::number_density({p, domain_, list, k_surface_}, fields_.n_surface);
+  if (own_radius) mps::number_density<D>({p, domain_, list, k_surface_}, fields_.n_surface);
   detect_free_surface(p, own_radius ? fields_.n_surface : fields_.n_star, k_surface_.n0, config_.beta, &list,
                       k_surface_.lattice_neighbors, config_.theta, fields_.surface);
 }
 
-void Simulation::compute_source() {
+template <int D>
+void BasicSimulation<D>::compute_source() {
   const Particles& p = particles_;
   StepFields& f = fields_;
   const auto n = static_cast<Index>(p.size());
@@ -389,8 +448,7 @@ void Simulation::compute_source() {
     for (int j : reach.of(i)) {
       const auto jj = static_cast<std::size_t>(j);
       if (!f.surface[jj]) continue;
-      const auto d = domain_.displacement(p.x[i], p.y[i], p.x[jj], p.y[jj]);
-      if (d[0] * d[0] + d[1] * d[1] < k_density_.re * k_density_.re) {
+      if (norm2<D>(domain_.displacement(p.position(i), p.position(jj))) < k_density_.re * k_density_.re) {
         f.source[i] = config_.rho / f.dt * f.div[i];
         break;
       }
@@ -398,10 +456,11 @@ void Simulation::compute_source() {
   }
 }
 
-void Simulation::assemble() {
+template <int D>
+void BasicSimulation<D>::assemble() {
   const StepFields& f = fields_;
   const double screening = config_.sound_speed * f.dt;  // the compressibility's reach
-  assemble_ppe({particles_, domain_, neighbors_at_star(k_laplacian_), k_laplacian_},
+  assemble_ppe<D>({particles_, domain_, neighbors_at_star(k_laplacian_), k_laplacian_},
                f.held.empty() ? f.surface : f.held, f.source, ppe_, f.held_value,
                screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
   info_.unknowns = ppe_.size();
@@ -409,7 +468,8 @@ void Simulation::assemble() {
   info_.floating_groups = ppe_.floating.size();
 }
 
-void Simulation::solve() {
+template <int D>
+void BasicSimulation<D>::solve() {
   const Particles& p = particles_;
   std::vector<double>& pressure = fields_.pressure;
   // Warm start from the previous step, or the zero guess of a cold start.
@@ -431,24 +491,27 @@ void Simulation::solve() {
   }
 }
 
-void Simulation::scatter_pressure() {
+template <int D>
+void BasicSimulation<D>::scatter_pressure() {
   ppe_.scatter(fields_.pressure, particles_, config_.clamp_negative_pressure, fields_.pressure_offset);
 }
 
-void Simulation::set_pressure_boundary_values() {
+template <int D>
+void BasicSimulation<D>::set_pressure_boundary_values() {
   Particles& p = particles_;
   StepFields& f = fields_;
   if (!f.held_value.empty())  // a free-surface particle shows the pressure it was held at
     for (std::size_t i = 0; i < p.size(); ++i)
       if (p.kind[i] == Kind::fluid && f.surface[i])
         p.p[i] = f.held_value[i] + (f.pressure_offset.empty() ? 0.0 : f.pressure_offset[i]);
-  set_dummy_pressure({p, domain_, neighbors_at_star(k_laplacian_), k_laplacian_}, p, f.surface, config_.rho,
-                     config_.fx, config_.fy, f.carriers);
+  set_dummy_pressure<D>({p, domain_, neighbors_at_star(k_laplacian_), k_laplacian_}, p, f.surface, config_.rho,
+                        config_.body_force<D>(), f.carriers);
 }
 
 // u^{n+1} = u* - (dt/rho) grad P, x^{n+1} = x^n + dt u^{n+1}. With a pressure offset the gradient is of P - offset,
 // whose own gradient balances the force the predictor left out.
-void Simulation::correct() {
+template <int D>
+void BasicSimulation<D>::correct() {
   Particles& p = particles_;
   StepFields& f = fields_;
   std::span<const double> pressure = p.p;
@@ -458,27 +521,37 @@ void Simulation::correct() {
     pressure = f.residual;
   }
   const double tilt = config_.min_reference_tilt ? config_.rho : 0.0;
-  f.gx.assign(p.size(), 0.0);
-  f.gy.assign(p.size(), 0.0);
-  gradient({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, pressure, f.gx, f.gy, config_.pressure_gradient,
-           f.carriers, {tilt * (config_.fx - f.balanced_fx), tilt * (config_.fy - f.balanced_fy)},
-           f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>());
+  const Vec<D> force = config_.body_force<D>();
+  Vec<D> min_tilt;
+  Components<D> grad;
+  for (std::size_t a = 0; a < D; ++a) {
+    f.grad_p[a].assign(p.size(), 0.0);
+    grad[a] = f.grad_p[a];
+    min_tilt[a] = tilt * (force[a] - f.balanced[a]);
+  }
+  gradient<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, pressure, grad, config_.pressure_gradient,
+              f.carriers, min_tilt, f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>());
   const double dt = f.dt;
   const auto n = static_cast<Index>(p.size());
+  const auto pos = p.positions();
+  const auto vel = p.velocities();
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
-    const double du = -dt / config_.rho * f.gx[i], dv = -dt / config_.rho * f.gy[i];
-    p.u[i] += du;
-    p.v[i] += dv;
-    p.x[i] += dt * du;  // the predictor having moved it by dt u*
-    p.y[i] += dt * dv;
-    domain_.wrap(p.x[i], p.y[i]);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) {
+      const double du = -dt / config_.rho * f.grad_p[a][i];
+      (*vel[a])[i] += du;
+      r[a] = (*pos[a])[i] + dt * du;  // the predictor having moved it by dt u*
+    }
+    domain_.wrap(r);
+    for (std::size_t a = 0; a < D; ++a) (*pos[a])[i] = r[a];
   }
 }
 
-void Simulation::finish_step() {
+template <int D>
+void BasicSimulation<D>::finish_step() {
   info_.max_speed = std::sqrt(max_over_ranks(max_fluid_speed_squared(particles_)));
   info_.time += fields_.dt;
   ++info_.step;
@@ -486,7 +559,8 @@ void Simulation::finish_step() {
 
 // Names the knob of the limit that set dt (lowering dt_max does nothing while cfl binds), or the host program's own
 // option for the time step when it set one.
-std::string Simulation::dt_advice() const {
+template <int D>
+std::string BasicSimulation<D>::dt_advice() const {
   const std::string limit = info_.dt_limit == "viscous" ? "viscous" : info_.dt_limit == "cfl" ? "CFL" : "dt_max";
   if (!config_.dt_option.empty()) return " (reduce " + config_.dt_option + "; the " + limit + " limit set dt)";
   return info_.dt_limit == "viscous" ? " (reduce viscous_number, the viscous limit set dt)"
@@ -494,7 +568,8 @@ std::string Simulation::dt_advice() const {
                                      : " (reduce dt_max)";
 }
 
-void Simulation::check_guard() const {
+template <int D>
+void BasicSimulation<D>::check_guard() const {
   const Particles& p = particles_;
   const std::string advice = dt_advice();
   auto fail = [&](const std::string& what) {
@@ -503,11 +578,17 @@ void Simulation::check_guard() const {
   };
   // A fluid particle moves by exactly dt |u^{n+1}| in a step, so the displacement bound is a speed bound.
   const double max_move = config_.max_displacement * config_.l0;
+  const auto pos = p.positions();
+  auto finite_position = [&](std::size_t i) {
+    bool finite = true;
+    for (std::size_t a = 0; a < D; ++a) finite = finite && std::isfinite((*pos[a])[i]);
+    return finite;
+  };
   auto bad = [&](std::size_t i) {
     if (p.kind[i] == Kind::ghost) return false;
-    const double speed = std::hypot(p.u[i], p.v[i]);
-    return !std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]) ||
-           !domain_.contains(p.x[i], p.y[i]) || speed > config_.max_speed ||
+    const double speed = norm<D>(p.velocity(i));
+    return !finite_position(i) || !std::isfinite(speed) || !std::isfinite(p.p[i]) ||
+           !domain_.contains(p.position(i)) || speed > config_.max_speed ||
            (p.kind[i] == Kind::fluid && info_.dt * speed > max_move);
   };
   // Threads only look for the first offending particle; its message is then made in order.
@@ -518,17 +599,22 @@ void Simulation::check_guard() const {
     if (bad(static_cast<std::size_t>(i))) first = std::min(first, i);
   if (first == n) return;
   const auto i = static_cast<std::size_t>(first);
-  const double speed = std::hypot(p.u[i], p.v[i]);
-  if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
+  const double speed = norm<D>(p.velocity(i));
+  if (!finite_position(i) || !std::isfinite(speed) || !std::isfinite(p.p[i]))
     fail("particle " + std::to_string(i) + " has a non-finite position, velocity or pressure; the run blew up");
-  if (!domain_.contains(p.x[i], p.y[i]))
-    fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at (" +
-         fmt(p.x[i]) + ", " + fmt(p.y[i]) + "); the flow is unstable");
+  if (!domain_.contains(p.position(i)))
+    fail(std::string(to_string(p.kind[i])) + " particle " + std::to_string(i) + " left the domain at " +
+         fmt<D>(p.position(i)) + "; the flow is unstable");
   if (speed > config_.max_speed)
     fail("particle " + std::to_string(i) + " moves at " + fmt(speed) + " m/s, above max_speed " +
          fmt(config_.max_speed) + " m/s");
   fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
        " l0 in one step, above the limit of " + fmt(config_.max_displacement) + " l0: velocity blow-up");
 }
+
+template double max_fluid_speed_squared(const BasicParticles<2>&);
+template double max_fluid_speed_squared(const BasicParticles<3>&);
+template class BasicSimulation<2>;
+template class BasicSimulation<3>;
 
 }  // namespace mps

@@ -4,6 +4,7 @@
 /// neighbours -> predictor -> n*, div u* -> free surface -> PPE source -> assemble -> solve -> pressure boundary
 /// values -> corrector -> post-step, and a scene adds components (mps/components.hpp) that hook in between them.
 /// docs/step.md describes the stages, the hooks and each component.
+#include <array>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "mps/particles.hpp"
 #include "mps/ppe.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/vec.hpp"
 
 namespace mps {
 
@@ -31,8 +33,8 @@ struct SimulationConfig {
   Weight weight = Weight::bounded;  ///< the weight function of every kernel
   double rho = 1000.0;          ///< density [kg/m^3]
   double nu = 1e-6;             ///< kinematic viscosity [m^2/s]
-  /// @{ body force per unit mass [m/s^2]
-  double fx = 0.0, fy = 0.0;  /// @}
+  /// @{ body force per unit mass [m/s^2] (fz: 3-D only, 0 in 2-D)
+  double fx = 0.0, fy = 0.0, fz = 0.0;  /// @}
   double gamma = 0.99;          ///< mixed source weight: 1 = number density error only, 0 = divergence only
   double beta = 0.97;           ///< free surface: n* < beta n0 ...
   double theta = 0.85;          ///< ... and fewer than theta N0 neighbours (0: density test only)
@@ -73,6 +75,12 @@ struct SimulationConfig {
   bool warm_start = true;
 
   void validate() const;  ///< throws std::invalid_argument naming the bad parameter and its valid range
+  /// The body force as a vector of a D-dimensional run.
+  template <int D>
+  [[nodiscard]] Vec<D> body_force() const {
+    if constexpr (D == 2) return {fx, fy};
+    else return {fx, fy, fz};
+  }
 };
 
 /// What the last step did.
@@ -98,11 +106,12 @@ struct PhaseTimes {
 
 /// What one step's stages hand on to the next, per particle unless said. Kept by the simulation so that its memory
 /// is reused from step to step. Components read and write it at their hooks.
-struct StepFields {
+template <int D>
+struct BasicStepFields {
   double dt = 0;    ///< this step's time step [s]
   double time = 0;  ///< at the end of the step
-  /// @{ The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
-  double balanced_fx = 0, balanced_fy = 0;  /// @}
+  /// The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
+  Vec<D> balanced{};
   std::vector<char> prescribed;  ///< fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
   std::vector<double> n_star;    ///< number density at r* (density kernel)
   std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
@@ -115,28 +124,36 @@ struct StepFields {
   std::vector<double> pressure_offset;  ///< the PPE solves for P - offset (empty: for P)
   bool surface_own_reference = false;   ///< free-surface particles take their own P as the gradient's reference
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees
-  /// @{ scratch
-  std::vector<double> lu, lv, pressure, residual, gx, gy;  /// @}
+  /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis
+  std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
+  std::vector<double> pressure, residual;  ///< scratch
 };
+using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
 
 /// max |u|^2 over the fluid particles.
-double max_fluid_speed_squared(const Particles& particles);
+template <int D>
+double max_fluid_speed_squared(const BasicParticles<D>& particles);
 
-class Simulation;
+template <int D>
+class BasicSimulation;
 
 /// What a hook sees: the simulation (configuration, domain, kernels, grid and neighbour lists), its particles and
 /// this step's fields.
-struct StepContext {
-  const Simulation& sim;  ///< the simulation, read-only
-  Particles& particles;   ///< its particles, for the component to change
-  StepFields& fields;     ///< this step's fields
+template <int D>
+struct BasicStepContext {
+  const BasicSimulation<D>& sim;  ///< the simulation, read-only
+  BasicParticles<D>& particles;   ///< its particles, for the component to change
+  BasicStepFields<D>& fields;     ///< this step's fields
 };
+using StepContext = BasicStepContext<2>;  ///< a 2-D hook's view
 
 /// A scene-specific treatment hooked into the step. Each hook runs at a named point, components in the order they
 /// were added; a component overrides the hooks it needs (docs/step.md lists which one each uses).
-class StepComponent {
+template <int D>
+class BasicStepComponent {
  public:
-  virtual ~StepComponent() = default;  ///< components are owned through this base (Simulation::add)
+  using StepContext = BasicStepContext<D>;  ///< what a hook sees
+  virtual ~BasicStepComponent() = default;  ///< components are owned through this base (Simulation::add)
   virtual void before_predictor(StepContext&) {}   ///< neighbours of r^n found, grid binned at r^n
   virtual void after_predictor(StepContext&) {}    ///< particles at r*, fields.time the new time
   virtual void before_projection(StepContext&) {}  ///< before n* and div u*
@@ -149,17 +166,27 @@ class StepComponent {
   virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1, final (on ranks: own only)
   /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
   /// [m] (0: within them): a distributed step's halo must reach as far.
-  [[nodiscard]] virtual double reach(const Simulation&) const { return 0.0; }
+  [[nodiscard]] virtual double reach(const BasicSimulation<D>&) const { return 0.0; }
 };
+using StepComponent = BasicStepComponent<2>;  ///< a 2-D component
 
-/// A run: particles in a domain, stepped by the semi-implicit MPS step with the components added to it.
-class Simulation {
+/// A run: particles in a D-dimensional domain, stepped by the semi-implicit MPS step with the components added to it.
+template <int D>
+class BasicSimulation {
  public:
+  using Particles = BasicParticles<D>;        ///< its particles
+  using Domain = BasicDomain<D>;              ///< its domain
+  using StepComponent = BasicStepComponent<D>;  ///< its components' base
+  using StepContext = BasicStepContext<D>;    ///< what a component's hook sees
+  using StepFields = BasicStepFields<D>;      ///< what the stages hand on
+  using CellGrid = BasicCellGrid<D>;          ///< its cell grid
+  using Stencil = BasicStencil<D>;            ///< an operator's view of it
+
   /// Validates the configuration and the particles (throws std::invalid_argument naming what is wrong), makes the
   /// pressure solver from config.solver and adds the components the configuration asks for.
-  Simulation(Particles particles, Domain domain, SimulationConfig config);
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config);
   /// Same, with a pressure solver of the caller's making (config.solver is then not read).
-  Simulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
 
   /// Advances one step or throws SimulationError and keeps the previous state.
   const StepInfo& step();
@@ -210,9 +237,9 @@ class Simulation {
   /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
   [[nodiscard]] virtual double max_over_ranks(double value) const { return value; }
 
-  virtual ~Simulation() = default;  ///< a DistributedSimulation is a Simulation
-  Simulation(Simulation&&) = default;  ///< a scene may build its simulation and hand it on
-  Simulation& operator=(Simulation&&) = default;  ///< same
+  virtual ~BasicSimulation() = default;  ///< a DistributedSimulation is a Simulation
+  BasicSimulation(BasicSimulation&&) = default;  ///< a scene may build its simulation and hand it on
+  BasicSimulation& operator=(BasicSimulation&&) = default;  ///< same
 
  protected:
   /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On
@@ -277,8 +304,14 @@ class Simulation {
     std::vector<int> row;             // particle -> row of the fluid system, or -1
     std::vector<std::size_t> fluid;   // row -> particle
     CsrMatrix matrix;                 // I - dt nu L over the fluid
-    std::vector<double> bu, bv, u, v;
+    std::array<std::vector<double>, D> b, u;  // right-hand sides and solutions by component
   } viscous_;  // implicit viscosity's system, kept between steps for its memory
 };
+
+using Simulation = BasicSimulation<2>;   ///< a 2-D run
+using Simulation3 = BasicSimulation<3>;  ///< a 3-D run
+
+extern template class BasicSimulation<2>;
+extern template class BasicSimulation<3>;
 
 }  // namespace mps

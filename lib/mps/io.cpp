@@ -1,4 +1,5 @@
 #include "mps/io.hpp"
+#include "mps/vec.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -193,7 +194,9 @@ class AppendedData {
 
 }  // namespace
 
-void write_vtp(const fs::path& path, const Particles& p, double time, const PointFields& extra) {
+template <int D>
+void write_vtp(const fs::path& path, const BasicParticles<D>& p, double time,
+               const std::type_identity_t<BasicPointFields<D>>& extra) {
   if (!std::isfinite(time)) throw std::invalid_argument("write_vtp: the time of " + path.string() + " is not finite");
   std::set<std::string> names{"velocity", "pressure", "kind", "group", "id"};
   for (const auto& [name, field] : extra.scalars) {
@@ -202,8 +205,8 @@ void write_vtp(const fs::path& path, const Particles& p, double time, const Poin
   }
   for (const auto& [name, field] : extra.vectors) {
     check_field_name(name, names);
-    if (field[0].size() != p.size() || field[1].size() != p.size())
-      throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
+    for (const auto& component : field)
+      if (component.size() != p.size()) throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
   }
   std::vector<std::size_t> active;
   for (std::size_t i = 0; i < p.size(); ++i)
@@ -222,13 +225,16 @@ void write_vtp(const fs::path& path, const Particles& p, double time, const Poin
     for (std::size_t k = 0; k < n; ++k) out[k] = field[active[k]];
     element("Float64", name, 1, data.add<double>(name, out));
   };
-  auto vector = [&](const std::string& name, std::span<const double> fx, std::span<const double> fy) {
+  auto vector = [&](const std::string& name, const std::array<std::span<const double>, D>& field) {
     std::vector<double> out(3 * n, 0.0);
-    for (std::size_t k = 0; k < n; ++k) {
-      out[3 * k] = fx[active[k]];
-      out[3 * k + 1] = fy[active[k]];
-    }
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t a = 0; a < D; ++a) out[3 * k + a] = field[a][active[k]];
     element("Float64", name, 3, data.add<double>(name, out));
+  };
+  auto components = [](const auto& vectors) {
+    std::array<std::span<const double>, D> field;
+    for (std::size_t a = 0; a < D; ++a) field[a] = *vectors[a];
+    return field;
   };
   auto integers = [&](const std::string& name, auto value_of) {
     std::vector<std::int32_t> out(n);
@@ -240,7 +246,7 @@ void write_vtp(const fs::path& path, const Particles& p, double time, const Poin
       << "offset=\"" << data.add<double>("TIME", std::span<const double>(&time, 1)) << "\"/>\n</FieldData>\n"
       << "<Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
       << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n<Points>\n";
-  vector("", p.x, p.y);
+  vector("", components(p.positions()));
   xml << "</Points>\n<Verts>\n";  // one vertex cell per point, so that ParaView draws the points
   std::vector<std::int64_t> connectivity(n), offsets(n);
   std::iota(connectivity.begin(), connectivity.end(), 0);
@@ -248,12 +254,12 @@ void write_vtp(const fs::path& path, const Particles& p, double time, const Poin
   element("Int64", "connectivity", 1, data.add<std::int64_t>("connectivity", connectivity));
   element("Int64", "offsets", 1, data.add<std::int64_t>("offsets", offsets));
   xml << "</Verts>\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n";
-  vector("velocity", p.u, p.v);
+  vector("velocity", components(p.velocities()));
   scalar("pressure", p.p);
   integers("kind", [&](std::size_t i) { return static_cast<int>(p.kind[i]); });
   integers("group", [&](std::size_t i) { return p.group[i]; });
   integers("id", [&](std::size_t i) { return p.id[i]; });
-  for (const auto& [name, field] : extra.vectors) vector(name, field[0], field[1]);
+  for (const auto& [name, field] : extra.vectors) vector(name, field);
   for (const auto& [name, field] : extra.scalars) scalar(name, field);
   xml << "</PointData>\n</Piece>\n</PolyData>\n";
 
@@ -501,66 +507,93 @@ struct Nearest {
   std::vector<double> distance;  // infinity where a particle is alone
 };
 
-Nearest nearest_particles(const Particles& p) {
+template <int D>
+Nearest nearest_particles(const BasicParticles<D>& p) {
   std::vector<std::size_t> active;
   for (std::size_t i = 0; i < p.size(); ++i)
     if (p.kind[i] != Kind::ghost) active.push_back(i);
   Nearest out{std::vector<std::size_t>(p.size(), 0),
               std::vector<double>(p.size(), std::numeric_limits<double>::infinity())};
   if (active.size() < 2) return out;
-  double x0 = p.x[active[0]], x1 = x0, y0 = p.y[active[0]], y1 = y0;
+  Vec<D> lo = p.position(active[0]), hi = lo;
   for (std::size_t i : active) {
-    x0 = std::min(x0, p.x[i]);
-    x1 = std::max(x1, p.x[i]);
-    y0 = std::min(y0, p.y[i]);
-    y1 = std::max(y1, p.y[i]);
+    const Vec<D> r = p.position(i);
+    for (std::size_t a = 0; a < D; ++a) {
+      lo[a] = std::min(lo[a], r[a]);
+      hi[a] = std::max(hi[a], r[a]);
+    }
   }
   const auto n = static_cast<double>(active.size());
-  const double w = x1 - x0, h = y1 - y0, extent = std::max(w, h);
-  // At least extent / n, so a row of particles (h = 0) gets no more cells than particles; all in one point: one cell.
-  double cell = std::max(std::sqrt(w * h / n), extent / n);
-  if (!(cell > 0.0)) cell = 1.0;
-  const auto nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
-  auto cell_of = [&](std::size_t i) {
-    const long cx = std::min(nx - 1, static_cast<long>((p.x[i] - x0) / cell));
-    const long cy = std::min(ny - 1, static_cast<long>((p.y[i] - y0) / cell));
-    return std::pair{cx, cy};
-  };
-  std::vector<std::size_t> start(static_cast<std::size_t>(nx * ny) + 1, 0), sorted(active.size());
-  for (std::size_t i : active) {
-    const auto [cx, cy] = cell_of(i);
-    ++start[static_cast<std::size_t>(cy * nx + cx) + 1];
+  double volume = 1.0, extent = 0.0;
+  for (std::size_t a = 0; a < D; ++a) {
+    volume *= hi[a] - lo[a];
+    extent = std::max(extent, hi[a] - lo[a]);
   }
+  // At least extent / n, so a row of particles (no area) gets no more cells than particles; all in one point: one
+  // cell.
+  double cell = std::max(D == 2 ? std::sqrt(volume / n) : std::cbrt(volume / n), extent / n);
+  if (!(cell > 0.0)) cell = 1.0;
+  std::array<long, D> cells;
+  std::size_t total = 1;
+  for (std::size_t a = 0; a < D; ++a) {
+    cells[a] = static_cast<long>((hi[a] - lo[a]) / cell) + 1;
+    total *= static_cast<std::size_t>(cells[a]);
+  }
+  auto cell_of = [&](std::size_t i) {
+    std::array<long, D> c;
+    const Vec<D> r = p.position(i);
+    for (std::size_t a = 0; a < D; ++a) c[a] = std::min(cells[a] - 1, static_cast<long>((r[a] - lo[a]) / cell));
+    return c;
+  };
+  auto index_of = [&](const std::array<long, D>& c) {
+    std::size_t k = 0;
+    for (std::size_t a = D; a-- > 0;) k = k * static_cast<std::size_t>(cells[a]) + static_cast<std::size_t>(c[a]);
+    return k;
+  };
+  std::vector<std::size_t> start(total + 1, 0), sorted(active.size());
+  for (std::size_t i : active) ++start[index_of(cell_of(i)) + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
   std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i : active) sorted[fill[index_of(cell_of(i))]++] = i;
+  long rings = 0;
+  for (long c : cells) rings = std::max(rings, c);
   for (std::size_t i : active) {
-    const auto [cx, cy] = cell_of(i);
-    sorted[fill[static_cast<std::size_t>(cy * nx + cx)]++] = i;
-  }
-  const long rings = std::max(nx, ny);
-  for (std::size_t i : active) {
-    const auto [cx, cy] = cell_of(i);
+    const std::array<long, D> ci = cell_of(i);
+    const Vec<D> ri = p.position(i);
     double best = std::numeric_limits<double>::infinity();
     std::size_t best_j = i;
-    auto scan = [&](long gx, long gy) {
-      const auto c = static_cast<std::size_t>(gy * nx + gx);
-      for (std::size_t s = start[c]; s < start[c + 1]; ++s) {
+    auto scan = [&](const std::array<long, D>& c) {
+      const std::size_t k = index_of(c);
+      for (std::size_t s = start[k]; s < start[k + 1]; ++s) {
         const std::size_t j = sorted[s];
-        const double d = j == i ? best : std::hypot(p.x[j] - p.x[i], p.y[j] - p.y[i]);
-        if (d < best || (d == best && j != i && j < best_j)) {
-          best = d;
+        const Vec<D> rj = p.position(j);
+        Vec<D> d;
+        for (std::size_t a = 0; a < D; ++a) d[a] = rj[a] - ri[a];
+        const double dist = j == i ? best : norm<D>(d);
+        if (dist < best || (dist == best && j != i && j < best_j)) {
+          best = dist;
           best_j = j;
         }
       }
     };
-    for (long k = 0; k <= rings; ++k) {  // the ring of cells k away: two full rows, and two cells of each row between
-      for (long gy = std::max(0L, cy - k); gy <= std::min(ny - 1, cy + k); ++gy) {
-        if (gy == cy - k || gy == cy + k) {
-          for (long gx = std::max(0L, cx - k); gx <= std::min(nx - 1, cx + k); ++gx) scan(gx, gy);
-        } else {
-          if (cx - k >= 0) scan(cx - k, gy);
-          if (cx + k < nx) scan(cx + k, gy);
+    for (long k = 0; k <= rings; ++k) {
+      // The shell of cells k away (Chebyshev), clipped to the grid.
+      std::array<long, D> from, to, c;
+      for (std::size_t a = 0; a < D; ++a) {
+        from[a] = std::max(0L, ci[a] - k);
+        to[a] = std::min(cells[a] - 1, ci[a] + k);
+      }
+      c = from;
+      while (true) {
+        long away = 0;
+        for (std::size_t a = 0; a < D; ++a) away = std::max(away, std::abs(c[a] - ci[a]));
+        if (away == k) scan(c);
+        std::size_t a = 0;
+        for (; a < D; ++a) {
+          if (++c[a] <= to[a]) break;
+          c[a] = from[a];
         }
+        if (a == D) break;
       }
       if (best <= static_cast<double>(k) * cell) break;
     }
@@ -606,7 +639,8 @@ std::string number_text(double v) {
 
 }  // namespace
 
-Particles read_particles_csv(const fs::path& path) {
+template <int D>
+BasicParticles<D> read_particles_csv(const fs::path& path) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path))
@@ -615,13 +649,14 @@ Particles read_particles_csv(const fs::path& path) {
   auto fail = [&](const std::string& what) -> void {
     throw std::runtime_error("particle file " + path.string() + ":" + std::to_string(line_number) + ": " + what);
   };
-  enum Column { x, y, kind, u, v, p, group, columns };
-  static const std::array<const char*, columns> names{"x", "y", "kind", "u", "v", "p", "group"};
-  const std::string valid = "the columns are x, y, kind (required) and u, v, p, group (optional)";
+  enum Column { x, y, z, kind, u, v, w, p, group, columns };
+  static const std::array<const char*, columns> names{"x", "y", "z", "kind", "u", "v", "w", "p", "group"};
+  const std::string valid = D == 2 ? "the columns are x, y, kind (required) and u, v, p, group (optional)"
+                                   : "the columns are x, y, z, kind (required) and u, v, w, p, group (optional)";
   std::vector<int> field_column;  // the column each field of a row holds
   std::array<int, columns> field_of{};
   field_of.fill(-1);
-  Particles out;
+  BasicParticles<D> out;
   std::vector<long> lines;  // each particle's line, for the messages of the spacing check
   for (std::string line; std::getline(in, line);) {
     ++line_number;
@@ -636,11 +671,13 @@ Particles read_particles_csv(const fs::path& path) {
           fail("unknown column '" + field + "' in the header (the first line that is not a comment names the " +
                "columns, comma-separated: " + valid.substr(16) + ")");
         const auto column = static_cast<int>(at - names.begin());
+        if (D == 2 && (column == Column::z || column == Column::w))
+          fail("column '" + name + "': a 3-D particle file; this scene is 2-D (" + valid + ")");
         if (field_of[static_cast<std::size_t>(column)] >= 0) fail("column '" + name + "' named twice in the header");
         field_of[static_cast<std::size_t>(column)] = static_cast<int>(field_column.size());
         field_column.push_back(column);
       }
-      for (int c : {Column::x, Column::y, Column::kind})
+      for (int c : {Column::x, Column::y, D == 3 ? Column::z : Column::x, Column::kind})
         if (field_of[static_cast<std::size_t>(c)] < 0)
           fail(std::string("the header has no column '") + names[static_cast<std::size_t>(c)] + "' (" + valid + ")");
       continue;
@@ -678,7 +715,11 @@ Particles read_particles_csv(const fs::path& path) {
         fail(std::string("column '") + names[column] + "': '" + word + "' is not a finite number");
       value[column] = number;
     }
-    out.add(value[Column::x], value[Column::y], particle_kind, particle_group, value[Column::u], value[Column::v]);
+    if constexpr (D == 2)
+      out.add({value[Column::x], value[Column::y]}, particle_kind, particle_group, {value[Column::u], value[Column::v]});
+    else
+      out.add({value[Column::x], value[Column::y], value[Column::z]}, particle_kind, particle_group,
+              {value[Column::u], value[Column::v], value[Column::w]});
     out.p.back() = value[Column::p];
     lines.push_back(line_number);
   }
@@ -691,9 +732,11 @@ Particles read_particles_csv(const fs::path& path) {
     const std::size_t j = near.index[i];
     const std::string pair = "particle file " + path.string() + ": lines " + std::to_string(lines[std::min(i, j)]) +
                              " and " + std::to_string(lines[std::max(i, j)]) + ": ";
-    if (near.distance[i] == 0.0)
-      throw std::runtime_error(pair + "two particles at the same position (" + number_text(out.x[i]) + ", " +
-                               number_text(out.y[i]) + "); remove one");
+    if (near.distance[i] == 0.0) {
+      std::string at = "(" + number_text(out.x[i]) + ", " + number_text(out.y[i]);
+      if constexpr (D == 3) at += ", " + number_text(out.z[i]);
+      throw std::runtime_error(pair + "two particles at the same position " + at + "); remove one");
+    }
     if (near.distance[i] < 0.5 * spacing)
       throw std::runtime_error(pair + "two particles " + number_text(near.distance[i]) +
                                " m apart, less than half the file's spacing (" + number_text(spacing) +
@@ -702,14 +745,20 @@ Particles read_particles_csv(const fs::path& path) {
   return out;
 }
 
-void write_particles_csv(const fs::path& path, const Particles& particles, const std::vector<std::string>& comments) {
+template <int D>
+void write_particles_csv(const fs::path& path, const BasicParticles<D>& particles,
+                         const std::vector<std::string>& comments) {
   write_atomically(path, [&](std::ofstream& out) {
     for (const std::string& line : comments) out << "# " << line << '\n';
-    out << "x,y,kind,u,v,p,group\n";
+    out << (D == 2 ? "x,y,kind,u,v,p,group\n" : "x,y,z,kind,u,v,w,p,group\n");
+    const auto pos = particles.positions();
+    const auto vel = particles.velocities();
     for (std::size_t i = 0; i < particles.size(); ++i) {
       if (particles.kind[i] == Kind::ghost) continue;
-      out << particles.x[i] << ',' << particles.y[i] << ',' << to_string(particles.kind[i]) << ',' << particles.u[i]
-          << ',' << particles.v[i] << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
+      for (std::size_t a = 0; a < D; ++a) out << (*pos[a])[i] << ',';
+      out << to_string(particles.kind[i]);
+      for (std::size_t a = 0; a < D; ++a) out << ',' << (*vel[a])[i];
+      out << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
     }
   });
 }
@@ -837,7 +886,8 @@ class AppendedReader {
 
 }  // namespace
 
-Particles read_vtp(const fs::path& path, double* time) {
+template <int D>
+BasicParticles<D> read_vtp(const fs::path& path, double* time) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in || fs::is_directory(path)) throw std::runtime_error("cannot read the frame " + path.string() + system_reason());
@@ -908,18 +958,26 @@ Particles read_vtp(const fs::path& path, double* time) {
   const std::vector<double> xyz = data.values(points, 3 * n), uvw = data.values(named("velocity", "3"), 3 * n),
                             p = data.values(named("pressure", "1"), n), kind = data.values(named("kind", "1"), n),
                             group = data.values(named("group", "1"), n);
-  Particles out;
+  BasicParticles<D> out;
   out.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double values[] = {xyz[3 * i], xyz[3 * i + 1], uvw[3 * i], uvw[3 * i + 1], p[i]};
+    const double values[] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], uvw[3 * i], uvw[3 * i + 1], uvw[3 * i + 2],
+                             p[i]};
     for (double v : values)
       if (!std::isfinite(v)) fail("point " + std::to_string(i) + " has a value that is not finite");
+    if (D == 2 && (xyz[3 * i + 2] != 0.0 || uvw[3 * i + 2] != 0.0))
+      fail("point " + std::to_string(i) + " has z = " + number_text(xyz[3 * i + 2]) + " or w = " +
+           number_text(uvw[3 * i + 2]) + ": a 3-D frame; this scene is 2-D");
     if (kind[i] != 0 && kind[i] != 1 && kind[i] != 2)
       fail("point " + std::to_string(i) + " has kind " + number_text(kind[i]) + ", not fluid (0), wall (1) or dummy (2)");
     if (group[i] != std::floor(group[i]) || std::abs(group[i]) > std::numeric_limits<int>::max())
       fail("point " + std::to_string(i) + " has group " + number_text(group[i]) + ", not a whole number");
-    out.add(xyz[3 * i], xyz[3 * i + 1], static_cast<Kind>(static_cast<int>(kind[i])), static_cast<int>(group[i]),
-            uvw[3 * i], uvw[3 * i + 1]);
+    Vec<D> r, vel;
+    for (std::size_t a = 0; a < D; ++a) {
+      r[a] = xyz[3 * i + a];
+      vel[a] = uvw[3 * i + a];
+    }
+    out.add(r, static_cast<Kind>(static_cast<int>(kind[i])), static_cast<int>(group[i]), vel);
     out.p.back() = p[i];
   }
   if (time != nullptr) {
@@ -938,12 +996,24 @@ Particles read_vtp(const fs::path& path, double* time) {
   return out;
 }
 
-double median_spacing(const Particles& particles) {
+template <int D>
+double median_spacing(const BasicParticles<D>& particles) {
   Nearest near = nearest_particles(particles);
   std::vector<double> distances;
   for (std::size_t i = 0; i < particles.size(); ++i)
     if (particles.kind[i] != Kind::ghost) distances.push_back(near.distance[i]);
   return median_of(std::move(distances));
 }
+
+template void write_vtp(const fs::path&, const BasicParticles<2>&, double, const BasicPointFields<2>&);
+template void write_vtp(const fs::path&, const BasicParticles<3>&, double, const BasicPointFields<3>&);
+template BasicParticles<2> read_particles_csv(const fs::path&);
+template BasicParticles<3> read_particles_csv(const fs::path&);
+template void write_particles_csv(const fs::path&, const BasicParticles<2>&, const std::vector<std::string>&);
+template void write_particles_csv(const fs::path&, const BasicParticles<3>&, const std::vector<std::string>&);
+template BasicParticles<2> read_vtp(const fs::path&, double*);
+template BasicParticles<3> read_vtp(const fs::path&, double*);
+template double median_spacing(const BasicParticles<2>&);
+template double median_spacing(const BasicParticles<3>&);
 
 }  // namespace mps

@@ -1,6 +1,7 @@
 // What the apps print (apps/common/console.hpp, help.hpp): progress lines paced by a clock the test sets, the start
 // table's names and units from the summary keys' suffixes, and --help's groups, defaults, units and ranges.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -276,4 +277,50 @@ TEST(ConfigFile, SwitchesOnTheCommandLineTakeTrueOrFalseOnly) {
       EXPECT_EQ(wet, value) << arg;
     }
   }
+}
+
+// parse_options refuses '=' and nothing after a switch, which CLI11 took as on (--wet-walls=).
+TEST(ConfigFile, ASwitchGivenEqualsAndNothingIsRefused) {
+  bool wet = false;
+  CLI::App app{"test"};
+  app.add_flag("--wet-walls", wet);
+  std::vector<std::string> args{"app", "--wet-walls="};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  const auto status = parse_options(app, static_cast<int>(argv.size()), argv.data(), true);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_NE(*status, 0);
+  EXPECT_FALSE(wet);
+}
+
+// --config's path is checked before the file is opened: a FIFO would block the open and /dev/zero never end.
+TEST(ConfigFile, AConfigPathThatIsNotASmallRegularFileIsRefusedBeforeItIsOpened) {
+  const std::string dir = testing::TempDir();
+  const std::string fifo = dir + "sparsemps_config_fifo", big = dir + "sparsemps_config_big.toml";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  {
+    std::FILE* f = std::fopen(big.c_str(), "wb");
+    const std::string line(1024, '#');
+    for (int k = 0; k < 1100; ++k) std::fprintf(f, "%s\n", line.c_str());
+    std::fclose(f);
+  }
+  for (const auto& [path, said] : std::vector<std::pair<std::string, std::string>>{
+           {"", "the path is empty"}, {"/dev/zero", "is not a regular file"}, {fifo, "is not a regular file"},
+           {dir + "no_such_config.toml", "exists"}, {big, "a config file is a few kB"}}) {
+    CLI::App app{"test"};
+    add_config_option(app);
+    std::vector<std::string> args{"app", "--config", path};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    std::string error;
+    try {
+      app.parse(static_cast<int>(argv.size()), argv.data());
+    } catch (const CLI::ParseError& e) {
+      error = e.what();
+    }
+    EXPECT_NE(error.find(said), std::string::npos) << path << ": " << error;
+  }
+  std::remove(fifo.c_str());
+  std::remove(big.c_str());
 }

@@ -135,8 +135,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-maps", no_maps, "write no pressure maps (studies)")->group("Output");
   app.add_option("--frames", frames, "VTK frames, evenly spaced over the run (default: one at every map time; 0: none)")
       ->check(whole_in(0, 100000))->group("Output");
-  check_switches(app);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = parse_options(app, argc, argv)) return *status;
 
   try {
     const auto found = cases().find(case_name);

@@ -11,6 +11,8 @@
 #include <exception>
 #include <initializer_list>
 #include <new>
+#include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -68,6 +70,28 @@ inline void check_switches(CLI::App& app) {
   for (CLI::Option* option : app.get_options())
     if (option->get_expected_min() == 0 && option->get_name() != "--help" && option->get_name() != "--version")
       option->check(true_or_false());
+}
+
+// CLI11_PARSE with the apps' own checks: switches take true or false (check_switches), also refusing '=' and nothing
+// (--wet-walls=, which CLI11 took as on). `quiet`: parse errors are not printed (the other MPI ranks of the one that
+// prints them). Returns the exit status when the run ends here.
+inline std::optional<int> parse_options(CLI::App& app, int argc, char** argv, bool quiet = false) {
+  check_switches(app);
+  try {
+    for (int k = 1; k < argc; ++k) {
+      const std::string arg = argv[k];
+      if (arg.size() < 4 || arg.rfind("--", 0) != 0 || arg.back() != '=') continue;
+      const CLI::Option* option = app.get_option_no_throw(arg.substr(0, arg.size() - 1));
+      if (option != nullptr && option->get_expected_min() == 0)
+        throw CLI::ValidationError(arg.substr(0, arg.size() - 1), "must be true or false, got ''");
+    }
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (!quiet) return app.exit(e);
+    std::ostringstream ignored;
+    return app.exit(e, ignored, ignored);
+  }
+  return std::nullopt;
 }
 
 // An input file that exists, made absolute so that config.toml replays the run from any folder. Use as a transform.

@@ -15,6 +15,8 @@
 #include <string>
 #include <thread>
 
+#include "checks.hpp"
+
 class AppRanks {
  public:
   AppRanks(int* argc, char*** argv) {
@@ -111,15 +113,7 @@ inline void require_one_process(const AppRanks& ranks, const std::string& app) {
   std::exit(1);
 }
 
-// CLI11_PARSE on ranks: every rank finds the same fault in the options; rank 0 says it (and prints --help).
-// Returns the exit status when the run ends here.
+// parse_options on ranks: every rank finds the same fault in the options; rank 0 says it (and prints --help).
 inline std::optional<int> parse_options(CLI::App& app, const AppRanks& ranks, int argc, char** argv) {
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (ranks.root()) return app.exit(e);
-    std::ostringstream ignored;
-    return app.exit(e, ignored, ignored);
-  }
-  return std::nullopt;
+  return parse_options(app, argc, argv, !ranks.root());
 }

@@ -150,10 +150,29 @@ class StrictConfig : public CLI::ConfigBase {
   CLI::App* app_;
 };
 
+// --config FILE: a regular file of at most 1 MB, checked before it is opened (a FIFO would block the open, /dev/zero
+// never end; an app's config.toml is under 2 kB).
+inline CLI::Validator config_file_path() {
+  return CLI::Validator(
+      [](std::string& path) -> std::string {
+        if (path.empty()) return "the path is empty; name a config file";
+        std::error_code ec;
+        const auto status = std::filesystem::status(path, ec);
+        if (!std::filesystem::exists(status)) return "no file '" + path + "' exists";
+        if (!std::filesystem::is_regular_file(status)) return "'" + path + "' is not a regular file";
+        const auto bytes = std::filesystem::file_size(path, ec);
+        if (ec || bytes > (1u << 20))
+          return "'" + path + "' holds " + std::to_string(bytes) + " bytes; a config file is a few kB (is it the right file?)";
+        return {};
+      },
+      "FILE");
+}
+
 inline void add_config_option(CLI::App& app) {
   app.set_config("--config", "",
                  "read the options from a TOML file, such as the config.toml every run writes beside its summary "
                  "(options given on the command line override the file's)")
+      ->check(config_file_path())
       ->group("General");
   app.config_formatter(std::make_shared<StrictConfig>(app));
   app.allow_config_extras(CLI::config_extras_mode::error);  // a misspelt key is an error, not a silent default

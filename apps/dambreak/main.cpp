@@ -117,7 +117,6 @@ int main(int argc, char** argv) {
   app.add_option("--write-particles", write_particles,
                  "write the scene's initial particles to this CSV file (a start for --particles) and exit")
       ->check(output_file())->group("Output");
-  check_switches(app);
   if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
   try {

@@ -72,8 +72,7 @@ int main(int argc, char** argv) {
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  check_switches(app);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = parse_options(app, argc, argv)) return *status;
 
   try {
     check_run_size((p.width / p.l0 + 10.0) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,

@@ -117,7 +117,6 @@ int main(int argc, char** argv) {
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  check_switches(app);
   if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
   try {

@@ -272,8 +272,7 @@ int main(int argc, char** argv) {
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
-  check_switches(app);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = parse_options(app, argc, argv)) return *status;
 
   try {
     p.scene = rotating::parse_scene(scene);

@@ -87,8 +87,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
-  check_switches(app);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = parse_options(app, argc, argv)) return *status;
 
   try {
     const bool plate_scene = scene_name == "plate";

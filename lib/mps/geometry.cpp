@@ -1,5 +1,7 @@
 #include "mps/geometry.hpp"
 
+#include <sstream>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -21,7 +23,17 @@ void fill_rectangle(Particles& particles, Rect rect, double l0, Kind kind, int g
   require_positive(l0, "particle spacing l0");
   const int nx = cells(rect.x1 - rect.x0, l0);
   const int ny = cells(rect.y1 - rect.y0, l0);
-  if (nx <= 0 || ny <= 0) throw std::invalid_argument("fill_rectangle: rectangle is empty at this spacing");
+  if (nx <= 0 || ny <= 0) {
+    std::ostringstream m;
+    m << "fill_rectangle: the rectangle [" << rect.x0 << ", " << rect.x1 << "] x [" << rect.y0 << ", " << rect.y1
+      << "] holds no lattice point at spacing " << l0 << ": ";
+    if (!(rect.x1 > rect.x0) || !(rect.y1 > rect.y0))
+      m << "its upper corner (x1, y1) must lie above and right of (x0, y0)";
+    else
+      m << "it is less than half a spacing across; use a spacing of at most "
+        << std::min(rect.x1 - rect.x0, rect.y1 - rect.y0);
+    throw std::invalid_argument(m.str());
+  }
   particles.reserve(particles.size() + static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny));
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i)

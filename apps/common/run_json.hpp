@@ -24,9 +24,13 @@ class FrameSeries {
       : dir_(dir), stem_(stem), count_(count), interval_(count > 0 ? end_time / count : 2 * end_time),
         series_(dir / (stem + ".pvd")) {}
   // Writes the next frame if its time has come.
-  void write_if_due(const mps::Simulation& sim) { write_if_due(sim.time(), sim.particles()); }
+  template <int D>
+  void write_if_due(const mps::BasicSimulation<D>& sim) {
+    write_if_due(sim.time(), sim.particles());
+  }
   // The same for particles held apart from a simulation (a run on ranks gathers them).
-  void write_if_due(double time, const mps::Particles& particles) {
+  template <int D>
+  void write_if_due(double time, const mps::BasicParticles<D>& particles) {
     if (count_ <= 0 || time < next_ * interval_ - 1e-12) return;
     char name[64];
     std::snprintf(name, sizeof name, "frames/%s_%04d.vtp", stem_.c_str(), next_++);
@@ -77,9 +81,9 @@ inline nlohmann::json timings_json(const mps::PhaseTimes& t, int steps, std::siz
 
 // The simulation holds the last good state (last_good: its particles, or on ranks their gathering): keep it beside
 // the frames, say what went wrong in summary.json and on stderr. Returns the app's exit status.
-inline int report_guard_stop(const std::filesystem::path& dir, const mps::SimulationError& error,
-                             const nlohmann::json& params, const mps::Simulation& sim,
-                             const mps::Particles* last_good = nullptr) {
+template <int D>
+int report_guard_stop(const std::filesystem::path& dir, const mps::SimulationError& error, const nlohmann::json& params,
+                      const mps::BasicSimulation<D>& sim, const mps::BasicParticles<D>* last_good = nullptr) {
   std::cerr << "error: " << error.what() << "\n";  // first: a failed write below must not hide the reason
   try {
     mps::write_vtp(dir / "last_good.vtp", last_good ? *last_good : sim.particles(), sim.time());
@@ -95,8 +99,9 @@ inline int report_guard_stop(const std::filesystem::path& dir, const mps::Simula
 
 // A run on ranks stopped by an error of one rank alone: the others cannot join a gathering of the last good state,
 // so this rank records the reason in summary.json; the frames written so far are complete.
-inline void record_failure_alone(const std::filesystem::path& dir, const std::string& error,
-                                 const nlohmann::json& params, const mps::Simulation& sim) {
+template <int D>
+void record_failure_alone(const std::filesystem::path& dir, const std::string& error,
+                                 const nlohmann::json& params, const mps::BasicSimulation<D>& sim) {
   write_summary(dir, {{"status", "failed"}, {"error", error}, {"parameters", params}, {"time_s", sim.time()},
                       {"steps", sim.last_step().step}});
 }

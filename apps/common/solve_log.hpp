@@ -12,13 +12,15 @@
 #include "mps/io.hpp"
 #include "mps/step.hpp"
 
-class SolveLog final : public mps::StepComponent {
+template <int D>
+class BasicSolveLog final : public mps::BasicStepComponent<D> {
  public:
+  using typename mps::BasicStepComponent<D>::StepContext;
   // scene: a few words saying which scene and spacing, written into each exported matrix's header.
-  SolveLog(std::filesystem::path dir, std::set<int> export_steps, std::string scene)
+  BasicSolveLog(std::filesystem::path dir, std::set<int> export_steps, std::string scene)
       : dir_(std::move(dir)), export_steps_(std::move(export_steps)), scene_(std::move(scene)) {}
 
-  void after_pressure(mps::StepContext& c) override {
+  void after_pressure(StepContext& c) override {
     const mps::StepInfo& info = c.sim.last_step();
     const mps::SolveReport& r = info.solve;
     const int step = info.step + 1;
@@ -41,7 +43,7 @@ class SolveLog final : public mps::StepComponent {
   }
 
  private:
-  void export_ppe(const mps::StepContext& c, int step) const {
+  void export_ppe(const StepContext& c, int step) const {
     const mps::SimulationConfig& config = c.sim.config();
     const mps::PpeSystem& ppe = c.sim.last_ppe();
     std::ostringstream number;
@@ -77,9 +79,12 @@ class SolveLog final : public mps::StepComponent {
   std::vector<std::string> rows_;
 };
 
+using SolveLog = BasicSolveLog<2>;
+
 // solves.csv of the run's SolveLog, if it has one; a step --export-ppe named that the run never reached is said.
-inline void write_solves(const std::filesystem::path& dir, const mps::Simulation& sim) {
-  const auto* log = sim.find<SolveLog>();
+template <int D>
+void write_solves(const std::filesystem::path& dir, const mps::BasicSimulation<D>& sim) {
+  const auto* log = sim.template find<BasicSolveLog<D>>();
   if (log == nullptr) return;
   log->write(dir);
   std::string missed;

@@ -1,5 +1,5 @@
-// Hydrostatic tank demo: a water column settles under gravity; the band-averaged pressure is compared
-// with rho g (H - y). Writes frames (.vtp/.pvd), pressure.csv and summary.json to --out.
+// Hydrostatic tank demo: a water column settles under gravity, in 2-D or 3-D (--dim); the band-averaged pressure is
+// compared with rho g (H - y). Writes frames (.vtp/.pvd), pressure.csv and summary.json to --out.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
@@ -22,9 +22,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
+template <int D>
+nlohmann::json params_json(const tank::Params& p, const mps::BasicSimulation<D>& sim) {
   const auto& c = sim.config();
-  return {{"scene", "hydrostatic tank"},
+  return {{"scene", "hydrostatic tank"}, {"dim", D},
           {"width_m", p.width}, {"height_m", p.water_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
           {"beta", c.beta}, {"dt_s", p.dt}, {"end_time_s", p.end_time}, {"window_s", p.window},
           {"band_l0", p.band}, {"g_m_per_s2", p.g}, {"rho_kg_per_m3", c.rho}, {"nu_m2_per_s", c.nu},
@@ -35,6 +36,11 @@ nlohmann::json params_json(const tank::Params& p, const mps::Simulation& sim) {
           {"wall_layers", 1}, {"dummy_layers", 4}};
 }
 
+// The run once the options are read: the scene in D dimensions, its frames, pressure.csv and summary.json.
+template <int D>
+int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
+        const std::vector<int>& export_ppe);
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -44,16 +50,18 @@ int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;
   std::string out = "runs/hydrostatic";
-  int frames = 20;
-  double tolerance = 0.05;
+  int frames = 20, dim = 2;
+  double tolerance = 0.05, dx = 0;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
   add_general_options(app);
-  app.add_option("--width", p.width, "tank width [m]")->capture_default_str()->check(positive_up_to(1e3))
+  app.add_option("--dim", dim, "2: a rectangle of water, gravity along -y; 3: a square box of it, gravity along -z")
+      ->capture_default_str()->check(CLI::IsMember({2, 3}))->group("Scene");
+  app.add_option("--width", p.width, "tank width (both widths in 3-D) [m]")->capture_default_str()->check(positive_up_to(1e3))
       ->group("Scene");
   app.add_option("--height", p.water_height, "water height H [m]")->capture_default_str()
       ->check(positive_up_to(1e3))->group("Scene");
-  app.add_option("--dx", p.l0, "particle spacing l0 [m]")->capture_default_str()->check(positive_up_to(1e3))
-      ->group("Numerics");
+  app.add_option("--dx", dx, "particle spacing l0 (default: 0.01 in 2-D, 0.04 in 3-D) [m]")
+      ->check(positive_up_to(1e3))->group("Numerics");
   app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")->capture_default_str()
       ->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--dt", p.dt, "time step dt_max [s]")->capture_default_str()->check(positive_up_to(10))
@@ -74,82 +82,97 @@ int main(int argc, char** argv) {
   add_export_ppe_option(app, export_ppe);
   if (const auto status = parse_options(app, argc, argv)) return *status;
 
+  p.l0 = dx > 0 ? dx : dim == 2 ? 0.01 : 0.04;
   try {
-    check_run_size((p.width / p.l0 + 10.0) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,
-                   "raise --dx", "shorten --end-time or raise --dt");
-    tank::Tank scene(p);
-    const mps::Simulation& sim = scene.sim();
-    const nlohmann::json params = params_json(p, sim);
-    std::cout << parameter_table(
-        "hydrostatic tank: " + std::to_string(sim.particles().size()) + " particles (" +
-            std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
-        params,
-        {{"scene", {"width_m", "height_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
-         {"numerics", {"dx_m", "gamma", "beta", "dt_s"}},
-         {"solver", {"solver"}},
-         {"run", {"end_time_s", "window_s", "band_l0"}}});
-    const fs::path dir(out);
-    clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
-                        "config.toml", "solves.csv", "ppe"});
-    scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "hydrostatic tank");
-    write_run_config(app, "hydrostatic", dir);
-    fs::create_directories(dir / "frames");
-    FrameSeries series(dir, "tank", frames, p.end_time);
-    series.write_if_due(sim);
-    double next_report = 0.1;
-    Progress progress(p.end_time, "s");
-    try {
-      while (!scene.done()) {
-        scene.step();
-        progress.update(sim.time(), sim.last_step().step);
-        series.write_if_due(sim);
-        if (sim.time() >= next_report - 1e-12) {
-          const auto& s = sim.last_step();
-          progress.clear();
-          std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",
-                      s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.solve.backend.c_str(), s.solve.iterations,
-                      s.max_speed);
-          next_report += 0.1;
-        }
-      }
-    } catch (const mps::SimulationError& e) {
-      progress.finish(sim.time(), sim.last_step().step);
-      return report_guard_stop(dir, e, params, sim);
-    }
-    progress.finish(sim.time(), sim.last_step().step);
-
-    const tank::Result r = scene.result();
-    std::vector<double> y, measured, exact, error;
-    for (const auto& b : r.bands) {
-      y.push_back(b.y_center);
-      measured.push_back(b.mean_pressure);
-      exact.push_back(b.exact_pressure);
-      error.push_back(b.relative_error);
-    }
-    mps::write_csv(dir / "pressure.csv", {"y_m", "mean_pressure_pa", "exact_pressure_pa", "relative_error"},
-                   {y, measured, exact, error});
-    const bool pass = r.max_error_below_top <= tolerance;
-    write_solves(dir, sim);
-    write_summary(dir,
-                    {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
-                     {"particles", {{"fluid", r.fluid}, {"boundary", r.boundary}}}, {"steps", r.steps},
-                     {"time_s", r.time}, {"dt_limit", r.dt_limit},
-                     {"checks", {{"max_band_pressure_error", r.max_error_below_top},
-                                 {"tolerance", tolerance},
-                                 {"max_displacement_l0", r.max_displacement_l0}}},
-                     {"timings", timings_json(sim.times(), r.steps, sim.particles().size())}});
-    std::printf("\nband  y [m]    mean P [Pa]   rho g (H-y) [Pa]   error\n");
-    for (std::size_t b = 0; b < r.bands.size(); ++b)
-      std::printf("%4zu  %.4f  %11.2f  %11.2f        %6.2f %%%s\n", b, r.bands[b].y_center, r.bands[b].mean_pressure,
-                  r.bands[b].exact_pressure, 100 * r.bands[b].relative_error, b + 1 == r.bands.size() ? "  (top band, not checked)" : "");
-    std::printf("\ncheck: max band pressure error below the top band %.2f %% (limit %.1f %%): %s\n"
-                "drift: the farthest fluid particle ended %.3f l0 from its start\n",
-                100 * r.max_error_below_top, 100 * tolerance, pass ? "PASS" : "FAIL", r.max_displacement_l0);
-    std::printf("outputs: %s (ParaView), %s, %s\n", series.path().string().c_str(), (dir / "pressure.csv").string().c_str(),
-                (dir / "summary.json").string().c_str());
-    return pass ? 0 : 2;
+    return dim == 2 ? run<2>(p, app, out, frames, tolerance, export_ppe)
+                    : run<3>(p, app, out, frames, tolerance, export_ppe);
   } catch (const std::exception& e) {
     std::cerr << "error: " << error_message(e) << "\n";
     return 1;
   }
 }
+
+namespace {
+
+template <int D>
+int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
+        const std::vector<int>& export_ppe) {
+  const double across = p.width / p.l0 + 10.0;
+  check_run_size((D == 2 ? across : across * across) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,
+                 "raise --dx", "shorten --end-time or raise --dt");
+  tank::BasicTank<D> scene(p);
+  const mps::BasicSimulation<D>& sim = scene.sim();
+  const nlohmann::json params = params_json(p, sim);
+  std::cout << parameter_table(
+      "hydrostatic tank, " + std::to_string(D) + "-D: " + std::to_string(sim.particles().size()) + " particles (" +
+          std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
+      params,
+      {{"scene", {"dim", "width_m", "height_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
+       {"numerics", {"dx_m", "gamma", "beta", "dt_s"}},
+       {"solver", {"solver"}},
+       {"run", {"end_time_s", "window_s", "band_l0"}}});
+  const fs::path dir(out);
+  clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
+                      "config.toml", "solves.csv", "ppe"});
+  scene.sim().template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()),
+                                             "hydrostatic tank, " + std::to_string(D) + "-D");
+  write_run_config(app, "hydrostatic", dir);
+  fs::create_directories(dir / "frames");
+  FrameSeries series(dir, "tank", frames, p.end_time);
+  series.write_if_due(sim);
+  double next_report = 0.1;
+  Progress progress(p.end_time, "s");
+  try {
+    while (!scene.done()) {
+      scene.step();
+      progress.update(sim.time(), sim.last_step().step);
+      series.write_if_due(sim);
+      if (sim.time() >= next_report - 1e-12) {
+        const auto& s = sim.last_step();
+        progress.clear();
+        std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",
+                    s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.solve.backend.c_str(), s.solve.iterations,
+                    s.max_speed);
+        next_report += 0.1;
+      }
+    }
+  } catch (const mps::SimulationError& e) {
+    progress.finish(sim.time(), sim.last_step().step);
+    return report_guard_stop(dir, e, params, sim);
+  }
+  progress.finish(sim.time(), sim.last_step().step);
+
+  const tank::Result r = scene.result();
+  std::vector<double> y, measured, exact, error;
+  for (const auto& b : r.bands) {
+    y.push_back(b.y_center);
+    measured.push_back(b.mean_pressure);
+    exact.push_back(b.exact_pressure);
+    error.push_back(b.relative_error);
+  }
+  mps::write_csv(dir / "pressure.csv", {D == 2 ? "y_m" : "z_m", "mean_pressure_pa", "exact_pressure_pa", "relative_error"},
+                 {y, measured, exact, error});
+  const bool pass = r.max_error_below_top <= tolerance;
+  write_solves(dir, sim);
+  write_summary(dir,
+                {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
+                 {"particles", {{"fluid", r.fluid}, {"boundary", r.boundary}}}, {"steps", r.steps},
+                 {"time_s", r.time}, {"dt_limit", r.dt_limit},
+                 {"checks", {{"max_band_pressure_error", r.max_error_below_top},
+                             {"tolerance", tolerance},
+                             {"max_displacement_l0", r.max_displacement_l0}}},
+                 {"timings", timings_json(sim.times(), r.steps, sim.particles().size())}});
+  std::printf("\nband  %s [m]    mean P [Pa]   rho g (H-%s) [Pa]   error\n", D == 2 ? "y" : "z", D == 2 ? "y" : "z");
+  for (std::size_t b = 0; b < r.bands.size(); ++b)
+    std::printf("%4zu  %.4f  %11.2f  %11.2f        %6.2f %%%s\n", b, r.bands[b].y_center, r.bands[b].mean_pressure,
+                r.bands[b].exact_pressure, 100 * r.bands[b].relative_error,
+                b + 1 == r.bands.size() ? "  (top band, not checked)" : "");
+  std::printf("\ncheck: max band pressure error below the top band %.2f %% (limit %.1f %%): %s\n"
+              "drift: the farthest fluid particle ended %.3f l0 from its start\n",
+              100 * r.max_error_below_top, 100 * tolerance, pass ? "PASS" : "FAIL", r.max_displacement_l0);
+  std::printf("outputs: %s (ParaView), %s, %s\n", series.path().string().c_str(), (dir / "pressure.csv").string().c_str(),
+              (dir / "summary.json").string().c_str());
+  return pass ? 0 : 2;
+}
+
+}  // namespace

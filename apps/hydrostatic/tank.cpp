@@ -9,26 +9,36 @@
 
 namespace tank {
 
-mps::Particles make_particles(const Params& p) {
-  mps::Particles particles;
-  mps::fill_rectangle(particles, {0.0, 0.0, p.width, p.water_height}, p.l0, mps::Kind::fluid);
+template <int D>
+mps::BasicParticles<D> make_particles(const Params& p) {
+  mps::BasicParticles<D> particles;
   // Walls rise 20 % above the water so the surface never reaches their top.
-  const mps::Rect inner{0.0, 0.0, p.width, 1.2 * p.water_height};
-  mps::add_rectangle_walls(particles, inner, p.l0, mps::left | mps::right | mps::bottom, 1, 4);
+  if constexpr (D == 2) {
+    mps::fill_rectangle(particles, {0.0, 0.0, p.width, p.water_height}, p.l0, mps::Kind::fluid);
+    const mps::Rect inner{0.0, 0.0, p.width, 1.2 * p.water_height};
+    mps::add_rectangle_walls(particles, inner, p.l0, mps::left | mps::right | mps::bottom, 1, 4);
+  } else {
+    mps::fill_box(particles, {0.0, 0.0, 0.0, p.width, p.width, p.water_height}, p.l0, mps::Kind::fluid);
+    const mps::Box inner{0.0, 0.0, 0.0, p.width, p.width, 1.2 * p.water_height};
+    mps::add_box_walls(particles, inner, p.l0, mps::x_low | mps::x_high | mps::y_low | mps::y_high | mps::z_low, 1, 4);
+  }
   return particles;
 }
 
-mps::Domain make_domain(const Params& p) {
+template <int D>
+mps::BasicDomain<D> make_domain(const Params& p) {
   const double margin = 6.0 * p.l0;
-  return {-margin, p.width + margin, -margin, 1.5 * p.water_height + margin};
+  if constexpr (D == 2) return {-margin, p.width + margin, -margin, 1.5 * p.water_height + margin};
+  else return {-margin, p.width + margin, -margin, p.width + margin, -margin, 1.5 * p.water_height + margin};
 }
 
+template <int D>
 mps::SimulationConfig make_config(const Params& p) {
   mps::SimulationConfig c;
   c.l0 = p.l0;
   c.rho = 1000.0;
   c.nu = 1e-6;
-  c.fy = -p.g;
+  (D == 2 ? c.fy : c.fz) = -p.g;
   c.gamma = p.gamma;
   c.dt_max = p.dt;
   c.solver = p.solver;
@@ -55,28 +65,38 @@ const Params& checked(const Params& p) {
 }
 }  // namespace
 
-Tank::Tank(const Params& p)
+template <int D>
+BasicTank<D>::BasicTank(const Params& p)
     : params_(checked(p)),
-      initial_(make_particles(p)),
-      sim_(initial_, make_domain(p), make_config(p)),
+      initial_(make_particles<D>(p)),
+      sim_(initial_, make_domain<D>(p), make_config<D>(p)),
       band_h_(p.band * p.l0),
       sum_(static_cast<std::size_t>(std::ceil(p.water_height / band_h_ - 1e-9)), 0.0),
       samples_(sum_.size(), 0) {}
 
-void Tank::step() {
+// The height: y in 2-D, z in 3-D.
+template <int D>
+const std::vector<double>& heights(const mps::BasicParticles<D>& s) {
+  return *s.positions()[D - 1];
+}
+
+template <int D>
+void BasicTank<D>::step() {
   sim_.step();
   if (sim_.time() < params_.end_time - params_.window) return;
-  const mps::Particles& s = sim_.particles();
+  const mps::BasicParticles<D>& s = sim_.particles();
+  const std::vector<double>& height = heights(s);
   const int top = static_cast<int>(sum_.size()) - 1;
   for (std::size_t i = 0; i < s.size(); ++i) {
-    if (s.kind[i] != mps::Kind::fluid || s.y[i] < 0.0) continue;
-    const auto b = static_cast<std::size_t>(std::min(top, static_cast<int>(s.y[i] / band_h_)));
+    if (s.kind[i] != mps::Kind::fluid || height[i] < 0.0) continue;
+    const auto b = static_cast<std::size_t>(std::min(top, static_cast<int>(height[i] / band_h_)));
     sum_[b] += s.p[i];
     ++samples_[b];
   }
 }
 
-Result Tank::result() const {
+template <int D>
+Result BasicTank<D>::result() const {
   const Params& p = params_;
   Result r;
   const double rho = sim_.config().rho;
@@ -90,12 +110,13 @@ Result Tank::result() const {
     if (b + 1 < sum_.size()) r.max_error_below_top = std::max(r.max_error_below_top, band.relative_error);
     r.bands.push_back(band);
   }
-  const mps::Particles& s = sim_.particles();
+  const mps::BasicParticles<D>& s = sim_.particles();
   for (std::size_t i = 0; i < s.size(); ++i) {
     if (s.kind[i] != mps::Kind::fluid) continue;
     const auto k = static_cast<std::size_t>(s.id[i]);
-    r.max_displacement_l0 =
-        std::max(r.max_displacement_l0, std::hypot(s.x[i] - initial_.x[k], s.y[i] - initial_.y[k]) / p.l0);
+    mps::Vec<D> moved = s.position(i);
+    for (std::size_t a = 0; a < D; ++a) moved[a] -= initial_.position(k)[a];
+    r.max_displacement_l0 = std::max(r.max_displacement_l0, mps::norm<D>(moved) / p.l0);
   }
   r.steps = sim_.last_step().step;
   r.time = sim_.time();
@@ -104,5 +125,14 @@ Result Tank::result() const {
   r.boundary = static_cast<int>(s.size()) - r.fluid;
   return r;
 }
+
+template class BasicTank<2>;
+template class BasicTank<3>;
+template mps::BasicParticles<2> make_particles<2>(const Params&);
+template mps::BasicParticles<3> make_particles<3>(const Params&);
+template mps::BasicDomain<2> make_domain<2>(const Params&);
+template mps::BasicDomain<3> make_domain<3>(const Params&);
+template mps::SimulationConfig make_config<2>(const Params&);
+template mps::SimulationConfig make_config<3>(const Params&);
 
 }  // namespace tank

@@ -1,6 +1,7 @@
 #pragma once
-// Hydrostatic tank: a water column at rest in a walled tank with an open top. After the start-up
-// transient the pressure must be rho g (H - y) and the particles must stay where they are.
+// Hydrostatic tank: a water column at rest in a walled tank with an open top, in 2-D (a width x H rectangle, gravity
+// along -y) or 3-D (a width x width x H box, gravity along -z). After the start-up transient the pressure must be
+// rho g (H - height) and the particles must stay where they are.
 #include <string>
 #include <vector>
 
@@ -36,28 +37,34 @@ struct Result {
   int fluid = 0, boundary = 0;
 };
 
-mps::Particles make_particles(const Params& p);
-mps::Domain make_domain(const Params& p);
+template <int D = 2>
+mps::BasicParticles<D> make_particles(const Params& p);
+template <int D = 2>
+mps::BasicDomain<D> make_domain(const Params& p);
+template <int D = 2>
 mps::SimulationConfig make_config(const Params& p);
 
 // The scene in progress: step() advances the simulation and samples band pressures over the final window.
-class Tank {
+template <int D>
+class BasicTank {
  public:
-  explicit Tank(const Params& p);
+  explicit BasicTank(const Params& p);
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
   [[nodiscard]] bool done() const { return sim_.time() >= params_.end_time - 1e-12; }
   [[nodiscard]] Result result() const;
-  [[nodiscard]] const mps::Simulation& sim() const { return sim_; }
-  [[nodiscard]] mps::Simulation& sim() { return sim_; }  // to add components of one's own
+  [[nodiscard]] const mps::BasicSimulation<D>& sim() const { return sim_; }
+  [[nodiscard]] mps::BasicSimulation<D>& sim() { return sim_; }  // to add components of one's own
   [[nodiscard]] const Params& params() const { return params_; }
 
  private:
   Params params_;
-  mps::Particles initial_;
-  mps::Simulation sim_;
+  mps::BasicParticles<D> initial_;
+  mps::BasicSimulation<D> sim_;
   double band_h_;
   std::vector<double> sum_;
   std::vector<int> samples_;
 };
+using Tank = BasicTank<2>;
+using Tank3 = BasicTank<3>;
 
 }  // namespace tank

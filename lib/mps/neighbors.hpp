@@ -90,6 +90,27 @@ struct BasicDomain : Extent<D> {
   void validate() const;  ///< throws std::invalid_argument with the reason
 };
 
+/// r_j - r_i by the minimum image, with the domain's periodicity and periods read once: for pair loops, where
+/// BasicDomain::displacement would read them for every pair. The same numbers.
+template <int D>
+class Displacement {
+ public:
+  explicit Displacement(const BasicDomain<D>& domain) : periodic_(domain.periodic()) {
+    for (std::size_t a = 0; a < D; ++a) length_[a] = domain.extent(static_cast<int>(a));
+  }
+  /// r_j - r_i
+  [[nodiscard]] Vec<D> operator()(const Vec<D>& ri, const Vec<D>& rj) const {
+    Vec<D> d;
+    for (std::size_t a = 0; a < D; ++a)
+      d[a] = periodic_[a] ? BasicDomain<D>::nearest_image(rj[a] - ri[a], length_[a]) : rj[a] - ri[a];
+    return d;
+  }
+
+ private:
+  std::array<bool, D> periodic_;
+  Vec<D> length_;
+};
+
 using Domain = BasicDomain<2>;   ///< a 2-D domain
 using Domain3 = BasicDomain<3>;  ///< a 3-D domain
 
@@ -167,6 +188,21 @@ class BasicCellGrid {
     const auto periodic = domain_.periodic();
     std::array<std::array<int, 2>, D> range;
     for (std::size_t a = 0; a < D; ++a) range[a] = span(r[a] - lower[a], radius, h_[a], n_[a], periodic[a]);
+    if constexpr (D == 2) {  // the rows of a plane, without the general odometer below
+      const int nx = n_[0], ny = n_[1];
+      for (int ky = range[1][0]; ky <= range[1][1]; ++ky) {
+        const int row = ky < 0 ? ky + ny : ky >= ny ? ky - ny : ky;
+        const double sy = ky < 0 ? -domain_.extent(1) : ky >= ny ? domain_.extent(1) : 0.0;
+        const auto row_run = [&](int x0, int x1, double sx) {  // cells x0..x1 of the row are contiguous
+          run(cell_start_[static_cast<std::size_t>(row * nx + x0)],
+              cell_start_[static_cast<std::size_t>(row * nx + x1) + 1], Vec<2>{sx, sy});
+        };
+        if (range[0][0] < 0) row_run(range[0][0] + nx, nx - 1, -domain_.extent(0));
+        row_run(std::max(range[0][0], 0), std::min(range[0][1], nx - 1), 0.0);
+        if (range[0][1] >= nx) row_run(0, range[0][1] - nx, domain_.extent(0));
+      }
+      return;
+    }
     // Each row of cells along x at the (y, z) cells of the range, lowest axis fastest after x.
     std::array<int, D> k{};
     for (std::size_t a = 1; a < D; ++a) k[a] = range[a][0];

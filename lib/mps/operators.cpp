@@ -22,14 +22,16 @@ void check_size(std::size_t got, std::size_t want, const char* what) {
 template <int D, class F>
 void for_each_pair(const BasicStencil<D>& s, std::size_t i, F&& f) {
   const BasicParticles<D>& p = s.particles;
-  const auto positions = p.positions();
+  std::array<const double*, D> X;
+  for (std::size_t a = 0; a < D; ++a) X[a] = p.positions()[a]->data();
+  const Displacement<D> displacement(s.domain);
   Vec<D> ri;
-  for (std::size_t a = 0; a < D; ++a) ri[a] = (*positions[a])[i];
+  for (std::size_t a = 0; a < D; ++a) ri[a] = X[a][i];
   for (int j : s.neighbors.of(i)) {
     const auto jj = static_cast<std::size_t>(j);
     Vec<D> rj;
-    for (std::size_t a = 0; a < D; ++a) rj[a] = (*positions[a])[jj];
-    const Vec<D> d = s.domain.displacement(ri, rj);
+    for (std::size_t a = 0; a < D; ++a) rj[a] = X[a][jj];
+    const Vec<D> d = displacement(ri, rj);
     const double r2 = norm2<D>(d);
     const double w = s.kernel.w(std::sqrt(r2));
     if (w > 0.0) f(jj, d, r2, w);

@@ -140,18 +140,27 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
   // Every listed pair is closer than the list's radius; when that is within the kernel's, every pair has w > 0
   // and the passes that only need to know which pairs count skip the distance and the kernel.
   const bool all_in_kernel = s.neighbors.radius <= s.kernel.re;
+  const Displacement<D> displacement(s.domain);
+  std::array<const double*, D> X;
+  for (std::size_t a = 0; a < D; ++a) X[a] = p.positions()[a]->data();
+  auto at = [&](std::size_t i) {
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = X[a][i];
+    return r;
+  };
   auto coupled = [&](std::size_t i, std::size_t j) {
     if (!in_sum(j)) return false;
     if (all_in_kernel) return true;
-    return s.kernel.w(std::sqrt(norm2<D>(s.domain.displacement(p.position(i), p.position(j))))) > 0.0;
+    return s.kernel.w(std::sqrt(norm2<D>(displacement(at(i), at(j))))) > 0.0;
   };
   // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
   auto ppe_weight = [&](std::size_t i, auto&& each) {
     double diag = 0.0;
+    const Vec<D> ri = at(i);
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
       if (!in_sum(j)) continue;
-      const double w = s.kernel.w(std::sqrt(norm2<D>(s.domain.displacement(p.position(i), p.position(j)))));
+      const double w = s.kernel.w(std::sqrt(norm2<D>(displacement(ri, at(j)))));
       if (w <= 0.0) continue;
       diag += w;
       each(j, w);

@@ -2,6 +2,7 @@
 #include "mps/parallel.hpp"
 
 #include "mps/kernel.hpp"
+#include "mps/vec.hpp"
 
 #include <algorithm>
 #include <array>
@@ -72,6 +73,52 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
     p.v[i] = 2.0 * U[1] - vm;
   }
 }
+
+template <int D>
+void MirrorPlane<D>::validate() const {
+  for (std::size_t a = 0; a < D; ++a)
+    if (!std::isfinite(point[a]) || !std::isfinite(velocity[a]) || !std::isfinite(normal[a]))
+      throw std::invalid_argument("mirror plane: point, normal and velocity must be finite");
+  if (!(std::abs(norm<D>(normal) - 1.0) < 1e-9)) throw std::invalid_argument("mirror plane: the normal must have unit length");
+}
+
+template <int D>
+void apply_mirror_velocity(const MirrorPlane<D>& wall, const BasicCellGrid<D>& grid, double radius,
+                           BasicParticles<D>& p) {
+  wall.validate();
+  if (!(radius > 0.0) || radius > grid.cell_size() * (1.0 + 1e-12))
+    throw std::invalid_argument("apply_mirror_velocity: radius must be in (0, the grid's cell size]");
+  const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0, D};
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  const auto vel = p.velocities();
+  // Writes go to walls and dummies, reads come from fluid only: the loop has no dependence between particles.
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if ((p.kind[i] != Kind::wall && p.kind[i] != Kind::dummy) || p.group[i] != wall.group) continue;
+    const Vec<D> r = p.position(i);
+    Vec<D> offset;
+    for (std::size_t a = 0; a < D; ++a) offset[a] = r[a] - wall.point[a];
+    const double depth = dot<D>(offset, wall.normal);  // < 0 behind the wall
+    Vec<D> mirror, sum{};
+    for (std::size_t a = 0; a < D; ++a) mirror[a] = r[a] - 2.0 * depth * wall.normal[a];
+    double sw = 0.0;
+    grid.for_each_near(mirror, shepard.re, [&](int j, const Vec<D>& d) {
+      const auto jj = static_cast<std::size_t>(j);
+      if (p.kind[jj] != Kind::fluid) return;
+      const double w = shepard.w(norm<D>(d));
+      sw += w;
+      for (std::size_t a = 0; a < D; ++a) sum[a] += w * (*vel[a])[jj];
+    });
+    for (std::size_t a = 0; a < D; ++a)
+      (*vel[a])[i] = 2.0 * wall.velocity[a] - (sw > 0.0 ? sum[a] / sw : wall.velocity[a]);
+  }
+}
+
+template struct MirrorPlane<2>;
+template struct MirrorPlane<3>;
+template void apply_mirror_velocity(const MirrorPlane<2>&, const BasicCellGrid<2>&, double, BasicParticles<2>&);
+template void apply_mirror_velocity(const MirrorPlane<3>&, const BasicCellGrid<3>&, double, BasicParticles<3>&);
 
 void OutflowBuffer::validate() const {
   if (!std::isfinite(px) || !std::isfinite(py)) throw std::invalid_argument("outflow buffer: point must be finite");

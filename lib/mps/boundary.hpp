@@ -48,6 +48,23 @@ struct MirrorWall {
 /// a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
 void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
 
+/// A flat no-slip wall in D dimensions by mirror velocities: MirrorWall's plane case (a line in 2-D, a plane in 3-D),
+/// for every dimension. Every wall and dummy particle of `group` takes 2 U - u(m), u(m) the fluid velocity at its
+/// mirror image m across the plane.
+template <int D>
+struct MirrorPlane {
+  Vec<D> point{};     ///< a point of the plane [m]
+  Vec<D> normal{};    ///< unit normal pointing into the fluid
+  Vec<D> velocity{};  ///< the wall's velocity U (tangential: a sliding wall) [m/s]
+  int group = 0;      ///< the wall and dummy particles it applies to
+  void validate() const;  ///< throws std::invalid_argument unless finite with a unit normal
+};
+
+/// u(m) as apply_mirror_velocity's (the Shepard average of the fluid within `radius` of m).
+template <int D>
+void apply_mirror_velocity(const MirrorPlane<D>& wall, const BasicCellGrid<D>& grid, double radius,
+                           BasicParticles<D>& particles);
+
 /// An open outlet with an outflow buffer: the layer of `thickness` upstream of the outlet line, and everything
 /// beyond it, is held at gauge pressure 0, and its fluid leaves at the velocity of the fluid just upstream, along the
 /// outflow direction, unmoved by the pressure gradient and the viscous term. Why not free-surface particles at

@@ -74,6 +74,16 @@ void OpenOutlet::after_pressure(StepContext& c) {
     }
 }
 
+// Mirrored values in div u* would put the fluid's streamwise changes into the source (MirrorNoSlip's reason).
+template <int D>
+void BasicMirrorPlaneNoSlip<D>::before_projection(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const auto vel = p.velocities();
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall_.group)
+      for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = wall_.velocity[a];
+}
+
 template <int D>
 void BasicSurfaceRegion<D>::before_source(StepContext& c) {
   const BasicParticles<D>& p = c.particles;
@@ -238,6 +248,8 @@ void BasicParticleShifting<D>::shift_positions(StepContext& c) {
   shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p, normal);
 }
 
+template class BasicMirrorPlaneNoSlip<2>;
+template class BasicMirrorPlaneNoSlip<3>;
 template class BasicSurfaceRegion<2>;
 template class BasicSurfaceRegion<3>;
 template class BasicAsymmetrySurface<2>;

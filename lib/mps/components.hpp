@@ -49,6 +49,25 @@ class MirrorNoSlip : public StepComponent {
   MirrorWall wall_;
 };
 
+/// No-slip at a flat wall in D dimensions (see MirrorPlane), as MirrorNoSlip does for MirrorWall: the wall's particles
+/// take the mirrored fluid velocity for the viscous term, and the wall's own velocity for the projection.
+template <int D>
+class BasicMirrorPlaneNoSlip : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicMirrorPlaneNoSlip(const MirrorPlane<D>& wall) : wall_(wall) { wall_.validate(); }  ///< checked
+  void before_predictor(StepContext& c) override {
+    apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
+  }
+  void before_projection(StepContext& c) override;
+  [[nodiscard]] const MirrorPlane<D>& wall() const { return wall_; }  ///< the wall it applies
+
+ private:
+  MirrorPlane<D> wall_;
+};
+using MirrorPlaneNoSlip = BasicMirrorPlaneNoSlip<2>;   ///< 2-D
+using MirrorPlaneNoSlip3 = BasicMirrorPlaneNoSlip<3>;  ///< 3-D
+
 /// An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0, and its fluid
 /// leaves at the upstream fluid's velocity, unmoved by viscosity, the pressure gradient and shifting.
 class OpenOutlet : public StepComponent {
@@ -223,6 +242,8 @@ class BasicParticleShifting : public BasicStepComponent<D> {
 using ParticleShifting = BasicParticleShifting<2>;   ///< 2-D
 using ParticleShifting3 = BasicParticleShifting<3>;  ///< 3-D
 
+extern template class BasicMirrorPlaneNoSlip<2>;
+extern template class BasicMirrorPlaneNoSlip<3>;
 extern template class BasicSurfaceRegion<2>;
 extern template class BasicSurfaceRegion<3>;
 extern template class BasicAsymmetrySurface<2>;

@@ -41,76 +41,81 @@ int size_of(MPI_Comm comm) {
   return s;
 }
 
-// One particle, every array of it, as the bytes a message carries.
-struct Record {
-  double x, y, u, v, p;
-  int group, id;
-  Kind kind;
+// One particle, every array of its field list (BasicParticles::for_each_field), as the bytes a message carries.
+template <int D>
+class Record {
+ public:
+  Record() {
+    BasicParticles<D> probe;
+    probe.for_each_field([&](const char* name, const auto& field) {
+      if (std::string(name) == "id") id_at_ = bytes_;
+      bytes_ += sizeof(field[0]);
+    });
+  }
+  [[nodiscard]] std::size_t bytes() const { return bytes_; }
+  void pack(const BasicParticles<D>& s, std::size_t i, unsigned char* out) const {
+    s.for_each_field([&](const char*, const auto& field) {
+      std::memcpy(out, &field[i], sizeof(field[i]));
+      out += sizeof(field[i]);
+    });
+  }
+  void unpack(const unsigned char* in, BasicParticles<D>& s, std::size_t i) const {
+    s.for_each_field([&](const char*, auto& field) {
+      std::memcpy(&field[i], in, sizeof(field[i]));
+      in += sizeof(field[i]);
+    });
+  }
+  [[nodiscard]] int id(const unsigned char* record) const {
+    int value = 0;
+    std::memcpy(&value, record + id_at_, sizeof value);
+    return value;
+  }
+
+ private:
+  std::size_t bytes_ = 0, id_at_ = 0;
 };
-static_assert(std::is_trivially_copyable_v<Record>);
 
-Record record_of(const Particles& s, std::size_t i) {
-  Record r{};  // zeroed padding: no uninitialised bytes go out
-  r.x = s.x[i];
-  r.y = s.y[i];
-  r.u = s.u[i];
-  r.v = s.v[i];
-  r.p = s.p[i];
-  r.group = s.group[i];
-  r.id = s.id[i];
-  r.kind = s.kind[i];
-  return r;
+template <int D>
+void resize(BasicParticles<D>& s, std::size_t n) {
+  s.for_each_field([n](const char*, auto& field) { field.resize(n); });
 }
 
-void put(Particles& s, std::size_t i, const Record& r) {
-  s.x[i] = r.x;
-  s.y[i] = r.y;
-  s.u[i] = r.u;
-  s.v[i] = r.v;
-  s.p[i] = r.p;
-  s.group[i] = r.group;
-  s.id[i] = r.id;
-  s.kind[i] = r.kind;
-}
-
-void resize(Particles& s, std::size_t n) {
-  s.x.resize(n);
-  s.y.resize(n);
-  s.u.resize(n);
-  s.v.resize(n);
-  s.p.resize(n);
-  s.kind.resize(n);
-  s.group.resize(n);
-  s.id.resize(n);
-}
-
-// Zoltan's query functions over one rank's particles.
+// Zoltan's query functions over one rank's particles: their ids and coordinates.
 struct ZoltanInput {
-  const Particles* particles;
+  std::size_t count = 0;
+  const int* ids = nullptr;
+  int dim = 2;
+  std::array<const double*, 3> coords{};
 };
+template <int D>
+void set_input(ZoltanInput& in, const BasicParticles<D>& particles) {
+  in.count = particles.size();
+  in.ids = particles.id.data();
+  in.dim = D;
+  for (std::size_t a = 0; a < D; ++a) in.coords[a] = particles.positions()[a]->data();
+}
 int zoltan_count(void* data, int* ierr) {
   *ierr = ZOLTAN_OK;
-  return static_cast<int>(static_cast<ZoltanInput*>(data)->particles->size());
+  return static_cast<int>(static_cast<ZoltanInput*>(data)->count);
 }
 void zoltan_objects(void* data, int, int, ZOLTAN_ID_PTR global, ZOLTAN_ID_PTR local, int, float*, int* ierr) {
-  const Particles& s = *static_cast<ZoltanInput*>(data)->particles;
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    global[i] = static_cast<ZOLTAN_ID_TYPE>(s.id[i]);
+  const ZoltanInput& s = *static_cast<ZoltanInput*>(data);
+  for (std::size_t i = 0; i < s.count; ++i) {
+    global[i] = static_cast<ZOLTAN_ID_TYPE>(s.ids[i]);
     local[i] = static_cast<ZOLTAN_ID_TYPE>(i);
   }
   *ierr = ZOLTAN_OK;
 }
-int zoltan_dimension(void*, int* ierr) {
+int zoltan_dimension(void* data, int* ierr) {
   *ierr = ZOLTAN_OK;
-  return Particles::dim;
+  return static_cast<ZoltanInput*>(data)->dim;
 }
-void zoltan_positions(void* data, int, int, int count, ZOLTAN_ID_PTR, ZOLTAN_ID_PTR local, int, double* xy, int* ierr) {
-  const Particles& s = *static_cast<ZoltanInput*>(data)->particles;
-  for (int k = 0; k < count; ++k) {
-    const auto i = static_cast<std::size_t>(local[k]);
-    xy[2 * k] = s.x[i];
-    xy[2 * k + 1] = s.y[i];
-  }
+void zoltan_positions(void* data, int, int, int count, ZOLTAN_ID_PTR, ZOLTAN_ID_PTR local, int dim, double* xyz,
+                      int* ierr) {
+  const ZoltanInput& s = *static_cast<ZoltanInput*>(data);
+  for (int k = 0; k < count; ++k)
+    for (int a = 0; a < dim; ++a)
+      xyz[dim * k + a] = s.coords[static_cast<std::size_t>(a)][static_cast<std::size_t>(local[k])];
   *ierr = ZOLTAN_OK;
 }
 
@@ -130,7 +135,8 @@ void join(std::vector<int>& parent, int a, int b) {
 
 }  // namespace
 
-std::vector<int> partition_particles(const Particles& particles, int comm) {
+template <int D>
+std::vector<int> partition_particles(const BasicParticles<D>& particles, int comm) {
   RcbPartition partition(comm);
   return partition.repartition(particles);
 }
@@ -147,7 +153,8 @@ double load_imbalance(std::size_t load, int comm_handle) {
 
 struct RcbPartition::Zoltan {
   Zoltan_Struct* zz = nullptr;
-  ZoltanInput input{nullptr};
+  ZoltanInput input;
+  int dim = 0;  // of the particles it partitions (fixed at the first repartition)
 };
 
 RcbPartition::RcbPartition(int comm_handle) : comm_(comm_handle) { require_mpi("RcbPartition"); }
@@ -172,7 +179,8 @@ RcbPartition& RcbPartition::operator=(RcbPartition&& other) noexcept {
   return *this;
 }
 
-std::vector<int> RcbPartition::repartition(const Particles& particles) {
+template <int D>
+std::vector<int> RcbPartition::repartition(const BasicParticles<D>& particles) {
   for (int id : particles.id)
     if (id < 0)
       throw std::invalid_argument("partition_particles: particle id " + std::to_string(id) +
@@ -185,7 +193,7 @@ std::vector<int> RcbPartition::repartition(const Particles& particles) {
   if (zoltan_ == nullptr) {
     Zoltan_Struct* zz = Zoltan_Create(to_comm(comm_));
     if (zz == nullptr) throw std::runtime_error("partition_particles: Zoltan_Create failed");
-    zoltan_ = new Zoltan{zz, {nullptr}};
+    zoltan_ = new Zoltan{zz, {}, D};
     // RCB, one part per rank; rectilinear blocks keep every particle on a cut line on one side, so the partition is
     // a function of the positions alone (a lattice has many particles on each line). The cuts are kept for assign().
     // No remapping of parts to the ranks holding most of their particles: on 3 ranks that gave the same boxes other
@@ -201,7 +209,10 @@ std::vector<int> RcbPartition::repartition(const Particles& particles) {
     Zoltan_Set_Num_Geom_Fn(zz, zoltan_dimension, &zoltan_->input);
     Zoltan_Set_Geom_Multi_Fn(zz, zoltan_positions, &zoltan_->input);
   }
-  zoltan_->input.particles = &particles;
+  if (zoltan_->dim != D)
+    throw std::invalid_argument("RcbPartition: cut for " + std::to_string(zoltan_->dim) + "-D particles, given " +
+                                std::to_string(D) + "-D ones");
+  set_input(zoltan_->input, particles);
   int changes = 0, gid_entries = 0, lid_entries = 0, imports = 0, exports = 0;
   ZOLTAN_ID_PTR import_gid = nullptr, import_lid = nullptr, export_gid = nullptr, export_lid = nullptr;
   int *import_procs = nullptr, *import_parts = nullptr, *export_procs = nullptr, *export_parts = nullptr;
@@ -210,20 +221,24 @@ std::vector<int> RcbPartition::repartition(const Particles& particles) {
                                        &export_procs, &export_parts);
   Zoltan_LB_Free_Part(&import_gid, &import_lid, &import_procs, &import_parts);
   Zoltan_LB_Free_Part(&export_gid, &export_lid, &export_procs, &export_parts);
-  zoltan_->input.particles = nullptr;
+  zoltan_->input = {};
   if (code != ZOLTAN_OK) throw std::runtime_error("partition_particles: Zoltan_LB_Partition failed");
   has_cuts_ = true;
   // The ranks from the cuts (not from Zoltan's export lists): the same rule assign() applies on later steps.
   return assign(particles);
 }
 
-std::vector<int> RcbPartition::assign(const Particles& particles) const {
+template <int D>
+std::vector<int> RcbPartition::assign(const BasicParticles<D>& particles) const {
   if (!has_cuts_)
     throw std::logic_error("RcbPartition::assign: no cuts yet; call repartition() (or place()) first");
+  if (zoltan_->dim != D)
+    throw std::invalid_argument("RcbPartition: cut for " + std::to_string(zoltan_->dim) + "-D particles, given " +
+                                std::to_string(D) + "-D ones");
   std::vector<int> destination(particles.size());
   for (std::size_t i = 0; i < particles.size(); ++i) {
-    std::array<double, 2> xy{particles.x[i], particles.y[i]};
-    if (Zoltan_LB_Point_Assign(zoltan_->zz, xy.data(), &destination[i]) != ZOLTAN_OK)
+    Vec<D> r = particles.position(i);
+    if (Zoltan_LB_Point_Assign(zoltan_->zz, r.data(), &destination[i]) != ZOLTAN_OK)
       throw std::runtime_error("RcbPartition::assign: Zoltan_LB_Point_Assign failed");
   }
   return destination;
@@ -240,7 +255,8 @@ double RcbPartition::imbalance_of(const std::vector<int>& destination) const {
          static_cast<double>(sum);
 }
 
-RcbPartition::Placement RcbPartition::place(const Particles& particles, double threshold) {
+template <int D>
+RcbPartition::Placement RcbPartition::place(const BasicParticles<D>& particles, double threshold) {
   if (std::isnan(threshold))
     throw std::invalid_argument("RcbPartition::place: the rebalance threshold is NaN; give the largest load over the "
                                 "mean to tolerate, e.g. 1.1");
@@ -256,7 +272,8 @@ RcbPartition::Placement RcbPartition::place(const Particles& particles, double t
   return out;
 }
 
-ExchangeStats migrate_particles(Particles& particles, std::span<const int> destination, int comm_handle) {
+template <int D>
+ExchangeStats migrate_particles(BasicParticles<D>& particles, std::span<const int> destination, int comm_handle) {
   require_mpi("migrate_particles");
   const MPI_Comm comm = to_comm(comm_handle);
   const int ranks = size_of(comm), me = rank_of(comm);
@@ -273,28 +290,31 @@ ExchangeStats migrate_particles(Particles& particles, std::span<const int> desti
   for (int d : destination) ++send_count[static_cast<std::size_t>(d)];
   std::vector<int> send_offset(send_count.size() + 1, 0);
   for (std::size_t q = 0; q < send_count.size(); ++q) send_offset[q + 1] = send_offset[q] + send_count[q];
-  std::vector<Record> out(n);
+  const Record<D> record;
+  const std::size_t bytes = record.bytes();
+  std::vector<unsigned char> out(n * bytes);
   {
     std::vector<int> next(send_offset.begin(), send_offset.end() - 1);
     for (std::size_t i = 0; i < n; ++i)
-      out[static_cast<std::size_t>(next[static_cast<std::size_t>(destination[i])]++)] = record_of(particles, i);
+      record.pack(particles, i, out.data() + bytes * static_cast<std::size_t>(next[static_cast<std::size_t>(destination[i])]++));
   }
   MPI_Alltoall(send_count.data(), 1, MPI_INT, receive_count.data(), 1, MPI_INT, comm);
   std::vector<int> receive_offset(receive_count.size() + 1, 0);
   for (std::size_t q = 0; q < receive_count.size(); ++q)
     receive_offset[q + 1] = receive_offset[q] + receive_count[q];
-  std::vector<Record> in(static_cast<std::size_t>(receive_offset.back()));
+  std::vector<unsigned char> in(static_cast<std::size_t>(receive_offset.back()) * bytes);
 
   ExchangeStats stats;
   // Point to point with the ranks that have something to exchange: the messages counted are the messages sent.
   std::vector<MPI_Request> requests;
   constexpr int tag = 2701;
-  const auto bytes = static_cast<int>(sizeof(Record));
+  const auto record_bytes = static_cast<int>(bytes);
   for (int q = 0; q < ranks; ++q) {
     const auto u = static_cast<std::size_t>(q);
     if (q == me || receive_count[u] == 0) continue;
     requests.emplace_back();
-    MPI_Irecv(in.data() + receive_offset[u], receive_count[u] * bytes, MPI_BYTE, q, tag, comm, &requests.back());
+    MPI_Irecv(in.data() + static_cast<std::size_t>(receive_offset[u]) * bytes, receive_count[u] * record_bytes, MPI_BYTE,
+              q, tag, comm, &requests.back());
     ++stats.messages_received;
     stats.particles_received += static_cast<std::size_t>(receive_count[u]);
   }
@@ -302,37 +322,47 @@ ExchangeStats migrate_particles(Particles& particles, std::span<const int> desti
     const auto u = static_cast<std::size_t>(q);
     if (q == me || send_count[u] == 0) continue;
     requests.emplace_back();
-    MPI_Isend(out.data() + send_offset[u], send_count[u] * bytes, MPI_BYTE, q, tag, comm, &requests.back());
+    MPI_Isend(out.data() + static_cast<std::size_t>(send_offset[u]) * bytes, send_count[u] * record_bytes, MPI_BYTE,
+              q, tag, comm, &requests.back());
     ++stats.messages_sent;
     stats.particles_sent += static_cast<std::size_t>(send_count[u]);
-    stats.bytes_sent += static_cast<std::size_t>(send_count[u]) * sizeof(Record);
+    stats.bytes_sent += static_cast<std::size_t>(send_count[u]) * bytes;
   }
   const auto mine = static_cast<std::size_t>(me);
-  std::copy(out.begin() + send_offset[mine], out.begin() + send_offset[mine + 1], in.begin() + receive_offset[mine]);
+  std::copy(out.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(send_offset[mine]) * bytes),
+            out.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(send_offset[mine + 1]) * bytes),
+            in.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(receive_offset[mine]) * bytes));
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
 
   // Owned particles by id: the order, like the ids, is then the same whatever the rank count.
-  std::sort(in.begin(), in.end(), [](const Record& a, const Record& b) { return a.id < b.id; });
-  for (std::size_t k = 1; k < in.size(); ++k)
-    if (in[k].id == in[k - 1].id)
-      throw std::invalid_argument("migrate_particles: particle id " + std::to_string(in[k].id) + " arrived twice on rank " +
-                                  std::to_string(me) + "; ids must be unique (renumber merged particle sets)");
-  resize(particles, in.size());
-  for (std::size_t k = 0; k < in.size(); ++k) put(particles, k, in[k]);
+  const std::size_t received = in.size() / bytes;
+  std::vector<std::pair<int, std::size_t>> by_id(received);
+  for (std::size_t k = 0; k < received; ++k) by_id[k] = {record.id(in.data() + k * bytes), k};
+  std::sort(by_id.begin(), by_id.end());
+  for (std::size_t k = 1; k < received; ++k)
+    if (by_id[k].first == by_id[k - 1].first)
+      throw std::invalid_argument("migrate_particles: particle id " + std::to_string(by_id[k].first) +
+                                  " arrived twice on rank " + std::to_string(me) +
+                                  "; ids must be unique (renumber merged particle sets)");
+  resize(particles, received);
+  for (std::size_t k = 0; k < received; ++k) record.unpack(in.data() + by_id[k].second * bytes, particles, k);
   return stats;
 }
 
-ExchangeStats distribute_particles(Particles& particles, int comm) {
+template <int D>
+ExchangeStats distribute_particles(BasicParticles<D>& particles, int comm) {
   const std::vector<int> destination = partition_particles(particles, comm);
   return migrate_particles(particles, destination, comm);
 }
 
 // ---------------------------------------------------------------------------------------------------------------------
 
-Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_handle)
+template <int D>
+BasicHalo<D>::BasicHalo(BasicParticles<D>& particles, const BasicDomain<D>& domain, double radius, int comm_handle)
     : comm_(comm_handle), radius_(radius), owned_(particles.size()) {
   require_mpi("Halo");
-  if (domain.periodic_x || domain.periodic_y)
+  const auto periodic = domain.periodic();
+  if (std::any_of(periodic.begin(), periodic.end(), [](bool b) { return b; }))
     throw std::invalid_argument("Halo: periodic domains are not supported yet (a copy would need its periodic image); "
                                 "distribute a scene with closed boundaries");
   if (!(radius > 0.0) || !std::isfinite(radius))
@@ -340,17 +370,22 @@ Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_h
                                 " (give the largest kernel radius)");
   const MPI_Comm comm = to_comm(comm_);
   const int ranks = size_of(comm);
-  // Each rank's bounding box of its active particles; an empty one stays inverted and catches nothing.
+  // Each rank's bounding box of its active particles (min, max per axis); an empty one stays inverted and catches
+  // nothing.
   constexpr double inf = std::numeric_limits<double>::infinity();
-  std::array<double, 4> box{inf, -inf, inf, -inf};
+  std::array<double, 2 * D> box;
+  for (std::size_t a = 0; a < D; ++a) box[2 * a] = inf, box[2 * a + 1] = -inf;
   for (std::size_t i = 0; i < owned_; ++i) {
     if (particles.kind[i] == Kind::ghost) continue;
-    box = {std::min(box[0], particles.x[i]), std::max(box[1], particles.x[i]), std::min(box[2], particles.y[i]),
-           std::max(box[3], particles.y[i])};
+    const Vec<D> r = particles.position(i);
+    for (std::size_t a = 0; a < D; ++a) {
+      box[2 * a] = std::min(box[2 * a], r[a]);
+      box[2 * a + 1] = std::max(box[2 * a + 1], r[a]);
+    }
   }
   std::vector<double>& boxes = boxes_;
-  boxes.resize(4 * static_cast<std::size_t>(ranks));
-  MPI_Allgather(box.data(), 4, MPI_DOUBLE, boxes.data(), 4, MPI_DOUBLE, comm);
+  boxes.resize(2 * D * static_cast<std::size_t>(ranks));
+  MPI_Allgather(box.data(), 2 * D, MPI_DOUBLE, boxes.data(), 2 * D, MPI_DOUBLE, comm);
   std::vector<int> active;
   for (std::size_t i = 0; i < owned_; ++i)
     (particles.kind[i] == Kind::ghost ? ghosts_ : active).push_back(static_cast<int>(i));
@@ -359,19 +394,21 @@ Halo::Halo(Particles& particles, const Domain& domain, double radius, int comm_h
   last_ = setup_;
 }
 
-ExchangeStats Halo::send_copies(Particles& particles, const std::vector<int>& candidates, int tag) {
+template <int D>
+ExchangeStats BasicHalo<D>::send_copies(BasicParticles<D>& particles, const std::vector<int>& candidates, int tag) {
   const MPI_Comm comm = to_comm(comm_);
   const int ranks = size_of(comm), me = rank_of(comm);
   std::vector<int> send_count(static_cast<std::size_t>(ranks), 0), receive_count(send_count.size(), 0);
   std::vector<Link> sends;
   for (int q = 0; q < ranks; ++q) {
     if (q == me) continue;
-    const double* b = boxes_.data() + 4 * q;
+    const double* b = boxes_.data() + 2 * D * static_cast<std::size_t>(q);
     Link link{q, {}, 0, 0};
     for (int i : candidates) {
-      const double x = particles.x[static_cast<std::size_t>(i)], y = particles.y[static_cast<std::size_t>(i)];
-      if (x >= b[0] - radius_ && x <= b[1] + radius_ && y >= b[2] - radius_ && y <= b[3] + radius_)
-        link.particles.push_back(i);
+      const Vec<D> r = particles.position(static_cast<std::size_t>(i));
+      bool near = true;
+      for (std::size_t a = 0; a < D; ++a) near = near && r[a] >= b[2 * a] - radius_ && r[a] <= b[2 * a + 1] + radius_;
+      if (near) link.particles.push_back(i);
     }
     send_count[static_cast<std::size_t>(q)] = static_cast<int>(link.particles.size());
     if (!link.particles.empty()) sends.push_back(std::move(link));
@@ -387,35 +424,39 @@ ExchangeStats Halo::send_copies(Particles& particles, const std::vector<int>& ca
     next += c;
   }
   ExchangeStats stats;
-  std::vector<std::vector<Record>> out(sends.size());
-  std::vector<Record> in(next - before);
+  const Record<D> record;
+  const std::size_t bytes = record.bytes();
+  std::vector<std::vector<unsigned char>> out(sends.size());
+  std::vector<unsigned char> in((next - before) * bytes);
   std::vector<MPI_Request> requests;
   for (const Link& link : receives) {
     requests.emplace_back();
-    MPI_Irecv(in.data() + (link.first - before), static_cast<int>(link.count * sizeof(Record)), MPI_BYTE, link.rank,
-              tag, comm, &requests.back());
+    MPI_Irecv(in.data() + (link.first - before) * bytes, static_cast<int>(link.count * bytes), MPI_BYTE, link.rank, tag,
+              comm, &requests.back());
     ++stats.messages_received;
     stats.particles_received += link.count;
   }
   for (std::size_t k = 0; k < sends.size(); ++k) {
-    for (int i : sends[k].particles) out[k].push_back(record_of(particles, static_cast<std::size_t>(i)));
+    out[k].resize(sends[k].particles.size() * bytes);
+    for (std::size_t m = 0; m < sends[k].particles.size(); ++m)
+      record.pack(particles, static_cast<std::size_t>(sends[k].particles[m]), out[k].data() + m * bytes);
     requests.emplace_back();
-    MPI_Isend(out[k].data(), static_cast<int>(out[k].size() * sizeof(Record)), MPI_BYTE, sends[k].rank, tag, comm,
-              &requests.back());
+    MPI_Isend(out[k].data(), static_cast<int>(out[k].size()), MPI_BYTE, sends[k].rank, tag, comm, &requests.back());
     ++stats.messages_sent;
-    stats.particles_sent += out[k].size();
-    stats.bytes_sent += out[k].size() * sizeof(Record);
+    stats.particles_sent += sends[k].particles.size();
+    stats.bytes_sent += out[k].size();
   }
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
   resize(particles, next);
-  for (std::size_t k = 0; k < in.size(); ++k) put(particles, before + k, in[k]);
+  for (std::size_t k = 0; k < next - before; ++k) record.unpack(in.data() + k * bytes, particles, before + k);
   copies_ = next - owned_;
   send_.insert(send_.end(), std::make_move_iterator(sends.begin()), std::make_move_iterator(sends.end()));
   receive_.insert(receive_.end(), receives.begin(), receives.end());
   return stats;
 }
 
-int Halo::neighbour_ranks() const {
+template <int D>
+int BasicHalo<D>::neighbour_ranks() const {
   std::vector<int> ranks;
   for (const Link& l : send_) ranks.push_back(l.rank);
   for (const Link& l : receive_) ranks.push_back(l.rank);
@@ -423,14 +464,16 @@ int Halo::neighbour_ranks() const {
   return static_cast<int>(std::unique(ranks.begin(), ranks.end()) - ranks.begin());
 }
 
-void Halo::check_size(std::size_t size) const {
+template <int D>
+void BasicHalo<D>::check_size(std::size_t size) const {
   if (size != owned_ + copies_)
     throw std::invalid_argument("Halo::refresh: the field has " + std::to_string(size) + " entries, the particles " +
                                 std::to_string(owned_) + " owned + " + std::to_string(copies_) +
                                 " halo copies; give one entry per particle, halo included");
 }
 
-void Halo::exchange(void* field, std::size_t value_bytes) {
+template <int D>
+void BasicHalo<D>::exchange(void* field, std::size_t value_bytes) {
   const MPI_Comm comm = to_comm(comm_);
   auto* bytes = static_cast<unsigned char*>(field);
   last_ = {};
@@ -458,35 +501,43 @@ void Halo::exchange(void* field, std::size_t value_bytes) {
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
 }
 
-void Halo::refresh(std::span<double> field) {
+template <int D>
+void BasicHalo<D>::refresh(std::span<double> field) {
   check_size(field.size());
   exchange(field.data(), sizeof(double));
 }
-void Halo::refresh(std::span<int> field) {
+template <int D>
+void BasicHalo<D>::refresh(std::span<int> field) {
   check_size(field.size());
   exchange(field.data(), sizeof(int));
 }
-void Halo::refresh(std::span<char> field) {
+template <int D>
+void BasicHalo<D>::refresh(std::span<char> field) {
   check_size(field.size());
   exchange(field.data(), sizeof(char));
 }
 
-void Halo::refresh(Particles& particles) {
+template <int D>
+void BasicHalo<D>::refresh(BasicParticles<D>& particles) {
   check_size(particles.size());
-  std::vector<Record> records(particles.size());
-  for (std::size_t i = 0; i < owned_; ++i) records[i] = record_of(particles, i);
-  exchange(records.data(), sizeof(Record));
-  for (std::size_t i = owned_; i < records.size(); ++i) put(particles, i, records[i]);
+  const Record<D> record;
+  const std::size_t bytes = record.bytes();
+  std::vector<unsigned char> records(particles.size() * bytes);
+  for (std::size_t i = 0; i < owned_; ++i) record.pack(particles, i, records.data() + i * bytes);
+  exchange(records.data(), bytes);
+  for (std::size_t i = owned_; i < particles.size(); ++i) record.unpack(records.data() + i * bytes, particles, i);
 }
 
-void Halo::remove(Particles& particles) const {
+template <int D>
+void BasicHalo<D>::remove(BasicParticles<D>& particles) const {
   check_size(particles.size());
   resize(particles, owned_);
 }
 
 // New links, each after the earlier ones to the same rank: both sides post their messages in link order, and MPI keeps
 // the order of messages between two ranks, so refreshes match them as they match the first.
-ExchangeStats Halo::add_activated(Particles& particles) {
+template <int D>
+ExchangeStats BasicHalo<D>::add_activated(BasicParticles<D>& particles) {
   check_size(particles.size());
   std::vector<int> activated;
   std::erase_if(ghosts_, [&](int i) {
@@ -499,7 +550,8 @@ ExchangeStats Halo::add_activated(Particles& particles) {
 
 // ---------------------------------------------------------------------------------------------------------------------
 
-DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char> free_surface,
+template <int D>
+DistributedPpe assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
                                         std::span<const double> source, std::span<const double> dirichlet,
                                         double shift) {
   DistributedPpe d;
@@ -507,7 +559,8 @@ DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<
   return d;
 }
 
-void assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char> free_surface,
+template <int D>
+void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
                               DistributedPpe& d) {
   const std::size_t n = s.particles.size();
@@ -529,7 +582,7 @@ void assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char
   halo.refresh(surface);
   std::vector<double> held(dirichlet.begin(), dirichlet.end());
   if (!held.empty()) halo.refresh(held);
-  assemble_ppe(s, surface, source, d.local, held, shift, ClosedGroups::leave);
+  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave);
   const PpeSystem& sys = d.local;
   const std::size_t m = sys.size();
   std::size_t rows = 0;  // owned particles come first, so their unknowns are the first rows
@@ -689,7 +742,9 @@ void assemble_distributed_ppe(Halo& halo, const Stencil& s, std::span<const char
   }
 }
 
-SolveReport solve_distributed_ppe(Halo& halo, const DistributedPpe& ppe, LinearSolver& solver, Particles& particles,
+template <int D>
+SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe, LinearSolver& solver,
+                                  BasicParticles<D>& particles,
                                   bool clamp_negative, std::span<const double> offset) {
   const std::size_t n = particles.size();
   if (n != halo.owned() + halo.copies() || (!offset.empty() && offset.size() != n))
@@ -722,5 +777,23 @@ SolveReport solve_distributed_ppe(Halo& halo, const DistributedPpe& ppe, LinearS
   halo.refresh(std::span<double>(particles.p));
   return report;
 }
+
+#define MPS_DISTRIBUTED_FOR(D)                                                                                       \
+  template std::vector<int> partition_particles(const BasicParticles<D>&, int);                                      \
+  template std::vector<int> RcbPartition::repartition(const BasicParticles<D>&);                                     \
+  template std::vector<int> RcbPartition::assign(const BasicParticles<D>&) const;                                    \
+  template RcbPartition::Placement RcbPartition::place(const BasicParticles<D>&, double);                            \
+  template ExchangeStats migrate_particles(BasicParticles<D>&, std::span<const int>, int);                            \
+  template ExchangeStats distribute_particles(BasicParticles<D>&, int);                                               \
+  template class BasicHalo<D>;                                                                                        \
+  template DistributedPpe assemble_distributed_ppe(BasicHalo<D>&, const BasicStencil<D>&, std::span<const char>,     \
+                                                   std::span<const double>, std::span<const double>, double);         \
+  template void assemble_distributed_ppe(BasicHalo<D>&, const BasicStencil<D>&, std::span<const char>,               \
+                                         std::span<const double>, std::span<const double>, double, DistributedPpe&);  \
+  template SolveReport solve_distributed_ppe(BasicHalo<D>&, const DistributedPpe&, LinearSolver&, BasicParticles<D>&, \
+                                             bool, std::span<const double>);
+MPS_DISTRIBUTED_FOR(2)
+MPS_DISTRIBUTED_FOR(3)
+#undef MPS_DISTRIBUTED_FOR
 
 }  // namespace mps

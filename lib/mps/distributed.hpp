@@ -32,7 +32,8 @@ struct ExchangeStats {
 /// positions (one part per rank, cuts between particles so that a part is a box). The same particles give the same
 /// partition. Throws std::invalid_argument for a negative id and std::runtime_error if MPI is not running or Zoltan
 /// fails. A one-off RcbPartition::repartition.
-std::vector<int> partition_particles(const Particles& particles, int comm);
+template <int D>
+std::vector<int> partition_particles(const BasicParticles<D>& particles, int comm);
 
 /// The load imbalance of a distribution: the largest rank's `load` over the mean of all ranks' (1 when every rank
 /// has the same; 1 when all are zero). Collective.
@@ -55,9 +56,11 @@ class RcbPartition {
 
   /// New cuts over every rank's particles and each of this rank's particles' rank under them. Collective. Throws
   /// std::invalid_argument for a negative id, std::runtime_error if Zoltan fails.
-  std::vector<int> repartition(const Particles& particles);
+  template <int D>
+  std::vector<int> repartition(const BasicParticles<D>& particles);
   /// Each particle's rank under the kept cuts. Local. Throws std::logic_error before the first repartition().
-  [[nodiscard]] std::vector<int> assign(const Particles& particles) const;
+  template <int D>
+  [[nodiscard]] std::vector<int> assign(const BasicParticles<D>& particles) const;
   [[nodiscard]] bool has_cuts() const { return has_cuts_; }  ///< a repartition() has been made
   [[nodiscard]] int comm() const { return comm_; }            ///< the communicator's Fortran handle
 
@@ -72,7 +75,8 @@ class RcbPartition {
   /// rank more than `threshold` times the mean particle count. Collective (one MPI_Allreduce of P counts, plus the
   /// repartition when made); every rank takes the same decision. A threshold of 1 or below repartitions every
   /// time, +infinity never after the first. Throws std::invalid_argument for a NaN threshold.
-  Placement place(const Particles& particles, double threshold);
+  template <int D>
+  Placement place(const BasicParticles<D>& particles, double threshold);
 
  private:
   struct Zoltan;  // the Zoltan_Struct holding the cuts
@@ -86,11 +90,13 @@ class RcbPartition {
 /// sorted by id (ids are global: a particle keeps its id whichever rank holds it). Particles must hold no halo copies
 /// (Halo::remove first). Throws std::invalid_argument for a destination outside the communicator and for an id that
 /// arrives twice on one rank.
-ExchangeStats migrate_particles(Particles& particles, std::span<const int> destination, int comm);
+template <int D>
+ExchangeStats migrate_particles(BasicParticles<D>& particles, std::span<const int> destination, int comm);
 
 /// partition_particles, then migrate_particles: each rank ends up owning one RCB box of the particles. A scene may
 /// start with all particles on rank 0 and none elsewhere.
-ExchangeStats distribute_particles(Particles& particles, int comm);
+template <int D>
+ExchangeStats distribute_particles(BasicParticles<D>& particles, int comm);
 
 /// Copies of the other ranks' particles within a radius of this rank's own (the owned ones), appended after them,
 /// and the lists to refresh the copies of any per-particle field with one exchange.
@@ -98,11 +104,12 @@ ExchangeStats distribute_particles(Particles& particles, int comm);
 /// Rank q receives from rank r every non-ghost particle of r inside the bounding box of q's non-ghost particles
 /// widened by the radius on every side: each particle closer than the radius to one of q's is among them. The copies
 /// come in rank order, each rank's in its own order.
-class Halo {
+template <int D>
+class BasicHalo {
  public:
   /// Appends to `particles` (this rank's owned particles, no copies yet) the halo copies, every array of them.
   /// Throws std::invalid_argument for a periodic domain (not supported yet) or a radius that is not positive.
-  Halo(Particles& particles, const Domain& domain, double radius, int comm);
+  BasicHalo(BasicParticles<D>& particles, const BasicDomain<D>& domain, double radius, int comm);
 
   [[nodiscard]] std::size_t owned() const { return owned_; }     ///< particles this rank owns: indices [0, owned())
   [[nodiscard]] std::size_t copies() const { return copies_; }   ///< halo copies: indices [owned(), owned() + copies())
@@ -119,14 +126,14 @@ class Halo {
   void refresh(std::span<int> field);   ///< same, for an int field
   void refresh(std::span<char> field);  ///< same, for a flag field
   /// Refreshes every array of the copies (positions, velocities, pressure, kind, group, id) in one exchange.
-  void refresh(Particles& particles);
+  void refresh(BasicParticles<D>& particles);
   /// Drops the copies from `particles` (before a migration or a new halo).
-  void remove(Particles& particles) const;
+  void remove(BasicParticles<D>& particles) const;
   /// Copies, appended after the others, of the owned particles that were ghosts when the halo was built and are not
   /// now (a pushing plate's new column), to the ranks whose box widened by the radius holds them (the boxes of the
   /// halo's construction). Returns what it moved (particles_received: the copies this rank received); later refreshes
   /// include them.
-  ExchangeStats add_activated(Particles& particles);
+  ExchangeStats add_activated(BasicParticles<D>& particles);
 
  private:
   struct Link {
@@ -138,16 +145,18 @@ class Halo {
   void check_size(std::size_t size) const;
   // Copies of the `candidates` (owned indices) inside each other rank's box widened by the radius, appended to that
   // rank's particles after its copies so far, with new links after the old (one message per rank pair each way).
-  ExchangeStats send_copies(Particles& particles, const std::vector<int>& candidates, int tag);
+  ExchangeStats send_copies(BasicParticles<D>& particles, const std::vector<int>& candidates, int tag);
 
   int comm_ = 0;
   double radius_ = 0;
   std::size_t owned_ = 0, copies_ = 0;
   std::vector<Link> send_, receive_;
-  std::vector<double> boxes_;   // every rank's box of its non-ghost particles at construction: xmin, xmax, ymin, ymax
+  std::vector<double> boxes_;   // every rank's box of its non-ghost particles at construction: min, max by axis
   std::vector<int> ghosts_;     // owned particles that were ghosts at construction and have not been sent since
   ExchangeStats setup_, last_;
 };
+using Halo = BasicHalo<2>;   ///< the 2-D halo
+using Halo3 = BasicHalo<3>;  ///< the 3-D halo
 
 /// The PPE over the particles of every rank, each rank holding the rows of the unknowns it owns. Global unknown
 /// numbers: rank 0's unknowns first, in its particles' order, then rank 1's, and so on.
@@ -174,12 +183,14 @@ struct DistributedPpe {
 /// the gauge assemble_ppe gives a closed group on one rank (the zero-mean solution), found by joining each rank's
 /// connected pieces through the halo on rank 0. Throws std::invalid_argument when the halo is narrower than the
 /// kernel or the sizes do not match.
-DistributedPpe assemble_distributed_ppe(Halo& halo, const Stencil& laplacian, std::span<const char> free_surface,
+template <int D>
+DistributedPpe assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                                         std::span<const double> source, std::span<const double> dirichlet = {},
                                         double shift = 0.0);
 /// The same into `into`, whose vectors keep their memory from one step to the next (a step's PPE at 1e6 particles is
 /// about a gigabyte that would otherwise come back from the kernel as fresh pages each step).
-void assemble_distributed_ppe(Halo& halo, const Stencil& laplacian, std::span<const char> free_surface,
+template <int D>
+void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
                               DistributedPpe& into);
 
@@ -187,7 +198,9 @@ void assemble_distributed_ppe(Halo& halo, const Stencil& laplacian, std::span<co
 /// hypre-amg or auto), warm-started from the particles' pressures, and writes the pressures as PpeSystem::scatter
 /// does (closed groups shifted to zero mean over all ranks; `clamp_negative`, `offset` likewise), then refreshes the
 /// halo copies' pressures.
-SolveReport solve_distributed_ppe(Halo& halo, const DistributedPpe& ppe, LinearSolver& solver, Particles& particles,
+template <int D>
+SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe, LinearSolver& solver,
+                                  BasicParticles<D>& particles,
                                   bool clamp_negative = false, std::span<const double> offset = {});
 
 }  // namespace mps

@@ -43,9 +43,10 @@ class ZeroSolution : public LinearSolver {
 
 }  // namespace
 
-DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm,
-                                             DistributedOptions options)
-    : Simulation(std::move(scene), domain, without_reordering(config), make_solver(config.solver, on(comm))),
+template <int D>
+BasicDistributedSimulation<D>::BasicDistributedSimulation(Particles scene, Domain domain, SimulationConfig config,
+                                                          int comm, DistributedOptions options)
+    : BasicSimulation<D>(std::move(scene), domain, without_reordering(config), make_solver(config.solver, on(comm))),
       comm_(comm), options_(options) {
   const MPI_Comm c = MPI_Comm_f2c(comm_);
   MPI_Comm_rank(c, &rank_);
@@ -58,7 +59,7 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   kernel_reach_ = cfg.l0 * std::max({cfg.radius_density, cfg.radius_surface, cfg.radius_gradient, cfg.radius_laplacian});
   halo_radius_ = kernel_reach_ + 2.0 * cfg.max_displacement * cfg.l0;
   // Every rank validated the whole scene; rank 0's copy is the one distributed.
-  Particles& p = particles_;
+  Particles& p = this->particles_;
   if (rank_ != 0) p = Particles{};
   const auto start = Clock::now();
   partition_.emplace(comm_);
@@ -68,50 +69,58 @@ DistributedSimulation::DistributedSimulation(Particles scene, Domain domain, Sim
   stats_.migrate_seconds += seconds_since(start);
 }
 
-void DistributedSimulation::refuse_unsupported() const {
-  const SimulationConfig& c = config();
-  const Domain& d = domain();
+template <int D>
+void BasicDistributedSimulation<D>::refuse_unsupported() const {
+  const SimulationConfig& c = this->config();
+  const Domain& d = this->domain();
   auto refuse = [](const std::string& what) {
     throw std::invalid_argument("distributed simulation: " + what + " does not run on several ranks yet; run it "
                                 "serially (mps::Simulation)");
   };
-  if (d.periodic_x || d.periodic_y) refuse("a periodic domain (a halo copy would need its periodic image's shift)");
+  const auto periodic = d.periodic();
+  if (std::any_of(periodic.begin(), periodic.end(), [](bool b) { return b; }))
+    refuse("a periodic domain (a halo copy would need its periodic image's shift)");
   if (c.implicit_viscosity) refuse("implicit viscosity (its viscous system is solved over all particles at once)");
   if (c.initial_reference_density) refuse("initial_reference_density (a t = 0 mean over the whole domain)");
-  if (find<InitialReferenceDensity>()) refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
+  if (this->template find<BasicInitialReferenceDensity<D>>()) refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
 }
 
-void DistributedSimulation::count(const ExchangeStats& e) {
+template <int D>
+void BasicDistributedSimulation<D>::count(const ExchangeStats& e) {
   stats_.messages_sent += static_cast<std::size_t>(e.messages_sent);
   stats_.bytes_sent += e.bytes_sent;
 }
 
+template <int D>
 template <class Field>
-void DistributedSimulation::refresh(Field&& field) {
+void BasicDistributedSimulation<D>::refresh(Field&& field) {
   halo_->refresh(std::forward<Field>(field));
   ++stats_.refreshes;
   count(halo_->last_refresh());
 }
 
 // Components a scene added after construction are refused here, on every rank alike.
-void DistributedSimulation::check_components() const { refuse_unsupported(); }
+template <int D>
+void BasicDistributedSimulation<D>::check_components() const { refuse_unsupported(); }
 
-void DistributedSimulation::begin_step() {
+template <int D>
+void BasicDistributedSimulation<D>::begin_step() {
   ++stats_.steps;
   migrate_to_partition();
   const auto start = Clock::now();
   // Components are added after construction: their reach is read each step.
-  halo_radius_ = std::max(kernel_reach_, components_reach()) + 2.0 * config().max_displacement * config().l0;
-  halo_.emplace(particles_, domain(), halo_radius_, comm_);
+  halo_radius_ = std::max(kernel_reach_, this->components_reach()) + 2.0 * this->config().max_displacement * this->config().l0;
+  halo_.emplace(this->particles_, this->domain(), halo_radius_, comm_);
   stats_.halo_copies += halo_->copies();
   count(halo_->setup());
   stats_.halo_seconds += seconds_since(start);
 }
 
 // The kept cuts' boxes, or new cuts when the load has drifted past the threshold; one migration either way.
-void DistributedSimulation::migrate_to_partition() {
+template <int D>
+void BasicDistributedSimulation<D>::migrate_to_partition() {
   const auto start = Clock::now();
-  const RcbPartition::Placement placed = partition_->place(particles_, options_.rebalance_threshold);
+  const RcbPartition::Placement placed = partition_->place(this->particles_, options_.rebalance_threshold);
   const double placing = seconds_since(start);
   if (placed.repartitioned) {
     ++stats_.repartitions;
@@ -122,54 +131,60 @@ void DistributedSimulation::migrate_to_partition() {
   stats_.kept_imbalance = placed.kept_imbalance;
   stats_.imbalance = placed.imbalance;
   stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
-  const ExchangeStats moved = migrate_particles(particles_, placed.destination, comm_);
+  const ExchangeStats moved = migrate_particles(this->particles_, placed.destination, comm_);
   stats_.migrated += moved.particles_sent;
   count(moved);
   stats_.migrate_seconds += seconds_since(start);
 }
 
-double DistributedSimulation::max_over_ranks(double value) const {
+template <int D>
+double BasicDistributedSimulation<D>::max_over_ranks(double value) const {
   MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, MPI_Comm_f2c(comm_));
   return value;
 }
 
-std::size_t DistributedSimulation::owned_particles() const {
-  return halo_ ? halo_->owned() : particles_.size();
+template <int D>
+std::size_t BasicDistributedSimulation<D>::owned_particles() const {
+  return halo_ ? halo_->owned() : this->particles_.size();
 }
 
 // A ghost turned fluid after the predictor (a pushing plate's column) was in no halo: its copies join now, and the
 // per-particle fields already sized take their owners' entries for them.
-void DistributedSimulation::share_predicted() {
-  const ExchangeStats added = halo_->add_activated(particles_);
+template <int D>
+void BasicDistributedSimulation<D>::share_predicted() {
+  const ExchangeStats added = halo_->add_activated(this->particles_);
   stats_.activated_copies += added.particles_received;
   count(added);
   const bool any_added = max_over_ranks(static_cast<double>(added.particles_received)) > 0.0;
-  refresh(particles_);
+  refresh(this->particles_);
   if (!any_added) return;
-  fields_.prescribed.resize(particles_.size(), 0);
-  refresh(std::span<char>(fields_.prescribed));
+  this->fields_.prescribed.resize(this->particles_.size(), 0);
+  refresh(std::span<char>(this->fields_.prescribed));
 }
 
-void DistributedSimulation::share_surface() { refresh(std::span<char>(fields_.surface)); }
+template <int D>
+void BasicDistributedSimulation<D>::share_surface() { refresh(std::span<char>(this->fields_.surface)); }
 
-void DistributedSimulation::assemble() {
-  const StepFields& f = fields_;
-  const double screening = config().sound_speed * f.dt;
-  const Kernel& k = laplacian_kernel();
-  assemble_distributed_ppe(*halo_, {particles_, domain(), neighbors_at_star(k), k}, f.held.empty() ? f.surface : f.held,
+template <int D>
+void BasicDistributedSimulation<D>::assemble() {
+  const BasicStepFields<D>& f = this->fields_;
+  const double screening = this->config().sound_speed * f.dt;
+  const Kernel& k = this->laplacian_kernel();
+  assemble_distributed_ppe(*halo_, {this->particles_, this->domain(), this->neighbors_at_star(k), k}, f.held.empty() ? f.surface : f.held,
                            f.source, f.held_value, screening > 0.0 ? 1.0 / (screening * screening) : 0.0,
                            distributed_ppe_);
-  info_.unknowns = static_cast<std::size_t>(distributed_ppe_.global_rows);
+  this->info_.unknowns = static_cast<std::size_t>(distributed_ppe_.global_rows);
   long long surface = 0;
   for (std::size_t i = 0; i < halo_->owned(); ++i) surface += f.surface[i];
   MPI_Allreduce(MPI_IN_PLACE, &surface, 1, MPI_LONG_LONG, MPI_SUM, MPI_Comm_f2c(comm_));
-  info_.free_surface = static_cast<std::size_t>(surface);
-  info_.floating_groups = distributed_ppe_.closed.size();
+  this->info_.free_surface = static_cast<std::size_t>(surface);
+  this->info_.floating_groups = distributed_ppe_.closed.size();
 }
 
-void DistributedSimulation::solve() {
-  Particles& p = particles_;
-  const StepFields& f = fields_;
+template <int D>
+void BasicDistributedSimulation<D>::solve() {
+  Particles& p = this->particles_;
+  const BasicStepFields<D>& f = this->fields_;
   const MPI_Comm c = MPI_Comm_f2c(comm_);
   const PpeSystem& local = distributed_ppe_.local;
   // Simulation::solve's two special cases, decided over all ranks: a zero right-hand side, and no previous pressure
@@ -179,34 +194,38 @@ void DistributedSimulation::solve() {
                                 [&](int i) { return p.p[static_cast<std::size_t>(i)] == 0.0; });
   MPI_Allreduce(MPI_IN_PLACE, &zero_rhs, 1, MPI_INT, MPI_LAND, c);
   MPI_Allreduce(MPI_IN_PLACE, &no_previous, 1, MPI_INT, MPI_LAND, c);
-  if (no_previous || !config().warm_start)
+  if (no_previous || !this->config().warm_start)
     for (std::size_t r = 0; r < distributed_ppe_.rows(); ++r) {
       const auto i = static_cast<std::size_t>(local.particle[r]);
       p.p[i] = f.pressure_offset.empty() ? 0.0 : f.pressure_offset[i];
     }
   ZeroSolution zero;
-  LinearSolver& solver = zero_rhs ? static_cast<LinearSolver&>(zero) : *solver_;
-  info_.solve = solve_distributed_ppe(*halo_, distributed_ppe_, solver, p, config().clamp_negative_pressure,
+  LinearSolver& solver = zero_rhs ? static_cast<LinearSolver&>(zero) : *this->solver_;
+  this->info_.solve = solve_distributed_ppe(*halo_, distributed_ppe_, solver, p, this->config().clamp_negative_pressure,
                                       f.pressure_offset);
 }
 
-void DistributedSimulation::share_pressure_boundary() {
-  refresh(std::span<double>(particles_.p));
-  refresh(std::span<char>(fields_.carriers));
+template <int D>
+void BasicDistributedSimulation<D>::share_pressure_boundary() {
+  refresh(std::span<double>(this->particles_.p));
+  refresh(std::span<char>(this->fields_.carriers));
 }
 
 // Shifting moves a particle by its neighbours' positions and velocities at n+1.
-void DistributedSimulation::share_corrected() { refresh(particles_); }
+template <int D>
+void BasicDistributedSimulation<D>::share_corrected() { refresh(this->particles_); }
 
-void DistributedSimulation::end_corrector() {
-  halo_->remove(particles_);
+template <int D>
+void BasicDistributedSimulation<D>::end_corrector() {
+  halo_->remove(this->particles_);
   halo_.reset();
 }
 
-void DistributedSimulation::check_guard() const {
+template <int D>
+void BasicDistributedSimulation<D>::check_guard() const {
   std::string reason;
   try {
-    Simulation::check_guard();
+    BasicSimulation<D>::check_guard();
   } catch (const SimulationError& e) {
     reason = e.what();
   }
@@ -222,11 +241,15 @@ void DistributedSimulation::check_guard() const {
                         " (particle numbers are that rank's): " + reason);
 }
 
-Particles DistributedSimulation::gather() const {
-  Particles all = particles();
+template <int D>
+typename BasicDistributedSimulation<D>::Particles BasicDistributedSimulation<D>::gather() const {
+  Particles all = this->particles();
   const std::vector<int> to_root(all.size(), 0);
   migrate_particles(all, to_root, comm_);
   return all;
 }
+
+template class BasicDistributedSimulation<2>;
+template class BasicDistributedSimulation<3>;
 
 }  // namespace mps

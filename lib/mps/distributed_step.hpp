@@ -58,12 +58,15 @@ struct DistributedOptions {
 /// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve) and the
 /// initial reference density (a t = 0 mean over the domain); also a pressure solver that does not run on the
 /// communicator (the serial backends on more than one rank).
-class DistributedSimulation : public Simulation {
+template <int D>
+class BasicDistributedSimulation : public BasicSimulation<D> {
  public:
+  using typename BasicSimulation<D>::Particles;
+  using typename BasicSimulation<D>::Domain;
   /// Every rank passes the same scene: every rank validates it as Simulation does, rank 0's particles are then
   /// distributed. config.reorder_every is set to 0 (the migration orders each rank's particles by id). Collective.
-  DistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm,
-                        DistributedOptions options = {});
+  BasicDistributedSimulation(Particles scene, Domain domain, SimulationConfig config, int comm,
+                             DistributedOptions options = {});
 
   /// Every rank's particles, on rank 0 sorted by id (empty on the other ranks). Collective; call between steps.
   [[nodiscard]] Particles gather() const;
@@ -102,11 +105,16 @@ class DistributedSimulation : public Simulation {
   int comm_ = 0, rank_ = 0, ranks_ = 1;
   double kernel_reach_ = 0;  // the largest kernel radius [m]
   double halo_radius_ = 0;
-  std::optional<Halo> halo_;
+  std::optional<BasicHalo<D>> halo_;
   DistributedPpe distributed_ppe_;
   DistributedStepStats stats_;
   DistributedOptions options_;
   std::optional<RcbPartition> partition_;  // the kept cuts
 };
+using DistributedSimulation = BasicDistributedSimulation<2>;   ///< a 2-D run on ranks
+using DistributedSimulation3 = BasicDistributedSimulation<3>;  ///< a 3-D run on ranks
+
+extern template class BasicDistributedSimulation<2>;
+extern template class BasicDistributedSimulation<3>;
 
 }  // namespace mps

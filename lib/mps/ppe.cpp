@@ -301,13 +301,17 @@ void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::spa
     if (p.kind[i] == Kind::fluid || (p.kind[i] == Kind::wall && !free_surface[i])) carrier[i] = 1;
     if (p.kind[i] != Kind::dummy) continue;
     double best_r2 = s.kernel.re * s.kernel.re, pressure = 0.0;
+    int best_id = -1;
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
       if (p.kind[j] != Kind::wall || free_surface[j]) continue;
       const Vec<D> d = s.domain.displacement(p.position(j), p.position(i));  // r_dummy - r_wall
       const double r2 = norm2<D>(d);
-      if (r2 < best_r2) {  // strict: the lowest-numbered of equally near walls wins, whatever the threads do
+      // Of equally near walls the one of lowest id wins: the choice depends neither on the threads nor on the
+      // particles' order (cell order serially, id order and halo copies on ranks).
+      if (r2 < best_r2 || (r2 == best_r2 && p.id[j] < best_id)) {
         best_r2 = r2;
+        best_id = p.id[j];
         pressure = p.p[j] + rho * dot<D>(f, d);
         carrier[i] = 1;
       }

@@ -18,6 +18,8 @@
 #include "mpi_test.hpp"
 #include "mps/components.hpp"
 #include "mps/distributed_step.hpp"
+#include "mps/geometry.hpp"
+#include "mps/vec.hpp"
 #include "mps/solvers/solver.hpp"
 #include "tank.hpp"
 
@@ -40,14 +42,16 @@ constexpr double kPositionBound = 2e-7;  // in l0
 constexpr double kPressureBound = 2e-7;  // relative to the largest |p| of the serial run
 
 
-struct Scene {
-  mps::Particles particles;
-  mps::Domain domain;
+template <int D>
+struct BasicScene {
+  mps::BasicParticles<D> particles;
+  mps::BasicDomain<D> domain;
   mps::SimulationConfig config;
   // The components the scene adds (the dam break's collisions, asymmetry test and spray removal).
-  std::function<void(mps::Simulation&, const Scene&)> add_components = nullptr;
+  std::function<void(mps::BasicSimulation<D>&, const BasicScene&)> add_components = nullptr;
   double ceiling = 0, top = 0, length = 0;
 };
+using Scene = BasicScene<2>;
 
 // A 20 x 20 liquid at rest under gravity in a walled tank (apps/hydrostatic's scene, 0.2 m). Positions jittered by 1 %
 // of l0 (a fixed seed) so that the PPE has a right-hand side to solve: on the exact lattice the hydrostatic split
@@ -146,23 +150,25 @@ struct Comparison {
 };
 
 // The serial run (rank 0 only), its particles in id order.
-mps::Particles serial_run(const Scene& scene) {
+template <int D>
+mps::BasicParticles<D> serial_run(const BasicScene<D>& scene) {
   mps::SolverContext self;
   self.mpi_comm = static_cast<int>(MPI_Comm_c2f(MPI_COMM_SELF));
-  mps::Simulation serial(scene.particles, scene.domain, scene.config, mps::make_solver(kSolver, self));
+  mps::BasicSimulation<D> serial(scene.particles, scene.domain, scene.config, mps::make_solver(kSolver, self));
   if (scene.add_components) scene.add_components(serial, scene);
   for (int s = 0; s < kSteps; ++s) serial.step();
   // The serial run reorders its particles by cell; put them back in id order.
-  mps::Particles ref = serial.particles();
+  mps::BasicParticles<D> ref = serial.particles();
   std::vector<int> by_id(ref.size());
   for (std::size_t i = 0; i < ref.size(); ++i) by_id[static_cast<std::size_t>(ref.id[i])] = static_cast<int>(i);
   ref.permute(by_id);
   return ref;
 }
 
-Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::DistributedOptions options = {}) {
+template <int D>
+Comparison run_both(const BasicScene<D>& scene, const mps::BasicParticles<D>& ref, mps::DistributedOptions options = {}) {
   Comparison out;
-  mps::DistributedSimulation distributed(scene.particles, scene.domain, scene.config, comm(), options);
+  mps::BasicDistributedSimulation<D> distributed(scene.particles, scene.domain, scene.config, comm(), options);
   if (scene.add_components) scene.add_components(distributed, scene);
   const long long total = static_cast<long long>(scene.particles.size());
   for (int s = 0; s < kSteps; ++s) {
@@ -189,21 +195,23 @@ Comparison run_both(const Scene& scene, const mps::Particles& ref, mps::Distribu
   unsigned long long activated = distributed.stats().activated_copies;
   MPI_Allreduce(MPI_IN_PLACE, &activated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
   out.activated_copies = activated;
-  const mps::Particles gathered = distributed.gather();
+  const mps::BasicParticles<D> gathered = distributed.gather();
   if (rank() != 0) return out;
   out.same_ids = gathered.id == ref.id;
   if (!out.same_ids) return out;
   for (std::size_t i = 0; i < ref.size(); ++i) out.largest_pressure = std::max(out.largest_pressure, std::abs(ref.p[i]));
   for (std::size_t i = 0; i < ref.size(); ++i) {
-    out.max_position_l0 = std::max(out.max_position_l0, std::hypot(gathered.x[i] - ref.x[i], gathered.y[i] - ref.y[i]) /
-                                                            scene.config.l0);
+    mps::Vec<D> apart = gathered.position(i);
+    for (std::size_t a = 0; a < D; ++a) apart[a] -= ref.position(i)[a];
+    out.max_position_l0 = std::max(out.max_position_l0, mps::norm<D>(apart) / scene.config.l0);
     out.max_pressure_rel = std::max(out.max_pressure_rel, std::abs(gathered.p[i] - ref.p[i]) / out.largest_pressure);
   }
   return out;
 }
 
-Comparison expect_same_answer(const char* name, const Scene& scene, bool particles_cross_cuts,
-                              const mps::Particles& ref, mps::DistributedOptions options = {}) {
+template <int D>
+Comparison expect_same_answer(const char* name, const BasicScene<D>& scene, bool particles_cross_cuts,
+                              const mps::BasicParticles<D>& ref, mps::DistributedOptions options = {}) {
   const Comparison c = run_both(scene, ref, options);
   EXPECT_EQ(c.steps_with_unequal_dt, 0) << "every rank must take the same dt every step";
   EXPECT_EQ(c.steps_with_lost_particles, 0) << "the ranks together must hold every particle after every step";
@@ -227,7 +235,52 @@ Comparison expect_same_answer(const char* name, const Scene& scene, bool particl
 }
 
 // Rank 0's serial reference (empty elsewhere).
-mps::Particles reference(const Scene& scene) { return rank() == 0 ? serial_run(scene) : mps::Particles{}; }
+template <int D>
+mps::BasicParticles<D> reference(const BasicScene<D>& scene) {
+  return rank() == 0 ? serial_run(scene) : mps::BasicParticles<D>{};
+}
+
+// 3-D: a box of liquid at rest (jittered by 1 % of l0, as the 2-D tank), and a dam break: a column 0.1 x 0.2 x 0.2 m
+// against one end of a 0.4 x 0.2 m tank, with collisions and the neighbour-asymmetry surface test. l0 = 0.02 m, radii
+// 3.1 l0 for the source and the Laplacian.
+BasicScene<3> tank_3d(bool dam_break) {
+  const double l0 = 0.02, length = dam_break ? 0.4 : 0.2, width = 0.2, height = 0.2;
+  BasicScene<3> s;
+  mps::fill_box(s.particles, {0, 0, 0, dam_break ? 0.1 : length, width, height}, l0, mps::Kind::fluid);
+  mps::add_box_walls(s.particles, {0, 0, 0, length, width, 1.5 * height}, l0,
+                     mps::x_low | mps::x_high | mps::y_low | mps::y_high | mps::z_low, 1, 3);
+  s.domain = {-0.1, length + 0.1, -0.1, width + 0.1, -0.1, 2 * height};
+  s.config.l0 = l0;
+  s.config.fz = -9.81;
+  s.config.radius_density = s.config.radius_laplacian = 3.1;
+  s.config.gamma = 0.01;
+  s.config.dt_max = 0.2 * l0 / std::sqrt(2 * 9.81 * height);
+  s.config.solver = kSolver;
+  if (dam_break)
+    s.add_components = [](mps::Simulation3& sim, const BasicScene<3>&) {
+      sim.add<mps::ParticleCollision3>(0.8, 0.2);
+      sim.add<mps::AsymmetrySurface3>(0.9);
+    };
+  else {
+    std::mt19937 rng(27);
+    std::uniform_real_distribution<double> jitter(-0.01 * l0, 0.01 * l0);
+    for (std::size_t i = 0; i < s.particles.size(); ++i)
+      if (s.particles.kind[i] == mps::Kind::fluid) {
+        s.particles.x[i] += jitter(rng);
+        s.particles.y[i] += jitter(rng);
+        s.particles.z[i] += jitter(rng);
+      }
+  }
+  return s;
+}
+
+// The 3-D core on ranks: Zoltan's RCB with three coordinates, 3-D halo boxes, the records of the field list.
+TEST(DistributedStep, ThreeDimensionalTankAndDamBreakGiveTheSerialAnswer) {
+  for (const bool dam_break : {false, true}) {
+    const BasicScene<3> scene = tank_3d(dam_break);
+    expect_same_answer(dam_break ? "3-D dam break" : "3-D tank", scene, dam_break, reference(scene));
+  }
+}
 
 TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) {
   const Scene scene = hydrostatic_tank();

@@ -25,7 +25,7 @@ namespace {
 template <int D>
 nlohmann::json params_json(const tank::Params& p, const mps::BasicSimulation<D>& sim) {
   const auto& c = sim.config();
-  return {{"scene", "hydrostatic tank"}, {"dim", D},
+  return {{"scene", "hydrostatic tank"}, {"dimensions", D},
           {"width_m", p.width}, {"height_m", p.water_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
           {"beta", c.beta}, {"dt_s", p.dt}, {"end_time_s", p.end_time}, {"window_s", p.window},
           {"band_l0", p.band}, {"g_m_per_s2", p.g}, {"rho_kg_per_m3", c.rho}, {"nu_m2_per_s", c.nu},
@@ -107,7 +107,7 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
       "hydrostatic tank, " + std::to_string(D) + "-D: " + std::to_string(sim.particles().size()) + " particles (" +
           std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
       params,
-      {{"scene", {"dim", "width_m", "height_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
+      {{"scene", {"dimensions", "width_m", "height_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
        {"numerics", {"dx_m", "gamma", "beta", "dt_s"}},
        {"solver", {"solver"}},
        {"run", {"end_time_s", "window_s", "band_l0"}}});

@@ -13,8 +13,8 @@
 
 namespace mps {
 
-/// Components that work in D = 2 and 3 are class templates Basic<Name><D>, with <Name> the 2-D one and <Name>3 the
-/// 3-D one; MirrorNoSlip and OpenOutlet are 2-D.
+// Components that work in D = 2 and 3 are class templates BasicX<D>, with X the 2-D one and X3 the 3-D one;
+// MirrorNoSlip and OpenOutlet are 2-D.
 
 /// Moves walls: called after the predictor with the particles and the new time (RigidMotion, PushingPlate, ...).
 template <int D>
@@ -25,7 +25,8 @@ class BasicBoundaryMotion : public BasicStepComponent<D> {
   using Motion = std::function<void(BasicParticles<D>&, double time)>;
   /// Same, told that particles [0, owned) are this process's own (Simulation::owned_particles; PushingPlate)
   using OwnedMotion = std::function<void(BasicParticles<D>&, double time, std::size_t owned)>;
-  explicit BasicBoundaryMotion(Motion motion)  ///< calls `motion` every step
+  /// Calls `motion` every step.
+  explicit BasicBoundaryMotion(Motion motion)
       : motion_([motion = std::move(motion)](BasicParticles<D>& p, double time, std::size_t) { motion(p, time); }) {}
   explicit BasicBoundaryMotion(OwnedMotion motion) : motion_(std::move(motion)) {}  ///< calls `motion` every step
   void after_predictor(StepContext& c) override { motion_(c.particles, c.fields.time, c.sim.owned_particles()); }

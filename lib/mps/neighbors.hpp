@@ -95,6 +95,7 @@ struct BasicDomain : Extent<D> {
 template <int D>
 class Displacement {
  public:
+  /// Reads the domain's periodicity and periods.
   explicit Displacement(const BasicDomain<D>& domain) : periodic_(domain.periodic()) {
     for (std::size_t a = 0; a < D; ++a) length_[a] = domain.extent(static_cast<int>(a));
   }

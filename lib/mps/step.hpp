@@ -126,7 +126,8 @@ struct BasicStepFields {
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees
   /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis
   std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
-  std::vector<double> pressure, residual;  ///< scratch
+  /// @{ scratch
+  std::vector<double> pressure, residual;  /// @}
 };
 using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
 

@@ -6,6 +6,7 @@ as many frames on disk as the .pvd lists), never a crash, a hang or a NaN in a s
   tests/fuzz_options.py BUILD_DIR [CASES]
 """
 import json
+import os
 import random
 import re
 import subprocess
@@ -46,6 +47,9 @@ VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "
           "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
           "csm3", "linear", "0.002", "gate", "conservative", "true", "false"]
 NULL_ALLOWED = {"frequency_hz"}  # acoustic: null when the case repeats no pulse
+# A small environment, keeping the sanitizers' options (make test-sanitize turns leak detection off).
+ENV = {"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin",
+       **{k: v for k, v in os.environ.items() if k in ("ASAN_OPTIONS", "UBSAN_OPTIONS", "LSAN_OPTIONS")}}
 
 
 def numbers(value, key=""):
@@ -91,7 +95,7 @@ def check(app, args, proc, out):
 def special_inputs(build, tmp):
     """Paths that are not what an option needs and damaged config files, for every app. Returns the failures."""
     failures, count = [], 0
-    env = {"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"}
+    env = ENV
     (tmp / "a_file").write_text("a file\n")
     for app in sorted(BASE):
         exe = str(build / "apps" / app / app)
@@ -153,7 +157,7 @@ def main():
             (out / "frames" / "stale_0099.vtp").write_text("stale")  # a reused --out: must not survive a run
             try:
                 proc = subprocess.run([str(build / "apps" / app / app), *args, "--out", str(out)], capture_output=True,
-                                      text=True, timeout=120, env={"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
+                                      text=True, timeout=120, env=ENV)
                 problem = check(app, args, proc, out)
                 outcomes[proc.returncode] = outcomes.get(proc.returncode, 0) + 1
             except subprocess.TimeoutExpired:

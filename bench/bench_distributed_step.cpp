@@ -1,4 +1,4 @@
-// The MPS step on P ranks (mps/distributed_step.hpp): apps/dambreak's classic column at a spacing giving about the
+// The MPS step on P ranks (mps/rank_exchange.hpp): apps/dambreak's classic column at a spacing giving about the
 // requested fluid count, built on every rank and distributed, stepped `--steps` times after one untimed step (the
 // first solve's AMG setup and the first halo). Per step: the slowest rank's wall time (between barriers), its phase
 // times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations, the
@@ -17,13 +17,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
 #include "column.hpp"
 #include "mpi_bench.hpp"
 #include "mps/components.hpp"
-#include "mps/distributed_step.hpp"
+#include "mps/rank_exchange.hpp"
 
 namespace {
 
@@ -61,8 +62,9 @@ int run(int argc, char** argv) {
   p.solver = spec;
   const mps::Particles scene = dambreak::make_particles(p);
   const mps::Domain domain = dambreak::make_domain(p, scene);
-  mps::DistributedSimulation sim(scene, domain, dambreak::make_config(p), static_cast<int>(MPI_Comm_c2f(comm)),
-                                 options);
+  auto ranks_exchange = std::make_unique<mps::RankExchange>(static_cast<int>(MPI_Comm_c2f(comm)), options);
+  const mps::RankExchange& exchange = *ranks_exchange;
+  mps::Simulation sim(scene, domain, dambreak::make_config(p), std::move(ranks_exchange));
   sim.add<mps::ParticleCollision>(p.collision, p.restitution);
   sim.add<mps::AsymmetrySurface>(p.asymmetry);
   const double ceiling = domain.ymax - 2 * p.l0, top = p.tank_height, length = p.tank_length;
@@ -77,8 +79,8 @@ int run(int argc, char** argv) {
   double max_fluid_imbalance = 0.0;
   // One row of the trace: this step's imbalance (by particles, as the partition balances, and by fluid alone).
   auto record = [&](const mps::DistributedStepStats& before, double step_seconds) {
-    const mps::DistributedStepStats& now = sim.stats();
-    const double fluid_imbalance = mps::load_imbalance(sim.particles().count(mps::Kind::fluid), sim.comm());
+    const mps::DistributedStepStats& now = exchange.stats();
+    const double fluid_imbalance = mps::load_imbalance(sim.particles().count(mps::Kind::fluid), exchange.comm());
     max_fluid_imbalance = std::max(max_fluid_imbalance, fluid_imbalance);
     const double migrated = total(comm, static_cast<double>(now.migrated - before.migrated));
     const double place = slowest(comm, now.assign_seconds + now.repartition_seconds - before.assign_seconds -
@@ -90,16 +92,16 @@ int run(int argc, char** argv) {
                 << step_seconds << '\n';
   };
   {
-    const mps::DistributedStepStats before = sim.stats();
+    const mps::DistributedStepStats before = exchange.stats();
     const double start = MPI_Wtime();
     sim.step();
     record(before, slowest(comm, MPI_Wtime() - start));
   }
   const mps::PhaseTimes t0 = sim.times();
-  const mps::DistributedStepStats s0 = sim.stats();
+  const mps::DistributedStepStats s0 = exchange.stats();
   double wall = 0.0;
   for (int k = 0; k < steps; ++k) {
-    const mps::DistributedStepStats before = sim.stats();
+    const mps::DistributedStepStats before = exchange.stats();
     MPI_Barrier(comm);
     const double start = MPI_Wtime();
     sim.step();
@@ -111,7 +113,7 @@ int run(int argc, char** argv) {
   // cuts, and the assignment of every particle to kept cuts (the step adds one MPI_Allreduce of P counts to either).
   double repartition_alone = 1e300, assign_alone = 1e300;
   {
-    mps::RcbPartition partition(sim.comm());
+    mps::RcbPartition partition(exchange.comm());
     for (int k = 0; k < 5; ++k) {
       MPI_Barrier(comm);
       double start = MPI_Wtime();
@@ -124,7 +126,7 @@ int run(int argc, char** argv) {
     }
   }
   const mps::PhaseTimes& t = sim.times();
-  const mps::DistributedStepStats& s = sim.stats();
+  const mps::DistributedStepStats& s = exchange.stats();
   const double n = steps;
   const double migrate = slowest(comm, s.migrate_seconds - s0.migrate_seconds) / n;
   const double halo = slowest(comm, s.halo_seconds - s0.halo_seconds) / n;

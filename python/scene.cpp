@@ -335,20 +335,11 @@ class Recorder : public mps::StepComponent {
   std::shared_ptr<Ppe> out_;
 };
 
-// Set when the step has assembled its PPE and stops; any other stop is an error in the particles.
-struct AssemblyState {
-  bool assembled = false;
-};
-struct Assembled : std::exception {
-  [[nodiscard]] const char* what() const noexcept override { return "sparsemps: PPE assembled"; }
-};
-
 // The particles at r* with velocities u*, whatever the predictor made of them; wrapped onto periodic axes as the
 // predictor wraps r*, so that r + dt u* given unwrapped lands where the step puts it.
 class Injector final : public Recorder {
  public:
-  Injector(std::shared_ptr<Ppe> out, const mps::Particles& star, AssemblyState& state)
-      : Recorder(std::move(out)), star_(star), state_(state) {}
+  Injector(std::shared_ptr<Ppe> out, const mps::Particles& star) : Recorder(std::move(out)), star_(star) {}
   void after_predictor(mps::StepContext& c) override {
     mps::Particles& p = c.particles;
     p.x = star_.x;
@@ -357,29 +348,8 @@ class Injector final : public Recorder {
     p.v = star_.v;
     for (std::size_t i = 0; i < p.size(); ++i) c.sim.domain().wrap(p.x[i], p.y[i]);
   }
-  // Reached when the step skips the solve (no unknowns, or b = 0).
-  void after_pressure(mps::StepContext&) override {
-    state_.assembled = true;
-    throw Assembled();
-  }
-
  private:
   const mps::Particles& star_;
-  AssemblyState& state_;
-};
-
-// Stops the step at its solve: assemble_ppe wants the system, not its solution.
-class StopAtSolve final : public mps::LinearSolver {
- public:
-  explicit StopAtSolve(AssemblyState& state) : state_(state) {}
-  mps::SolveReport solve(const mps::CsrMatrix&, std::span<const double>, std::span<double>) override {
-    state_.assembled = true;
-    throw Assembled();
-  }
-  [[nodiscard]] std::string spec() const override { return "none (assemble_ppe)"; }
-
- private:
-  AssemblyState& state_;
 };
 
 py::object optional_doubles(const std::vector<double>& v) { return v.empty() ? py::object(py::none()) : to_numpy(v); }
@@ -494,21 +464,16 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
     domain = domain_of(domain_in);
   }
   auto out = std::make_shared<Ppe>();
-  AssemblyState state;
-  mps::Simulation sim(star, domain, config, std::make_unique<StopAtSolve>(state));
+  mps::Simulation sim(star, domain, config);
   if (asymmetry != 0.0) add_asymmetry_surface(sim, asymmetry);  // which names a fraction out of range, NaN included
   if (wet_walls) sim.add<mps::WetWalls>();
-  sim.add<Injector>(out, star, state);
-  std::string error;
-  {
+  sim.add<Injector>(out, star);
+  try {
     const py::gil_scoped_release release;
-    try {
-      sim.step();
-    } catch (const mps::SimulationError& e) {
-      error = e.what();  // the step stops at the solve on purpose; any other stop is the particles' fault
-    }
+    sim.advance_to(mps::Stage::assembly);  // the step's own stages, stopped once the PPE is assembled
+  } catch (const mps::SimulationError& e) {
+    throw py::value_error(std::string("assemble_ppe: ") + e.what());
   }
-  if (!state.assembled) throw py::value_error("assemble_ppe: " + (error.empty() ? "no PPE assembled" : error));
   out->system = sim.last_ppe();
   return std::move(*out);
 }

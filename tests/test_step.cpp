@@ -534,6 +534,61 @@ TEST(Simulation, AFailureInsideAStageRollsBackAndIsASimulationError) {
   }
 }
 
+// The stages called one by one: a step stopped after its assembly holds the PPE the whole step solves, completing it
+// gives bitwise the state of an uninterrupted step, and a stage already passed is refused with the stage's name.
+TEST(Simulation, StagesRunOneByOneGiveTheWholeStepsPpeAndState) {
+  tank::Params p;
+  auto c = tank::make_config(p);
+  c.hydrostatic_split = false;  // a non-zero right-hand side, so that the solve has work to do
+  mps::Simulation whole(tank::make_particles(p), tank::make_domain(p), c);
+  mps::Simulation staged(tank::make_particles(p), tank::make_domain(p), c);
+  for (int s = 0; s < 3; ++s) {
+    whole.step();
+    staged.advance_to(mps::Stage::assembly);
+    EXPECT_EQ(staged.next_stage(), mps::Stage::solve);
+    const mps::PpeSystem ppe = staged.last_ppe();
+    EXPECT_EQ(staged.last_step().step, s) << "the open step is not counted";
+    try {
+      staged.advance_to(mps::Stage::predictor);
+      FAIL() << "a stage already passed was run again";
+    } catch (const std::logic_error& e) {
+      EXPECT_NE(std::string(e.what()).find("predictor"), std::string::npos) << e.what();
+    }
+    staged.step();
+    EXPECT_EQ(staged.next_stage(), mps::Stage::exchange) << "step() closes the open step";
+    EXPECT_EQ(ppe.matrix.val, whole.last_ppe().matrix.val);
+    EXPECT_EQ(ppe.matrix.col, whole.last_ppe().matrix.col);
+    EXPECT_EQ(ppe.rhs, whole.last_ppe().rhs);
+    EXPECT_GT(ppe.size(), 100U);
+  }
+  EXPECT_EQ(staged.particles().x, whole.particles().x);
+  EXPECT_EQ(staged.particles().y, whole.particles().y);
+  EXPECT_EQ(staged.particles().p, whole.particles().p);
+  EXPECT_EQ(staged.last_step().step, 3);
+}
+
+// Component order is declared, not silent: the outlet holds its buffer through the hydrostatic split's offset, so a
+// split added after an outlet is refused, naming both; added before, it is taken.
+TEST(StepComponents, AComponentAddedAfterOneThatMustFollowItIsRefusedNamingBoth) {
+  tank::Params p;
+  auto c = tank::make_config(p);
+  c.hydrostatic_split = false;
+  const mps::OutflowBuffer buffer{0.9 * p.width, 0.0, 1.0, 0.0, 5 * c.l0};
+  mps::Simulation wrong(tank::make_particles(p), tank::make_domain(p), c);
+  wrong.add<mps::OpenOutlet>(buffer);
+  try {
+    wrong.add<mps::HydrostaticSplit>(0.0, c.fy);
+    FAIL() << "a split after the outlet was taken";
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("HydrostaticSplit"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("must be added before mps::OpenOutlet"), std::string::npos) << msg;
+  }
+  mps::Simulation right(tank::make_particles(p), tank::make_domain(p), c);
+  right.add<mps::HydrostaticSplit>(0.0, c.fy);
+  EXPECT_NO_THROW(right.add<mps::OpenOutlet>(buffer));
+}
+
 // A drop thrown out of the tank is removed and counted; the run goes on and the fluid count falls by exactly that.
 TEST(StepComponents, FluidLeavingTheRegionBecomesACountedGhostAndTheRunGoesOn) {
   tank::Params p;

@@ -342,7 +342,8 @@ namespace {
 std::unique_ptr<mps::Simulation> make_simulation(const Params& p, const mps::Particles& particles,
                                                  std::optional<int> comm) {
   const mps::Domain domain = make_domain(p, particles);
-  if (comm) return std::make_unique<mps::DistributedSimulation>(particles, domain, make_config(p), *comm);
+  if (comm)
+    return std::make_unique<mps::Simulation>(particles, domain, make_config(p), std::make_unique<mps::RankExchange>(*comm));
   return std::make_unique<mps::Simulation>(particles, domain, make_config(p));
 }
 }  // namespace
@@ -350,7 +351,7 @@ std::unique_ptr<mps::Simulation> make_simulation(const Params& p, const mps::Par
 Scene::Scene(const Params& p, mps::Particles particles, std::optional<int> comm)
     : params_(checked(p)),
       sim_(make_simulation(p, particles, comm)),
-      distributed_(dynamic_cast<const mps::DistributedSimulation*>(sim_.get())),
+      distributed_(dynamic_cast<const mps::RankExchange*>(&sim_->exchange())),
       initial_fluid_(static_cast<long>(particles.count(mps::Kind::fluid))) {
   const double L = p.tank_length, top = p.tank_height, ceiling = sim_->domain().ymax - 2 * p.l0;
   if (p.collision > 0.0) sim_->add<mps::ParticleCollision>(p.collision, p.restitution);
@@ -364,9 +365,7 @@ Scene::Scene(const Params& p, mps::Particles particles, std::optional<int> comm)
 }
 
 long Scene::removed() const {
-  long long count = sim_->find<mps::RemoveEscaped>()->removed();
-  if (distributed_) MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_LONG_LONG, MPI_SUM, MPI_Comm_f2c(distributed_->comm()));
-  return static_cast<long>(count);
+  return static_cast<long>(sim_->exchange().sum(sim_->find<mps::RemoveEscaped>()->removed()));
 }
 
 void Scene::step() {
@@ -381,7 +380,7 @@ void Scene::step() {
 
 void Scene::sample() {
   if (distributed_) {
-    gathered_ = distributed_->gather();
+    gathered_ = distributed_->gather(sim_->particles());
     if (distributed_->rank() != 0) return;
   }
   const mps::Particles& s = all_particles();

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "mps/components.hpp"
-#include "mps/distributed_step.hpp"
+#include "mps/rank_exchange.hpp"
 #include "mps/step.hpp"
 
 namespace dambreak {
@@ -102,7 +102,7 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
 // The domain of a scene: make_domain(p), widened where the particles reach beyond it (a file's extra dummy layers).
 mps::Domain make_domain(const Params& p, const mps::Particles& particles);
 
-// On the ranks of an MPI communicator (comm: its Fortran handle) the scene runs as an mps::DistributedSimulation; every
+// On the ranks of an MPI communicator (comm: its Fortran handle) the scene runs with an mps::RankExchange; every
 // rank passes the same parameters and particles. Its particles are then gathered on rank 0 after every step and
 // sampled there: samples(), all_particles() and the wall counts are rank 0's alone (empty or zero on the others).
 class Scene {
@@ -130,7 +130,7 @@ class Scene {
   void sample();
   Params params_;
   std::unique_ptr<mps::Simulation> sim_;
-  const mps::DistributedSimulation* distributed_ = nullptr;
+  const mps::RankExchange* distributed_ = nullptr;  // the simulation's, on ranks
   mps::Particles gathered_;
   long initial_fluid_;
   long most_inside_walls_ = 0;

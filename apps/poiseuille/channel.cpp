@@ -211,19 +211,13 @@ std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Pa
   return plate;
 }
 
-mps::Simulation make_simulation(const Params& p) {
+mps::Simulation make_simulation(const Params& p, std::optional<int> comm) {
   mps::Particles particles = make_particles(p);
   const mps::Particles initial = particles;
-  mps::Simulation sim(std::move(particles), make_domain(p), make_config(p));
+  mps::Simulation sim = comm ? mps::Simulation(std::move(particles), make_domain(p), make_config(p),
+                                               std::make_unique<mps::RankExchange>(*comm))
+                             : mps::Simulation(std::move(particles), make_domain(p), make_config(p));
   add_components(p, initial, sim);
-  return sim;
-}
-
-std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm) {
-  mps::Particles particles = make_particles(p);
-  const mps::Particles initial = particles;
-  auto sim = std::make_unique<mps::DistributedSimulation>(std::move(particles), make_domain(p), make_config(p), comm);
-  add_components(p, initial, *sim);
   return sim;
 }
 

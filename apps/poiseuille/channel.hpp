@@ -11,11 +11,12 @@
 // channels are closed (no free surface): the PPE takes the library's all-Neumann treatment; the inlet
 // channel's outlet is free surface (P = 0).
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "mps/boundary.hpp"
-#include "mps/distributed_step.hpp"
+#include "mps/rank_exchange.hpp"
 #include "mps/step.hpp"
 
 namespace poiseuille {
@@ -70,9 +71,9 @@ mps::SimulationConfig make_config(const Params& p);
 // simulation of make_particles(p) (`initial`), serial or distributed.
 std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Particles& initial,
                                                   mps::Simulation& sim);
-mps::Simulation make_simulation(const Params& p);  // the three above together
-// The same scene on the ranks of an MPI communicator (its Fortran handle); every rank passes the same p.
-std::unique_ptr<mps::DistributedSimulation> make_distributed_simulation(const Params& p, int comm);
+// The three above together; on the ranks of an MPI communicator (comm: its Fortran handle) with an mps::RankExchange,
+// every rank passing the same parameters.
+mps::Simulation make_simulation(const Params& p, std::optional<int> comm = {});
 // Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for
 // refusing runs too large to be meant).
 double estimated_particles(const Params& p);

@@ -126,16 +126,14 @@ int main(int argc, char** argv) {
     p.validate();
     check_run_size(poiseuille::estimated_particles(p), end_time * p.convective_time() / poiseuille::initial_dt(p),
                    "use fewer --across or a shorter channel", "shorten --end-time or raise --dt-factor");
-    std::unique_ptr<mps::DistributedSimulation> distributed;
-    std::optional<mps::Simulation> serial;
-    if (ranks.distributed()) distributed = poiseuille::make_distributed_simulation(p, ranks.comm());
-    else serial.emplace(poiseuille::make_simulation(p));
-    mps::Simulation& sim = distributed ? *distributed : *serial;
+    mps::Simulation sim =
+        poiseuille::make_simulation(p, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+    const auto* distributed = dynamic_cast<const mps::RankExchange*>(&sim.exchange());
     // Every particle, on rank 0 (on ranks gathered there: for frames and the axis; the profile is summed instead).
     mps::Particles gathered;
     auto all_particles = [&]() -> const mps::Particles& {
       if (!distributed) return sim.particles();
-      gathered = distributed->gather();
+      gathered = distributed->gather(sim.particles());
       return gathered;
     };
     nlohmann::json params = params_json(p, sim, end_time, ranks.size());

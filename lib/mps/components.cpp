@@ -40,6 +40,10 @@ void OpenOutlet::before_predictor(StepContext& c) {
 
 double OpenOutlet::reach(const Simulation& sim) const { return buffer_.thickness + 2.0 * sim.gradient_kernel().re; }
 
+bool OpenOutlet::runs_after(const StepComponent& other) const {
+  return dynamic_cast<const HydrostaticSplit*>(&other) != nullptr;
+}
+
 // Buffer fluid that crossed the outlet may have become a ghost (and a pushing plate may recycle it): left flagged, it
 // was held at P = 0 and read as a carrier. Decided after the predictor's exchange, so that halo copies decide from
 // their owners' r* and kinds as their owners do; copies appended after before_predictor (of particles that were

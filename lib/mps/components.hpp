@@ -81,6 +81,8 @@ class OpenOutlet : public StepComponent {
   /// The buffer's thickness plus twice the gradient kernel's radius: a buffer particle's velocity is sampled that far
   /// upstream (apply_outflow_velocity).
   [[nodiscard]] double reach(const Simulation& sim) const override;
+  /// After a HydrostaticSplit: the buffer is held at P = 0 through the split's pressure offset.
+  [[nodiscard]] bool runs_after(const StepComponent& other) const override;
   [[nodiscard]] const OutflowBuffer& buffer() const { return buffer_; }  ///< the buffer it applies
 
  private:

@@ -5,7 +5,11 @@
 #include "mps/components.hpp"
 
 #include <algorithm>
+#include <exception>
 #include <chrono>
+#include <cstdlib>
+#include <cxxabi.h>
+#include <typeinfo>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -16,12 +20,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using Index = std::ptrdiff_t;
 
-double lap(Clock::time_point& t) {
-  const auto now = Clock::now();
-  const double s = std::chrono::duration<double>(now - t).count();
-  t = now;
-  return s;
-}
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 void require(bool ok, const std::string& message) {
   if (!ok) throw std::invalid_argument("simulation config: " + message);
@@ -72,12 +71,49 @@ void check_initial_state(const BasicParticles<D>& p, BasicCellGrid<D>& grid, dou
   }
 }
 
+std::unique_ptr<LinearSolver> given(std::unique_ptr<LinearSolver> solver) {
+  if (!solver) throw std::invalid_argument("simulation: no linear solver given");
+  return solver;
+}
+
 SimulationConfig validated(SimulationConfig config) {
   config.validate();
   return config;
 }
 
+// A right-hand side of zeros (a liquid at rest on the lattice, hydrostatic part split off) has the solution 0, which
+// iterative solvers measuring a residual relative to |b| cannot confirm.
+class ZeroSolution final : public LinearSolver {
+ public:
+  SolveReport solve(const CsrMatrix&, std::span<const double>, std::span<double> x) override {
+    std::fill(x.begin(), x.end(), 0.0);
+    return {};
+  }
+  [[nodiscard]] std::string spec() const override { return "zero"; }
+};
+
 }  // namespace
+
+const char* to_string(Stage stage) {
+  switch (stage) {
+    case Stage::exchange: return "exchange";
+    case Stage::time_step: return "time_step";
+    case Stage::neighbors: return "neighbors";
+    case Stage::predictor: return "predictor";
+    case Stage::neighbors_at_star: return "neighbors_at_star";
+    case Stage::projection: return "projection";
+    case Stage::free_surface: return "free_surface";
+    case Stage::source: return "source";
+    case Stage::assembly: return "assembly";
+    case Stage::solve: return "solve";
+    case Stage::pressure_boundary: return "pressure_boundary";
+    case Stage::corrector: return "corrector";
+    case Stage::shifting: return "shifting";
+    case Stage::end_corrector: return "end_corrector";
+    case Stage::finish: return "finish";
+  }
+  return "unknown stage";
+}
 
 void SimulationConfig::validate() const {
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
@@ -114,8 +150,21 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
 template <int D>
 BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config,
                                     std::unique_ptr<LinearSolver> solver)
+    : BasicSimulation(std::move(particles), domain, std::move(config), given(std::move(solver)),
+                      std::make_unique<BasicSerialExchange<D>>()) {}
+
+template <int D>
+BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config,
+                                    std::unique_ptr<Exchange> exchange)
+    : BasicSimulation(std::move(particles), domain, std::move(config), nullptr, std::move(exchange)) {}
+
+template <int D>
+BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config,
+                                    std::unique_ptr<LinearSolver> solver, std::unique_ptr<Exchange> exchange)
     : particles_(std::move(particles)),
-      solver_(std::move(solver)),
+      exchange_(exchange ? std::move(exchange)
+                         : throw std::invalid_argument("simulation: no exchange policy given")),
+      solver_(solver ? std::move(solver) : make_solver(config.solver, exchange_->solver_context())),
       domain_(domain),
       config_(validated(std::move(config))),  // before the kernels, so that a bad radius is named as the field
       k_density_(make_kernel(config_.radius_density, config_.l0, config_.weight, D)),
@@ -124,7 +173,6 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight, D)),
       grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
                                             config_.radius_laplacian})) {
-  if (!solver_) throw std::invalid_argument("simulation: no linear solver given");
   if (D == 2 && config_.fz != 0.0)
     throw std::invalid_argument("simulation config: fz = " + fmt(config_.fz) + " is a 3-D body force; a 2-D "
                                 "simulation takes fx and fy");
@@ -149,12 +197,34 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
   if (config_.initial_reference_density)
     add<BasicInitialReferenceDensity<D>>(particles_, domain_, grid_, k_density_);
   if (config_.shifting > 0.0) add<BasicParticleShifting<D>>(config_.shifting, config_.shift_along_free_surface);
+  exchange_->check(*this);
+  exchange_->distribute(particles_);  // every process validated the whole scene
 }
 
 template <int D>
 void BasicSimulation<D>::run(void (StepComponent::*hook)(StepContext&)) {
   StepContext context{*this, particles_, fields_};
   for (const auto& component : components_) ((*component).*hook)(context);
+}
+
+namespace {
+// A component's name for a message: its type, demangled.
+std::string component_name(const auto& component) {
+  const char* mangled = typeid(component).name();
+  int status = 0;
+  char* plain = abi::__cxa_demangle(mangled, nullptr, nullptr, &status);
+  std::string name = status == 0 && plain ? plain : mangled;
+  std::free(plain);
+  return name;
+}
+}  // namespace
+
+template <int D>
+void BasicSimulation<D>::check_order(const StepComponent& added) const {
+  for (const auto& there : components_)
+    if (there->runs_after(added))
+      throw std::invalid_argument("simulation: " + component_name(added) + " must be added before " +
+                                  component_name(*there) + ", which reads what it writes; add it first");
 }
 
 template <int D>
@@ -200,35 +270,157 @@ double BasicSimulation<D>::choose_dt(std::string& limit) const {
 
 template <int D>
 const StepInfo& BasicSimulation<D>::step() {
-  check_components();
-  before_step_ = particles_;
-  const StepInfo info_before = info_;
-  const std::string at = "step " + std::to_string(info_before.step + 1) + " (t = " + fmt(info_before.time) + " s";
-  std::string failure;
-  try {
-    advance();
-    check_guard();
-    return info_;
-  } catch (const SimulationError& e) {
-    failure = e.what();
-  } catch (const SolverError& e) {
-    failure = at + "): pressure solve failed: " + e.what();
-  } catch (const std::bad_alloc&) {
-    failure = at + "): out of memory (" + std::to_string(particles_.size()) + " particles)";
-  } catch (const std::exception& e) {
-    // Anything else a stage throws (a non-finite position met by the neighbour search, ...) is a failed step too.
-    failure = at + ", dt = " + fmt(fields_.dt) + " s, dt limit " + info_.dt_limit + "): " + e.what() + dt_advice();
-  }
-  particles_ = before_step_;
-  info_ = info_before;
-  throw SimulationError(failure);
+  advance_to(Stage::finish);
+  return info_;
 }
 
 template <int D>
-void BasicSimulation<D>::advance() {
+void BasicSimulation<D>::advance_to(Stage last) {
+  const int stop = static_cast<int>(last);
+  if (stop < next_stage_)
+    throw std::logic_error(std::string("simulation: advance_to(") + to_string(last) + ") but the open step has " +
+                           "passed it (next stage: " + to_string(next_stage()) + "); complete it with step() first");
+  if (next_stage_ == 0) {
+    exchange_->check(*this);  // components added since; outside the rollback, on every process alike
+    before_step_ = particles_;
+    info_before_ = info_;
+  }
+  for (; next_stage_ <= stop; ++next_stage_) {
+    std::string failure;
+    try {
+      run_stage(static_cast<Stage>(next_stage_));
+    } catch (...) {
+      failure = describe_failure(std::current_exception());
+    }
+    failure = exchange_->first_failure(failure);  // a failure on one process stops them all
+    if (!failure.empty()) {
+      roll_back();
+      throw SimulationError(failure);
+    }
+  }
+  if (next_stage_ > static_cast<int>(Stage::finish)) next_stage_ = 0;
+}
+
+// The step, stage by stage, as docs/step.md lists it; each stage's time goes to its phase.
+template <int D>
+void BasicSimulation<D>::run_stage(Stage stage) {
+  const auto start = Clock::now();
+  double* phase = &times_.correct;
+  switch (stage) {
+    case Stage::exchange:
+      begin_exchange();
+      return;  // the exchange's own time is the exchange's to report (RankExchange::stats)
+    case Stage::time_step:
+      choose_time_step();
+      phase = &times_.neighbors;
+      break;
+    case Stage::neighbors:
+      find_neighbors_now();
+      run(&StepComponent::before_predictor);
+      phase = &times_.neighbors;
+      break;
+    case Stage::predictor:
+      predict();
+      run(&StepComponent::after_predictor);
+      run(&StepComponent::before_projection);
+      phase = &times_.predict;
+      break;
+    case Stage::neighbors_at_star:
+      exchange_->share_predicted(particles_, fields_.prescribed);
+      find_neighbors_at_star();
+      phase = &times_.neighbors;
+      break;
+    case Stage::projection:
+      number_density_and_divergence();
+      detect_surface();
+      phase = &times_.assemble;
+      break;
+    case Stage::free_surface:
+      exchange_->share_flags(fields_.surface);
+      run(&StepComponent::before_source);
+      phase = &times_.assemble;
+      break;
+    case Stage::source:
+      exchange_->share_flags(fields_.surface);
+      compute_source();
+      run(&StepComponent::before_assembly);
+      phase = &times_.assemble;
+      break;
+    case Stage::assembly:
+      assemble();
+      phase = &times_.assemble;
+      break;
+    case Stage::solve:
+      solve();
+      times_.solver_setup += info_.solve.setup_seconds;
+      times_.solve += seconds_since(start) - info_.solve.setup_seconds;
+      return;
+    case Stage::pressure_boundary:
+      set_pressure_boundary_values();
+      break;
+    case Stage::corrector:
+      exchange_->share_pressure(particles_.p, fields_.carriers);
+      run(&StepComponent::after_pressure);
+      correct();
+      break;
+    case Stage::shifting:
+      exchange_->share_particles(particles_);
+      run(&StepComponent::shift_positions);
+      break;
+    case Stage::end_corrector:
+      exchange_->end_step(particles_);
+      run(&StepComponent::after_corrector);
+      break;
+    case Stage::finish:
+      finish_step();
+      *phase += seconds_since(start);
+      check_guard();
+      return;
+  }
+  *phase += seconds_since(start);
+}
+
+// A failed step's message names the step, what failed and, for a failure the time step may cure, the knob.
+template <int D>
+std::string BasicSimulation<D>::describe_failure(std::exception_ptr error) const {
+  const std::string at = "step " + std::to_string(info_before_.step + 1) + " (t = " + fmt(info_before_.time) + " s";
+  try {
+    std::rethrow_exception(error);
+  } catch (const SimulationError& e) {
+    return e.what();
+  } catch (const SolverError& e) {
+    return at + "): pressure solve failed: " + e.what();
+  } catch (const std::bad_alloc&) {
+    return at + "): out of memory (" + std::to_string(particles_.size()) + " particles)";
+  } catch (const std::exception& e) {
+    // Anything else a stage throws (a non-finite position met by the neighbour search, ...) is a failed step too.
+    return at + ", dt = " + fmt(fields_.dt) + " s, dt limit " + info_.dt_limit + "): " + e.what() + dt_advice();
+  } catch (...) {
+    return at + "): a stage threw an exception that is not a std::exception";
+  }
+}
+
+template <int D>
+void BasicSimulation<D>::roll_back() {
+  exchange_->abandon_step();
+  particles_ = before_step_;
+  info_ = info_before_;
+  next_stage_ = 0;
+}
+
+template <int D>
+void BasicSimulation<D>::begin_exchange() {
+  // Components are added after construction: their reach is read each step. Both particles of a pair may move
+  // max_displacement in the step.
+  const double kernels = config_.l0 * std::max({config_.radius_density, config_.radius_surface,
+                                                config_.radius_gradient, config_.radius_laplacian});
+  const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
+  exchange_->begin_step(particles_, domain_, reach);
+}
+
+template <int D>
+void BasicSimulation<D>::choose_time_step() {
   StepFields& f = fields_;
-  begin_step();
-  auto t = Clock::now();
   f.dt = choose_dt(info_.dt_limit);
   f.time = info_.time + f.dt;
   info_.dt = f.dt;
@@ -238,51 +430,12 @@ void BasicSimulation<D>::advance() {
   f.held_value.clear();
   f.pressure_offset.clear();
   f.surface_own_reference = false;
-
-  find_neighbors_now();
-  run(&StepComponent::before_predictor);
-  times_.neighbors += lap(t);
-
-  predict();
-  run(&StepComponent::after_predictor);
-  run(&StepComponent::before_projection);
-  share_predicted();
-  times_.predict += lap(t);
-
-  find_neighbors_at_star();
-  times_.neighbors += lap(t);
-
-  number_density_and_divergence();
-  detect_surface();
-  share_surface();
-  run(&StepComponent::before_source);
-  share_surface();
-  compute_source();
-  run(&StepComponent::before_assembly);
-  assemble();
-  times_.assemble += lap(t);
-
-  solve();
-  times_.solver_setup += info_.solve.setup_seconds;
-  times_.solve += lap(t) - info_.solve.setup_seconds;
-
-  scatter_pressure();
-  set_pressure_boundary_values();
-  share_pressure_boundary();
-  run(&StepComponent::after_pressure);
-  correct();
-  share_corrected();
-  run(&StepComponent::shift_positions);
-  end_corrector();
-  run(&StepComponent::after_corrector);
-  finish_step();
-  times_.correct += lap(t);
 }
 
 template <int D>
 void BasicSimulation<D>::find_neighbors_now() {
   Particles& p = particles_;
-  if (config_.reorder_every > 0 && info_.step % config_.reorder_every == 0) {
+  if (config_.reorder_every > 0 && exchange_->reorders() && info_.step % config_.reorder_every == 0) {
     grid_.bin(p);
     p.permute(grid_.cell_order());
   }
@@ -460,40 +613,31 @@ template <int D>
 void BasicSimulation<D>::assemble() {
   const StepFields& f = fields_;
   const double screening = config_.sound_speed * f.dt;  // the compressibility's reach
-  assemble_ppe<D>({particles_, domain_, neighbors_at_star(k_laplacian_), k_laplacian_},
-               f.held.empty() ? f.surface : f.held, f.source, ppe_, f.held_value,
-               screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
-  info_.unknowns = ppe_.size();
-  info_.free_surface = static_cast<std::size_t>(std::count(f.surface.begin(), f.surface.end(), 1));
-  info_.floating_groups = ppe_.floating.size();
+  const PpeCounts counts =
+      exchange_->assemble({particles_, domain_, neighbors_at_star(k_laplacian_), k_laplacian_},
+                          f.held.empty() ? f.surface : f.held, f.source, f.held_value,
+                          screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
+  info_.unknowns = counts.unknowns;
+  const std::size_t own = owned_particles();
+  info_.free_surface = static_cast<std::size_t>(
+      exchange_->sum(std::count(f.surface.begin(), f.surface.begin() + static_cast<Index>(own), 1)));
+  info_.floating_groups = counts.floating_groups;
 }
 
+// Warm start from the previous step, or the zero guess of a cold start. Before any pressure has been set there is
+// nothing to warm-start from (and with an offset P = 0 would read as P - offset = -offset, from which a liquid at rest
+// cannot reach a tolerance relative to its round-off |b|). Both cases are decided over every process.
 template <int D>
 void BasicSimulation<D>::solve() {
-  const Particles& p = particles_;
-  std::vector<double>& pressure = fields_.pressure;
-  // Warm start from the previous step, or the zero guess of a cold start.
-  if (config_.warm_start) ppe_.gather(p, pressure, fields_.pressure_offset);
-  else pressure.assign(ppe_.size(), 0.0);
-  // A zero right-hand side (a liquid at rest on the lattice, hydrostatic part split off) has the solution 0,
-  // which iterative solvers measuring a residual relative to |b| cannot confirm.
-  const bool zero_rhs = std::all_of(ppe_.rhs.begin(), ppe_.rhs.end(), [](double b) { return b == 0.0; });
-  // Before any pressure has been set there is nothing to warm-start from (and with an offset P = 0 would read as
-  // P - offset = -offset, from which a liquid at rest cannot reach a tolerance relative to its round-off |b|).
-  const bool no_previous = std::all_of(ppe_.particle.begin(), ppe_.particle.end(),
-                                       [&](int i) { return p.p[static_cast<std::size_t>(i)] == 0.0; });
-  if (no_previous) std::fill(pressure.begin(), pressure.end(), 0.0);
-  if (ppe_.size() > 0 && zero_rhs) {
-    std::fill(pressure.begin(), pressure.end(), 0.0);
-    info_.solve = SolveReport{};
-  } else if (ppe_.size() > 0) {
-    info_.solve = solver_->solve(ppe_.matrix, ppe_.rhs, pressure);
-  }
-}
-
-template <int D>
-void BasicSimulation<D>::scatter_pressure() {
-  ppe_.scatter(fields_.pressure, particles_, config_.clamp_negative_pressure, fields_.pressure_offset);
+  const OwnPpeRows own = exchange_->own_rows();
+  const bool zero_rhs = exchange_->all(std::all_of(own.rhs.begin(), own.rhs.end(), [](double b) { return b == 0.0; }));
+  const bool no_previous = exchange_->all(std::all_of(own.particle.begin(), own.particle.end(), [&](int i) {
+    return particles_.p[static_cast<std::size_t>(i)] == 0.0;
+  }));
+  ZeroSolution zero;
+  LinearSolver& solver = zero_rhs ? static_cast<LinearSolver&>(zero) : *solver_;
+  info_.solve = exchange_->solve(solver, particles_, no_previous || !config_.warm_start,
+                                 config_.clamp_negative_pressure, fields_.pressure_offset);
 }
 
 template <int D>

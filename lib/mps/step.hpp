@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "mps/boundary.hpp"
+#include "mps/exchange.hpp"
 #include "mps/kernel.hpp"
 #include "mps/neighbors.hpp"
 #include "mps/operators.hpp"
@@ -168,10 +169,40 @@ class BasicStepComponent {
   /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
   /// [m] (0: within them): a distributed step's halo must reach as far.
   [[nodiscard]] virtual double reach(const BasicSimulation<D>&) const { return 0.0; }
+  /// Whether this component reads what `other` writes at a hook they share, and so must run after it: the order
+  /// Simulation::add checks (the configuration's own components come first).
+  [[nodiscard]] virtual bool runs_after(const BasicStepComponent& other) const {
+    (void)other;
+    return false;
+  }
 };
 using StepComponent = BasicStepComponent<2>;  ///< a 2-D component
 
-/// A run: particles in a D-dimensional domain, stepped by the semi-implicit MPS step with the components added to it.
+/// The stages of a step, in order (docs/step.md). Simulation::step runs them all; Simulation::advance_to runs them
+/// up to one, so that a caller can stop after the assembly. Each stage that begins with an exchange begins with it
+/// (a no-op on one process), and processes agree after every stage whether one of them failed.
+enum class Stage {
+  exchange,           ///< the exchange's begin_step (on ranks: migration and halo)
+  time_step,          ///< dt from dt_max, the CFL and viscous limits; this step's fields reset
+  neighbors,          ///< grid binned and neighbours found at r^n; hook before_predictor
+  predictor,          ///< viscosity and body force give u*, r*; hooks after_predictor, before_projection
+  neighbors_at_star,  ///< copies take r*, u*; neighbours at r*
+  projection,         ///< n*, div u* and the free surface
+  free_surface,       ///< copies take the free-surface flags; hook before_source
+  source,             ///< copies take the flags again; the mixed source; hook before_assembly
+  assembly,           ///< the PPE
+  solve,              ///< the pressure solve (its special cases decided over every process), pressures scattered
+  pressure_boundary,  ///< free-surface particles' held pressures, dummies' pressures, the carriers
+  corrector,          ///< copies take pressures and carriers; hook after_pressure; u^{n+1}, r^{n+1}
+  shifting,           ///< copies take r^{n+1}, u^{n+1}; hook shift_positions
+  end_corrector,      ///< copies dropped; hook after_corrector
+  finish,             ///< the largest speed, time and step count advanced, the stability guard
+};
+/// The stage's name, as in the enum.
+const char* to_string(Stage stage);
+
+/// A run: particles in a D-dimensional domain, stepped by the semi-implicit MPS step with the components added to it,
+/// on one process or, given a RankExchange (mps/rank_exchange.hpp), on the ranks of an MPI communicator.
 template <int D>
 class BasicSimulation {
  public:
@@ -182,20 +213,34 @@ class BasicSimulation {
   using StepFields = BasicStepFields<D>;      ///< what the stages hand on
   using CellGrid = BasicCellGrid<D>;          ///< its cell grid
   using Stencil = BasicStencil<D>;            ///< an operator's view of it
+  using Exchange = BasicExchange<D>;          ///< its exchange policy's base
 
   /// Validates the configuration and the particles (throws std::invalid_argument naming what is wrong), makes the
-  /// pressure solver from config.solver and adds the components the configuration asks for.
+  /// pressure solver from config.solver and adds the components the configuration asks for. One process.
   BasicSimulation(Particles particles, Domain domain, SimulationConfig config);
   /// Same, with a pressure solver of the caller's making (config.solver is then not read).
   BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
+  /// Same, on the processes of `exchange` (e.g. a RankExchange): every process passes the same scene, each keeps the
+  /// particles it owns, and the pressure solver is made from config.solver for the exchange's communicator.
+  /// Throws std::invalid_argument for what the exchange cannot run. Collective.
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<Exchange> exchange);
 
-  /// Advances one step or throws SimulationError and keeps the previous state.
+  /// Advances one step (the rest of one advance_to began) or throws SimulationError and keeps the previous state;
+  /// on several processes every one throws, with the message of the first that failed.
   const StepInfo& step();
+  /// Runs the stages of the step up to and including `last` (opening a step if none is open) and leaves the step
+  /// open there: its fields, last_ppe() and the particles are as that stage left them; step() completes it. A
+  /// failure rolls back as step() does. Throws std::logic_error for a stage this step has passed.
+  void advance_to(Stage last);
+  /// The stage the open step runs next (Stage::exchange when no step is open).
+  [[nodiscard]] Stage next_stage() const { return static_cast<Stage>(next_stage_); }
 
-  /// Adds a component (mps/components.hpp, or a scene's own) after those already there; returns it.
+  /// Adds a component (mps/components.hpp, or a scene's own) after those already there; returns it. Throws
+  /// std::invalid_argument when one already there must run after it (StepComponent::runs_after).
   template <class Component, class... Args>
   Component& add(Args&&... args) {
     auto component = std::make_unique<Component>(std::forward<Args>(args)...);
+    check_order(*component);
     Component& added = *component;
     components_.push_back(std::move(component));
     return added;
@@ -209,12 +254,13 @@ class BasicSimulation {
   }
 
   [[nodiscard]] const Particles& particles() const { return particles_; }  ///< the particles now
-  /// Particles [0, owned) are this process's own; during a distributed step the rest are halo copies of other
-  /// processes' particles (serially: all).
-  [[nodiscard]] virtual std::size_t owned_particles() const { return particles_.size(); }
+  /// Particles [0, owned) are this process's own; during a step on ranks the rest are halo copies of other processes'
+  /// particles (serially: all).
+  [[nodiscard]] std::size_t owned_particles() const { return exchange_->owned(particles_); }
   [[nodiscard]] const Domain& domain() const { return domain_; }           ///< the domain
   [[nodiscard]] const SimulationConfig& config() const { return config_; }  ///< the configuration
   [[nodiscard]] const LinearSolver& solver() const { return *solver_; }    ///< the pressure solver
+  [[nodiscard]] const Exchange& exchange() const { return *exchange_; }    ///< the exchange policy
   [[nodiscard]] const StepInfo& last_step() const { return info_; }        ///< what the last step did
   [[nodiscard]] const PhaseTimes& times() const { return times_; }         ///< time per phase, all steps so far
   [[nodiscard]] double time() const { return info_.time; }                 ///< simulated time [s]
@@ -225,7 +271,9 @@ class BasicSimulation {
   [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
   /// @}
   [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  ///< n* of the last step
-  [[nodiscard]] const PpeSystem& last_ppe() const { return ppe_; }  ///< the last step's PPE (matrix, rhs, maps)
+  [[nodiscard]] const StepFields& fields() const { return fields_; }  ///< the fields of the last (or open) step
+  /// The last step's PPE (matrix, rhs, maps); on ranks this process's part, as assembled locally.
+  [[nodiscard]] const PpeSystem& last_ppe() const { return exchange_->ppe(); }
   [[nodiscard]] const CellGrid& grid() const { return grid_; }  ///< the cell grid, binned at the last search
   /// Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
   /// largest of the smaller ones.
@@ -236,46 +284,23 @@ class BasicSimulation {
   /// r* is later found into the same memory).
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
   /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
-  [[nodiscard]] virtual double max_over_ranks(double value) const { return value; }
-
-  virtual ~BasicSimulation() = default;  ///< a DistributedSimulation is a Simulation
-  BasicSimulation(BasicSimulation&&) = default;  ///< a scene may build its simulation and hand it on
-  BasicSimulation& operator=(BasicSimulation&&) = default;  ///< same
-
- protected:
-  /// @{ Where a step on several processes exchanges with the others (DistributedSimulation, docs/scaling.md). On
-  /// one process each does nothing, or what the serial step always did.
-  /// Before a step, outside its rollback: throws std::invalid_argument for a component the step cannot run.
-  virtual void check_components() const {}
-  virtual void begin_step() {}  ///< before the time step is chosen: the distributed step migrates and builds its halo
-  virtual void share_predicted() {}  ///< after the predictor's components: the copies' r*, u*
-  virtual void share_surface() {}    ///< after the free surface and again after the before_source components
-  virtual void assemble();           ///< the PPE (assemble_ppe)
-  virtual void solve();              ///< the pressure solve
-  virtual void scatter_pressure();   ///< the solution into the particles' pressures (PpeSystem::scatter)
-  virtual void share_pressure_boundary() {}  ///< after the dummies' pressures: the copies' pressures and carriers
-  virtual void share_corrected() {}  ///< after the corrector: the copies' r^{n+1}, u^{n+1} (for shift_positions)
-  virtual void end_corrector() {}    ///< after shift_positions, before after_corrector: the copies are dropped
-  /// Throws SimulationError if a particle broke the stability guard.
-  virtual void check_guard() const;
-  /// @}
-
-  /// The largest StepComponent::reach of the components [m] (0 if none reads beyond the kernels).
-  [[nodiscard]] double components_reach() const;
-
-  /// @{ The state a derived simulation's stages work on (see the members of the same names above).
-  Particles particles_;
-  StepInfo info_;
-  StepFields fields_;
-  std::unique_ptr<LinearSolver> solver_;
-  /// @}
+  [[nodiscard]] double max_over_ranks(double value) const { return exchange_->max(value); }
 
  private:
-  void advance();
+  // A null solver is made from config.solver for the exchange's context.
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver,
+                  std::unique_ptr<Exchange> exchange);
+  void check_order(const StepComponent& added) const;
+  void run_stage(Stage stage);
+  [[nodiscard]] std::string describe_failure(std::exception_ptr error) const;
+  void roll_back();
+  [[nodiscard]] double components_reach() const;
   [[nodiscard]] std::string dt_advice() const;
   [[nodiscard]] double choose_dt(std::string& limit) const;
   void run(void (StepComponent::*hook)(StepContext&));
-  // The stages, in order.
+  // The stages' work, in order.
+  void begin_exchange();
+  void choose_time_step();
   void find_neighbors_now();
   void predict();
   void explicit_viscous_predictor();
@@ -284,10 +309,18 @@ class BasicSimulation {
   void number_density_and_divergence();
   void detect_surface();
   void compute_source();
+  void assemble();
+  void solve();
   void set_pressure_boundary_values();
   void correct();
   void finish_step();
+  void check_guard() const;
 
+  Particles particles_;
+  StepInfo info_;
+  StepFields fields_;
+  std::unique_ptr<Exchange> exchange_;
+  std::unique_ptr<LinearSolver> solver_;
   Domain domain_;
   SimulationConfig config_;
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
@@ -299,8 +332,9 @@ class BasicSimulation {
   // costs about 200 bytes a particle.
   NeighborList near_star_, close_star_;
   double small_radius_ = 0;
-  Particles before_step_;  // the state a failed step rolls back to
-  PpeSystem ppe_;
+  int next_stage_ = 0;      // of the open step (0: none open)
+  Particles before_step_;   // the state a failed step rolls back to
+  StepInfo info_before_;
   struct ViscousSystem {
     std::vector<int> row;             // particle -> row of the fluid system, or -1
     std::vector<std::size_t> fluid;   // row -> particle

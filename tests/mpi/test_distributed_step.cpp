@@ -1,4 +1,4 @@
-// The MPS step on 1, 2 and 3 ranks (mps/distributed_step.hpp) against the same scene run serially in the same
+// The MPS step on 1, 2 and 3 ranks (mps/rank_exchange.hpp) against the same scene run serially in the same
 // process, run by ctest under mpirun. Every rank builds the scene; the distributed run's particles are gathered by
 // id on rank 0 and compared with rank 0's serial run (mps::Simulation, the same solver spec on MPI_COMM_SELF).
 #include <gtest/gtest.h>
@@ -8,8 +8,10 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -17,7 +19,7 @@
 #include "column.hpp"
 #include "mpi_test.hpp"
 #include "mps/components.hpp"
-#include "mps/distributed_step.hpp"
+#include "mps/rank_exchange.hpp"
 #include "mps/geometry.hpp"
 #include "mps/vec.hpp"
 #include "mps/solvers/solver.hpp"
@@ -168,13 +170,15 @@ mps::BasicParticles<D> serial_run(const BasicScene<D>& scene) {
 template <int D>
 Comparison run_both(const BasicScene<D>& scene, const mps::BasicParticles<D>& ref, mps::DistributedOptions options = {}) {
   Comparison out;
-  mps::BasicDistributedSimulation<D> distributed(scene.particles, scene.domain, scene.config, comm(), options);
+  auto ranks_exchange = std::make_unique<mps::BasicRankExchange<D>>(comm(), options);
+  const mps::BasicRankExchange<D>& exchange = *ranks_exchange;
+  mps::BasicSimulation<D> distributed(scene.particles, scene.domain, scene.config, std::move(ranks_exchange));
   if (scene.add_components) scene.add_components(distributed, scene);
   const long long total = static_cast<long long>(scene.particles.size());
   for (int s = 0; s < kSteps; ++s) {
-    const std::size_t repartitions = distributed.stats().repartitions;
+    const std::size_t repartitions = exchange.stats().repartitions;
     const double dt = distributed.step().dt;
-    const mps::DistributedStepStats& stats = distributed.stats();
+    const mps::DistributedStepStats& stats = exchange.stats();
     const bool renewed = stats.repartitions > repartitions;
     const bool above = stats.kept_imbalance > options.rebalance_threshold || options.rebalance_threshold <= 1.0;
     out.wrong_decisions += renewed != above || (!renewed && stats.imbalance != stats.kept_imbalance);
@@ -187,15 +191,15 @@ Comparison run_both(const BasicScene<D>& scene, const mps::BasicParticles<D>& re
     MPI_Allreduce(MPI_IN_PLACE, &held, 1, MPI_LONG_LONG, MPI_SUM, kComm);
     out.steps_with_lost_particles += held != total;
   }
-  unsigned long long migrated = distributed.stats().migrated;
+  unsigned long long migrated = exchange.stats().migrated;
   MPI_Allreduce(MPI_IN_PLACE, &migrated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
   out.migrated = migrated;
-  out.repartitions = distributed.stats().repartitions;
-  out.max_imbalance = distributed.stats().max_imbalance;
-  unsigned long long activated = distributed.stats().activated_copies;
+  out.repartitions = exchange.stats().repartitions;
+  out.max_imbalance = exchange.stats().max_imbalance;
+  unsigned long long activated = exchange.stats().activated_copies;
   MPI_Allreduce(MPI_IN_PLACE, &activated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
   out.activated_copies = activated;
-  const mps::BasicParticles<D> gathered = distributed.gather();
+  const mps::BasicParticles<D> gathered = exchange.gather(distributed.particles());
   if (rank() != 0) return out;
   out.same_ids = gathered.id == ref.id;
   if (!out.same_ids) return out;
@@ -362,7 +366,7 @@ class KickOnRank : public mps::StepComponent {
 
 TEST(DistributedStep, AGuardTrippedOnOneRankStopsEveryRankWithTheReason) {
   const Scene scene = hydrostatic_tank();
-  mps::DistributedSimulation sim(scene.particles, scene.domain, scene.config, comm());
+  mps::Simulation sim(scene.particles, scene.domain, scene.config, std::make_unique<mps::RankExchange>(comm()));
   const int target = ranks() - 1;
   sim.add<KickOnRank>(target, 3);
   sim.step();
@@ -385,11 +389,83 @@ TEST(DistributedStep, AGuardTrippedOnOneRankStopsEveryRankWithTheReason) {
   if (rank() == 0) std::printf("[ guard ] %s\n", reason.c_str());
 }
 
+// Failures in the middle of a step, between two exchanges, on one rank: a non-finite position set on the last rank
+// after the predictor (its halo copies carry it to the ranks next to it, whose neighbour search may meet it first),
+// and an exception thrown on the last rank alone before the source. Every rank must leave the step with the message
+// of the first rank that failed (not wait for the failed one forever), roll back, and step on.
+class FailOnRank : public mps::StepComponent {
+ public:
+  FailOnRank(int on_rank, int at_step, bool nan_position) : on_rank_(on_rank), at_step_(at_step), nan_(nan_position) {}
+  void after_predictor(mps::StepContext& c) override {
+    if (!nan_ || !now(c)) return;
+    for (std::size_t i = 0; i < c.sim.owned_particles(); ++i)
+      if (c.particles.kind[i] == mps::Kind::fluid) {
+        c.particles.x[i] = std::numeric_limits<double>::quiet_NaN();
+        done_ = true;
+        return;
+      }
+  }
+  void before_source(mps::StepContext& c) override {
+    if (nan_ || !now(c)) return;
+    done_ = true;
+    throw std::runtime_error("the test's failure on rank " + std::to_string(rank()) + " alone");
+  }
+
+ private:
+  [[nodiscard]] bool now(const mps::StepContext& c) const {
+    return rank() == on_rank_ && c.sim.last_step().step + 1 == at_step_ && !done_;
+  }
+  int on_rank_, at_step_;
+  bool nan_, done_ = false;
+};
+
+TEST(DistributedStep, AFailureOnOneRankInTheMiddleOfAStepStopsEveryRankWithOneMessage) {
+  for (const bool nan_position : {true, false}) {
+    const Scene scene = hydrostatic_tank();
+    mps::Simulation sim(scene.particles, scene.domain, scene.config, std::make_unique<mps::RankExchange>(comm()));
+    const int target = ranks() - 1;
+    sim.add<FailOnRank>(target, 2, nan_position);
+    sim.step();
+    int owns_fluid = sim.particles().count(mps::Kind::fluid) > 0;
+    MPI_Bcast(&owns_fluid, 1, MPI_INT, target, kComm);
+    ASSERT_TRUE(owns_fluid) << "the target rank must own fluid";
+    const mps::Particles before = sim.particles();
+    std::string reason;
+    const double start = MPI_Wtime();
+    try {
+      sim.step();
+    } catch (const mps::SimulationError& e) {
+      reason = e.what();
+    }
+    const double seconds = MPI_Wtime() - start;
+    EXPECT_NE(reason.find(nan_position ? "non-finite position" : "the test's failure on rank " +
+                                                                     std::to_string(target) + " alone"),
+              std::string::npos)
+        << reason;
+    EXPECT_NE(reason.find(" of " + std::to_string(ranks()) + " (particle numbers are that rank's)"), std::string::npos)
+        << reason;
+    std::string on_root = reason;
+    int length = static_cast<int>(on_root.size());
+    MPI_Bcast(&length, 1, MPI_INT, 0, kComm);
+    on_root.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(on_root.data(), length, MPI_CHAR, 0, kComm);
+    EXPECT_EQ(reason, on_root) << "every rank reports the same failure";
+    EXPECT_EQ(sim.last_step().step, 1) << "the failed step is rolled back";
+    EXPECT_EQ(sim.particles().x, before.x) << "every rank keeps its particles of before the step";
+    EXPECT_EQ(sim.particles().id, before.id);
+    EXPECT_EQ(sim.owned_particles(), before.size()) << "no halo copies left behind";
+    EXPECT_NO_THROW(sim.step()) << "the rolled-back state steps on (the failure comes once)";
+    EXPECT_EQ(sim.last_step().step, 2);
+    if (rank() == 0)
+      std::printf("[ failure mid-step ] every rank stopped in %.3f s: %s\n", seconds, reason.c_str());
+  }
+}
+
 TEST(DistributedStep, RefusesWhatDoesNotRunDistributedYet) {
   Scene scene = hydrostatic_tank();
   auto message = [&](const Scene& s) {
     try {
-      mps::DistributedSimulation sim(s.particles, s.domain, s.config, comm());
+      mps::Simulation sim(s.particles, s.domain, s.config, std::make_unique<mps::RankExchange>(comm()));
     } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
@@ -403,7 +479,7 @@ TEST(DistributedStep, RefusesWhatDoesNotRunDistributedYet) {
   EXPECT_NE(message(implicit).find("implicit viscosity"), std::string::npos);
   // A component added after construction is refused at the next step, before anything moves.
   {
-    mps::DistributedSimulation sim(scene.particles, scene.domain, scene.config, comm());
+    mps::Simulation sim(scene.particles, scene.domain, scene.config, std::make_unique<mps::RankExchange>(comm()));
     mps::CellGrid grid(scene.domain, 4.1 * scene.config.l0);
     sim.add<mps::InitialReferenceDensity>(scene.particles, scene.domain, grid, sim.density_kernel());
     std::string refused;

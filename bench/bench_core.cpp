@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <random>
 
-#include "mps/geometry.hpp"
-#include "mps/io.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
+#include "mps/numerics/ppe.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// The distributed PPE (mps/distributed.hpp) on P ranks: a square tank with a free surface, built on rank 0, distributed
+// The distributed PPE (mps/parallel/distributed.hpp) on P ranks: a square tank with a free surface, built on rank 0, distributed
 // by Zoltan RCB, given its halo, its PPE assembled per rank and solved by hypre on the communicator. Times each phase
 // (the slowest rank's, between barriers) and records the halo's volume and messages per exchange. One CSV row per
 // run, appended; run it under mpirun for each P:
@@ -20,12 +20,12 @@
 #include <vector>
 
 #include "mpi_bench.hpp"
-#include "mps/distributed.hpp"
-#include "mps/geometry.hpp"
-#include "mps/kernel.hpp"
-#include "mps/neighbors.hpp"
-#include "mps/operators.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/core/kernel.hpp"
+#include "mps/core/neighbors.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
+#include "mps/parallel/distributed.hpp"
 #include "mps/solvers/solver.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-// The MPS step on P ranks (mps/rank_exchange.hpp): apps/dambreak's classic column at a spacing giving about the
+// The MPS step on P ranks (mps/parallel/rank_exchange.hpp): apps/dambreak's classic column at a spacing giving about the
 // requested fluid count, built on every rank and distributed, stepped `--steps` times after one untimed step (the
 // first solve's AMG setup and the first halo). Per step: the slowest rank's wall time (between barriers), its phase
 // times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations, the
@@ -23,8 +23,8 @@
 
 #include "column.hpp"
 #include "mpi_bench.hpp"
-#include "mps/components.hpp"
-#include "mps/rank_exchange.hpp"
+#include "mps/parallel/rank_exchange.hpp"
+#include "mps/step/components.hpp"
 
 namespace {
 

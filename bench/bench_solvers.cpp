@@ -27,13 +27,13 @@
 #include <thread>
 #include <vector>
 
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
 #include "solver_cli.hpp"
-#include "mps/io.hpp"
-#include "mps/kernel.hpp"
-#include "mps/neighbors.hpp"
-#include "mps/operators.hpp"
-#include "mps/ppe.hpp"
+#include "mps/core/kernel.hpp"
+#include "mps/core/neighbors.hpp"
+#include "mps/io/io.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
 #include "mps/solvers/solver.hpp"
 
 namespace fs = std::filesystem;

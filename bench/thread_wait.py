@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """One thread against two, with OpenMP's active (spinning) and passive wait policies, on an idle machine and with one
 other busy process (`yes > /dev/null`) on it: a small scene (the classic dam break, 800 fluid particles, its default
-run: below the library's threshold for a second thread, mps/parallel.hpp), a middle one (the seed's column at its
+run: below the library's threshold for a second thread, mps/core/threads.hpp), a middle one (the seed's column at its
 spacing H/50, 5,000 fluid, to t sqrt(g/H) = 1) and a large one (bench_scaling's body-force channel at 1e5 particles,
 4 steps after 2). The apps run passive unless told otherwise (apps/common/openmp_wait.hpp); bench_scaling takes the
 environment as it is.

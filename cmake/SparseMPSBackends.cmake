@@ -39,5 +39,5 @@ _sparsemps_import(SparseMPS::CHOLMOD CHOLMOD_LIBRARY cholmod cholmod.h CHOLMOD_I
 # CHOLMOD's own dependencies (AMD, COLAMD, METIS, LAPACK/BLAS) come in through libcholmod.so; its BLAS is the
 # libblas.so.3 alternative, which Debian points at OpenBLAS once libopenblas-dev is installed.
 _sparsemps_import(SparseMPS::suitesparseconfig SUITESPARSECONFIG_LIBRARY suitesparseconfig "" "" "")
-# Zoltan (Debian: libtrilinos-zoltan-dev): the partitioner of mps/distributed.cpp; its headers under trilinos/.
+# Zoltan (Debian: libtrilinos-zoltan-dev): the partitioner of mps/parallel/distributed.cpp; its headers under trilinos/.
 _sparsemps_import(SparseMPS::Zoltan ZOLTAN_LIBRARY trilinos_zoltan zoltan.h ZOLTAN_INCLUDE_DIR trilinos)

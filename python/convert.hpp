@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "mps/csr.hpp"
+#include "mps/core/csr.hpp"
 
 namespace sparsemps {
 

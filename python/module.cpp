@@ -8,7 +8,7 @@
 #include <string>
 
 #include "convert.hpp"
-#include "mps/boundary.hpp"
+#include "mps/boundaries/boundary.hpp"
 #include "mps/solvers/solver.hpp"
 #include "mps/version.hpp"
 

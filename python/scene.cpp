@@ -19,10 +19,10 @@
 #include <vector>
 
 #include "convert.hpp"
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
-#include "mps/io.hpp"
-#include "mps/step.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
+#include "mps/step/components.hpp"
+#include "mps/step/step.hpp"
 
 namespace sparsemps {
 namespace {
@@ -224,7 +224,7 @@ Field text(const char* name, std::string Config::*m, const char* doc) {
           [m, name](Config& c, py::handle v) { c.*m = as_string(v, name); }, doc};
 }
 
-// mps::SimulationConfig's fields, in its order (lib/mps/step.hpp has the reasons behind the defaults).
+// mps::SimulationConfig's fields, in its order (lib/mps/step/step.hpp has the reasons behind the defaults).
 const std::vector<Field>& config_fields() {
   static const std::vector<Field> fields = {
       number("l0", &Config::l0, "initial particle spacing [m] (required)"),
@@ -620,7 +620,7 @@ void bind_scene(py::module_& m) {
   def_array(particles_class, "p", &mps::Particles::p, "pressure [Pa]");
 
   std::string config_doc =
-      "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step.hpp and docs/step.md give each\n"
+      "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step/step.hpp and docs/step.md give each\n"
       "default's reason). SimulationConfig(**fields); a misspelt field is a ValueError naming it.\n\nFields:\n";
   for (const Field& f : config_fields()) config_doc += "  " + f.name + ": " + f.doc + "\n";
   py::class_<Config> config_class(m, "SimulationConfig", config_doc.c_str());
@@ -671,7 +671,7 @@ void bind_scene(py::module_& m) {
           "particle", [](const Ppe& p) { return to_numpy(p.system.particle); }, "unknown -> particle")
       .def_property_readonly(
           "floating_groups", [](const Ppe& p) { return p.system.floating.size(); },
-          "closed groups of unknowns (no free surface) given the gauge (lib/mps/ppe.hpp)")
+          "closed groups of unknowns (no free surface) given the gauge (lib/mps/numerics/ppe.hpp)")
       .def_property_readonly(
           "free_surface", [](const Ppe& p) { return flags_to_numpy(p.surface); }, "per particle")
       .def_property_readonly(

@@ -10,7 +10,7 @@ packages=(
   libopenblas-dev        # optimised BLAS behind CHOLMOD's supernodal factorisation
   libhypre-dev           # BoomerAMG
   libopenmpi-dev openmpi-bin   # MPI for hypre and the distributed particles; mpirun runs the tests labelled mpi
-  libtrilinos-zoltan-dev # Zoltan's RCB partition of particles over MPI ranks (mps/distributed.hpp)
+  libtrilinos-zoltan-dev # Zoltan's RCB partition of particles over MPI ranks (mps/parallel/distributed.hpp)
   libgtest-dev
   libcli11-dev nlohmann-json3-dev
   zlib1g-dev             # the .vtp frames' compression

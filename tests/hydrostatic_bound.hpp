@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "mps/solvers/solver.hpp"
-#include "mps/step.hpp"
+#include "mps/step/step.hpp"
 
 namespace tank_bound {
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The sample PPEs of data/ppe/ made afresh (scripts/make_sample_ppes.py) and checked for what the assembly
-(lib/mps/ppe.cpp) must give them. SamplePpesRecreated compares channel_1e4's SHA-256 with the index: a change
+(lib/mps/numerics/ppe.cpp) must give them. SamplePpesRecreated compares channel_1e4's SHA-256 with the index: a change
 detector, which a wrong matrix recorded once passes for ever. Here each small case's A and b must be:
 
 - the index's size: as many rows as data/ppe/index.csv records unknowns, its nonzeros, b as long;

@@ -8,12 +8,13 @@
 #include <vector>
 
 #include "hydrostatic_bound.hpp"
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
-#include "mps/io.hpp"
-#include "mps/operators.hpp"
-#include "mps/ppe.hpp"
-#include "mps/step.hpp"
+#include "mps/boundaries/boundary.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
+#include "mps/step/components.hpp"
+#include "mps/step/step.hpp"
 
 namespace {
 
@@ -299,4 +300,85 @@ TEST(ThreeD, SquareDuctDevelopsTheSeriesSolutionsProfile) {
   std::printf("duct, 10 across, t = 3 s: largest error %.3g m/s of a peak %.3g m/s (%.2f %%)\n", r.largest_error,
               r.peak, 100 * r.largest_error / r.peak);
   EXPECT_LT(r.largest_error, 0.025 * r.peak);
+}
+
+// RigidMotion3 turns a wall group about an axis through a point and shifts it. Checked against what does not depend
+// on its formula: about the z axis it moves x and y as the 2-D RigidMotion does and leaves z; about a tilted axis the
+// body stays rigid (every distance kept), each particle keeps its height along the axis and its distance from it, a
+// whole turn brings it back, and its velocity is the time derivative of its position (central differences).
+TEST(ThreeD, RigidMotionTurnsAndShiftsAWallGroupRigidlyWithItsVelocity) {
+  const double l0 = 0.1;
+  mps::Particles3 body;
+  mps::add_box_walls(body, {0.0, 0.0, 0.0, 0.4, 0.3, 0.2}, l0, mps::x_low | mps::x_high | mps::z_low, 1, 1, 7);
+  ASSERT_GT(body.size(), 50U);
+  const mps::Vec<3> centre{0.2, 0.1, -0.05};
+  const double omega = 2.3;
+  const mps::Vec<3> v{0.3, -0.1, 0.2};
+
+  // About z: x and y as the 2-D motion moves them.
+  mps::Particles flat;
+  for (std::size_t i = 0; i < body.size(); ++i) flat.add(body.x[i], body.y[i], body.kind[i], body.group[i]);
+  mps::RigidMotion3 about_z(body, 7, centre, {0.0, 0.0, 2.0}, mps::steady_path3(omega, {v[0], v[1], 0.0}));
+  mps::RigidMotion planar(flat, 7, centre[0], centre[1], mps::steady_path(omega, v[0], v[1]));
+  mps::Particles3 moved = body;
+  about_z(moved, 0.37);
+  planar(flat, 0.37);
+  for (std::size_t i = 0; i < body.size(); ++i) {
+    EXPECT_NEAR(moved.x[i], flat.x[i], 1e-14);
+    EXPECT_NEAR(moved.y[i], flat.y[i], 1e-14);
+    EXPECT_EQ(moved.z[i], body.z[i]);
+    EXPECT_NEAR(moved.u[i], flat.u[i], 1e-13);
+    EXPECT_NEAR(moved.v[i], flat.v[i], 1e-13);
+    EXPECT_EQ(moved.w[i], 0.0);
+  }
+
+  // About a tilted axis.
+  const mps::Vec<3> axis{1.0, -2.0, 0.5};
+  const double length = std::sqrt(1.0 + 4.0 + 0.25);
+  const mps::Vec<3> a{axis[0] / length, axis[1] / length, axis[2] / length};
+  mps::RigidMotion3 tilted(body, 7, centre, axis, mps::steady_path3(omega, v));
+  auto at = [&](double t) {
+    mps::Particles3 p = body;
+    tilted(p, t);
+    return p;
+  };
+  const double t = 0.81;
+  const mps::Particles3 now = at(t);
+  auto relative = [&](const mps::Particles3& p, std::size_t i, double time) {
+    return mps::Vec<3>{p.x[i] - centre[0] - v[0] * time, p.y[i] - centre[1] - v[1] * time,
+                       p.z[i] - centre[2] - v[2] * time};
+  };
+  double worst_distance = 0, worst_height = 0, worst_radius = 0, worst_turn = 0, worst_velocity = 0;
+  const double h = 1e-5;
+  const mps::Particles3 before = at(t - h), after = at(t + h);
+  const mps::Particles3 turned_once = at(2.0 * std::acos(-1.0) / omega);
+  for (std::size_t i = 0; i < body.size(); ++i) {
+    for (std::size_t j = i + 1; j < body.size(); j += 7) {
+      const double d0 = mps::norm<3>(mps::Vec<3>{body.x[j] - body.x[i], body.y[j] - body.y[i], body.z[j] - body.z[i]});
+      const double d1 = mps::norm<3>(mps::Vec<3>{now.x[j] - now.x[i], now.y[j] - now.y[i], now.z[j] - now.z[i]});
+      worst_distance = std::max(worst_distance, std::abs(d1 - d0));
+    }
+    const mps::Vec<3> r0 = relative(body, i, 0.0), r1 = relative(now, i, t);
+    const double h0 = mps::dot<3>(a, r0), h1 = mps::dot<3>(a, r1);
+    worst_height = std::max(worst_height, std::abs(h1 - h0));
+    worst_radius = std::max(worst_radius, std::abs(std::sqrt(mps::norm2<3>(r1) - h1 * h1) -
+                                                   std::sqrt(mps::norm2<3>(r0) - h0 * h0)));
+    const mps::Vec<3> back = relative(turned_once, i, 2.0 * std::acos(-1.0) / omega);
+    worst_turn = std::max(worst_turn, mps::norm<3>(mps::Vec<3>{back[0] - r0[0], back[1] - r0[1], back[2] - r0[2]}));
+    const mps::Vec<3> fd{(after.x[i] - before.x[i]) / (2 * h), (after.y[i] - before.y[i]) / (2 * h),
+                         (after.z[i] - before.z[i]) / (2 * h)};
+    worst_velocity = std::max(
+        worst_velocity, mps::norm<3>(mps::Vec<3>{fd[0] - now.u[i], fd[1] - now.v[i], fd[2] - now.w[i]}));
+  }
+  EXPECT_LT(worst_distance, 1e-14);
+  EXPECT_LT(worst_height, 1e-14);
+  EXPECT_LT(worst_radius, 1e-14);
+  EXPECT_LT(worst_turn, 1e-14);
+  EXPECT_LT(worst_velocity, 1e-8);  // central differences: O(h^2 omega^3 r)
+
+  // Refused by name.
+  EXPECT_THROW(mps::RigidMotion3(body, 7, centre, {0.0, 0.0, 0.0}, mps::steady_path3(1.0)), std::invalid_argument);
+  EXPECT_THROW(mps::RigidMotion3(body, 7, {0.0, std::nan(""), 0.0}, axis, mps::steady_path3(1.0)),
+               std::invalid_argument);
+  EXPECT_THROW(mps::RigidMotion3(body, 8, centre, axis, mps::steady_path3(1.0)), std::invalid_argument);
 }

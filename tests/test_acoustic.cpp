@@ -10,9 +10,9 @@
 #include <random>
 #include <string>
 
-#include "mps/acoustic.hpp"
-#include "mps/geometry.hpp"
-#include "mps/step.hpp"
+#include "mps/acoustics/acoustic.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/step/step.hpp"
 
 namespace mps {
 // Parameterised test names and failure messages show the gradient's name instead of its bytes.

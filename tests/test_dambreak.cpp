@@ -8,7 +8,7 @@
 #include <string>
 
 #include "column.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
 
 namespace {
 
@@ -181,7 +181,7 @@ TEST(DamBreak, ATimeStepFarBeyondTheCflLimitIsStoppedByTheGuard) {
 
 }  // namespace
 
-// Loops over enough particles run on two threads, smaller ones on one (mps/parallel.hpp); either way each particle's
+// Loops over enough particles run on two threads, smaller ones on one (mps/core/threads.hpp); either way each particle's
 // numbers are computed in the same order, so the column at a/40 (about 4,500 particles) must come out of 20 steps
 // bitwise the same on one thread and on two.
 TEST(DamBreak, TwoThreadsComputeBitwiseWhatOneComputes) {

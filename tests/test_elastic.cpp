@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "mps/elastic.hpp"
+#include "mps/solids/elastic.hpp"
 #include "scenes.hpp"
 
 namespace {

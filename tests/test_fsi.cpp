@@ -4,8 +4,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "mps/fsi.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/solids/fsi.hpp"
 #include "scene.hpp"
 
 namespace {

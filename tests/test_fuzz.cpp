@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 #include "mps/solvers/solver.hpp"
 
 namespace {

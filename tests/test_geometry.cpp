@@ -1,10 +1,10 @@
-// Lattices and walls (mps/geometry.hpp): what they place, and what they refuse.
+// Lattices and walls (mps/boundaries/geometry.hpp): what they place, and what they refuse.
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
 
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
 
 namespace {
 

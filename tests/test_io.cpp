@@ -19,8 +19,8 @@
 
 #include <zlib.h>
 
-#include "mps/geometry.hpp"
-#include "mps/io.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
 
 namespace {
 

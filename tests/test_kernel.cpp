@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "mps/kernel.hpp"
+#include "mps/core/kernel.hpp"
 
 namespace {
 

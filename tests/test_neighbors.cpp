@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <random>
 
-#include "mps/geometry.hpp"
-#include "mps/neighbors.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/core/neighbors.hpp"
 
 namespace {
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <random>
 
-#include "mps/geometry.hpp"
-#include "mps/operators.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/numerics/operators.hpp"
 
 namespace {
 

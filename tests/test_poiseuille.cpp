@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "channel.hpp"
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/step/components.hpp"
 
 namespace {
 

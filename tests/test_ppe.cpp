@@ -7,8 +7,8 @@
 #include <string>
 #include <tuple>
 
-#include "mps/geometry.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/numerics/ppe.hpp"
 
 namespace {
 
@@ -181,7 +181,7 @@ TEST(Ppe, ClosedBoxGetsTheZeroMeanGaugeAndSolvesTheConsistentSingularSystem) {
   EXPECT_LT((l0 * pressure - b).norm(), 1e-9 * b.norm());
 }
 
-// ClosedGroups::leave (for mps/distributed.hpp, which gauges a group spanning ranks itself): the same system as the
+// ClosedGroups::leave (for mps/parallel/distributed.hpp, which gauges a group spanning ranks itself): the same system as the
 // gauged one but for the pinned diagonal and the removed mean; `anchored` marks exactly the rows with a free-surface
 // neighbour in the tank and none in the sealed box.
 TEST(Ppe, LeavingClosedGroupsUndoesOnlyTheGaugeAndAnchoredMarksTheSurfaceRows) {

@@ -12,7 +12,7 @@
 #include <Eigen/SparseCore>
 #include <Eigen/SparseLU>
 
-#include "mps/boundary.hpp"
+#include "mps/boundaries/boundary.hpp"
 #include "rotor.hpp"
 
 namespace {

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include "hydrostatic_bound.hpp"
-#include "mps/geometry.hpp"
-#include "mps/kernel.hpp"
-#include "mps/neighbors.hpp"
-#include "mps/operators.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/core/kernel.hpp"
+#include "mps/core/neighbors.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
 #include "mps/solvers/solver.hpp"
 #include "tank.hpp"
 

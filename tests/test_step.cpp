@@ -10,10 +10,10 @@
 #include <utility>
 #include <vector>
 
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/step/components.hpp"
 #include "hydrostatic_bound.hpp"
-#include "mps/step.hpp"
+#include "mps/step/step.hpp"
 #include "tank.hpp"
 
 namespace {

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 
 namespace {
 

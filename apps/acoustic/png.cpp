@@ -10,7 +10,7 @@
 
 #include <png.h>
 
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 
 namespace acoustic {
 namespace {

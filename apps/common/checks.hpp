@@ -18,7 +18,7 @@
 
 #include <unistd.h>
 
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 
 inline std::string short_number(double v) {
   char s[32];

@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 #include "mps/version.hpp"
 
 // The part of TOML the apps write, read strictly: one `key = value` per line (a number, true or false, a "string"

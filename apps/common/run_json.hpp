@@ -10,8 +10,8 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 
-#include "mps/io.hpp"
-#include "mps/step.hpp"
+#include "mps/io/io.hpp"
+#include "mps/step/step.hpp"
 #include "mps/version.hpp"
 #include "solve_log.hpp"
 #include "source_commit.hpp"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "mps/io.hpp"
-#include "mps/step.hpp"
+#include "mps/io/io.hpp"
+#include "mps/step/step.hpp"
 
 template <int D>
 class BasicSolveLog final : public mps::BasicStepComponent<D> {

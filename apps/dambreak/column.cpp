@@ -11,8 +11,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "mps/geometry.hpp"
-#include "mps/io.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
 
 namespace dambreak {
 

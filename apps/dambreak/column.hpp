@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "mps/components.hpp"
-#include "mps/rank_exchange.hpp"
-#include "mps/step.hpp"
+#include "mps/parallel/rank_exchange.hpp"
+#include "mps/step/components.hpp"
+#include "mps/step/step.hpp"
 
 namespace dambreak {
 

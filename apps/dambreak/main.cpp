@@ -13,7 +13,7 @@
 #include "console.hpp"
 #include "data_dir.hpp"
 #include "help.hpp"
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
 #include "ranks.hpp"
 #include "run_config.hpp"

@@ -11,7 +11,7 @@
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
 #include "ranks.hpp"
 #include "run_config.hpp"

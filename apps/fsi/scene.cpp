@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
 
 namespace fsi {
 

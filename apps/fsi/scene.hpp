@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "column.hpp"
-#include "mps/fsi.hpp"
+#include "mps/solids/fsi.hpp"
 
 namespace fsi {
 

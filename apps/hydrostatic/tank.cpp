@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <string>
 
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
 
 namespace tank {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "mps/step.hpp"
+#include "mps/step/step.hpp"
 
 namespace tank {
 

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/step/components.hpp"
 
 namespace poiseuille {
 

@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "mps/boundary.hpp"
-#include "mps/rank_exchange.hpp"
-#include "mps/step.hpp"
+#include "mps/boundaries/boundary.hpp"
+#include "mps/parallel/rank_exchange.hpp"
+#include "mps/step/step.hpp"
 
 namespace poiseuille {
 

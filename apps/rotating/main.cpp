@@ -14,7 +14,7 @@
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
-#include "mps/io.hpp"
+#include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
 #include "ranks.hpp"
 #include "rotor.hpp"

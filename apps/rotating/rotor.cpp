@@ -7,9 +7,9 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "mps/boundary.hpp"
-#include "mps/components.hpp"
-#include "mps/geometry.hpp"
+#include "mps/boundaries/boundary.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/step/components.hpp"
 
 namespace rotating {
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "mps/step.hpp"
+#include "mps/step/step.hpp"
 
 namespace rotating {
 

@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "mps/elastic.hpp"
+#include "mps/solids/elastic.hpp"
 
 namespace structure {
 

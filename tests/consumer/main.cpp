@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "mps/geometry.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/numerics/ppe.hpp"
 #include "mps/solvers/solver.hpp"
 #include "mps/version.hpp"
 

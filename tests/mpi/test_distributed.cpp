@@ -1,4 +1,4 @@
-// Particles and the PPE over MPI ranks (mps/distributed.hpp), run by ctest under mpirun on 1, 2 and 3 ranks. Every
+// Particles and the PPE over MPI ranks (mps/parallel/distributed.hpp), run by ctest under mpirun on 1, 2 and 3 ranks. Every
 // rank builds the same scene and its serial answers; rank 0 starts with all particles, the library distributes them,
 // and what the ranks hold is gathered by id and compared with the serial answers.
 #include <gtest/gtest.h>
@@ -15,12 +15,12 @@
 #include <vector>
 
 #include "mpi_test.hpp"
-#include "mps/distributed.hpp"
-#include "mps/geometry.hpp"
-#include "mps/kernel.hpp"
-#include "mps/neighbors.hpp"
-#include "mps/operators.hpp"
-#include "mps/ppe.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/core/kernel.hpp"
+#include "mps/core/neighbors.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
+#include "mps/parallel/distributed.hpp"
 #include "mps/solvers/solver.hpp"
 
 using mpi_test::comm;

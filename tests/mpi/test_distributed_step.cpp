@@ -1,4 +1,4 @@
-// The MPS step on 1, 2 and 3 ranks (mps/rank_exchange.hpp) against the same scene run serially in the same
+// The MPS step on 1, 2 and 3 ranks (mps/parallel/rank_exchange.hpp) against the same scene run serially in the same
 // process, run by ctest under mpirun. Every rank builds the scene; the distributed run's particles are gathered by
 // id on rank 0 and compared with rank 0's serial run (mps::Simulation, the same solver spec on MPI_COMM_SELF).
 #include <gtest/gtest.h>
@@ -18,11 +18,11 @@
 #include "channel.hpp"
 #include "column.hpp"
 #include "mpi_test.hpp"
-#include "mps/components.hpp"
-#include "mps/rank_exchange.hpp"
-#include "mps/geometry.hpp"
-#include "mps/vec.hpp"
+#include "mps/boundaries/geometry.hpp"
+#include "mps/core/vec.hpp"
+#include "mps/parallel/rank_exchange.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/step/components.hpp"
 #include "tank.hpp"
 
 using mpi_test::comm;

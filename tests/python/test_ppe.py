@@ -132,7 +132,7 @@ def test_closed_box_gets_the_gauge_and_its_pressure_solves_the_singular_ppe():
     assert ppe.floating_groups == 1 and not ppe.free_surface.any()
     a, b = ppe.matrix, ppe.rhs
     n, eps = a.shape[0], np.finfo(float).eps
-    # The gauge (lib/mps/ppe.hpp): the lowest unknown's diagonal doubled, the mean of b removed. Undoing the first gives
+    # The gauge (lib/mps/numerics/ppe.hpp): the lowest unknown's diagonal doubled, the mean of b removed. Undoing the first gives
     # the all-Neumann Laplacian L, whose rows sum to 0 (each row ~50 terms rounded at eps max|A|: 1e-13 bounds it).
     laplacian = a.tolil()
     laplacian[0, 0] /= 2

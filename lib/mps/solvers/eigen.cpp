@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-#include "mps/parallel.hpp"
+#include "mps/core/threads.hpp"
 #include "mps/solvers/backend_util.hpp"
 #include "mps/solvers/registry.hpp"
 

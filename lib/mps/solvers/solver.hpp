@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mps/csr.hpp"
+#include "mps/core/csr.hpp"
 
 namespace mps {
 

@@ -1,0 +1,340 @@
+#include "mps/core/neighbors.hpp"
+#include "mps/core/threads.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace mps {
+
+namespace {
+constexpr double kMaxCells = 1e8;
+
+std::string fmt_g(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
+}  // namespace
+
+template <int D>
+BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size) : domain_(domain), cell_size_(cell_size) {
+  domain_.validate();
+  if (!(cell_size > 0.0) || !std::isfinite(cell_size))
+    throw std::invalid_argument("CellGrid: cell size (the largest search radius) must be positive, got " +
+                                std::to_string(cell_size));
+  // A periodic axis shorter than three radii would let a particle meet two images of the same neighbour.
+  const auto periodic = domain_.periodic();
+  for (std::size_t a = 0; a < D; ++a)
+    if (periodic[a] && domain_.extent(static_cast<int>(a)) < 3.0 * cell_size)
+      throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
+  // Half-radius cells: the runs scanned for a radius-r search cover (2r + h)^2 = 6.25 r^2 instead of the
+  // 9 r^2 of radius-wide cells, so a third fewer distance tests.
+  Vec<D> cells;
+  double total = 1.0;
+  for (std::size_t a = 0; a < D; ++a) {
+    cells[a] = std::floor(domain_.extent(static_cast<int>(a)) / (0.5 * cell_size));
+    total *= std::max(cells[a], 1.0);
+  }
+  // A domain far larger than its particles' spacing (a particle far from the rest) would need more memory than the
+  // particles themselves.
+  if (!(total <= kMaxCells)) {
+    std::string size = fmt_g(domain_.extent(0));
+    for (std::size_t a = 1; a < D; ++a) size += " m x " + fmt_g(domain_.extent(static_cast<int>(a)));
+    throw std::invalid_argument("CellGrid: the domain, " + size + " m, would hold " + fmt_g(total) +
+                                " cells of half the search radius (" + fmt_g(cell_size) +
+                                " m), more than the 1e8 a grid may hold: is a particle far from the others?");
+  }
+  for (std::size_t a = 0; a < D; ++a) {
+    n_[a] = std::max(1, static_cast<int>(cells[a]));
+    h_[a] = domain_.extent(static_cast<int>(a)) / n_[a];
+  }
+}
+
+template <int D>
+int BasicCellGrid<D>::cell_of(const Vec<D>& r) const {
+  // Clamping keeps escaped particles binned (at the edge) so the search stays correct; the guard reports them.
+  const auto lower = domain_.lower();
+  int index = 0;
+  for (std::size_t a = D; a-- > 0;) {
+    const int c = static_cast<int>(std::floor((r[a] - lower[a]) / h_[a]));
+    index = index * n_[a] + std::clamp(c, 0, n_[a] - 1);
+  }
+  return index;
+}
+
+template <int D>
+void BasicCellGrid<D>::bin(const BasicParticles<D>& particles) {
+  const std::size_t n = particles.size();
+  const auto positions = particles.positions();
+  n_particles_ = n;
+  std::vector<int> cell(n, -1);
+  std::size_t cells = 1;
+  for (std::size_t a = 0; a < D; ++a) cells *= static_cast<std::size_t>(n_[a]);
+  cell_start_.assign(cells + 1, 0);
+  ghosts_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (particles.kind[i] == Kind::ghost) {
+      ghosts_.push_back(static_cast<int>(i));
+      continue;
+    }
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) {
+      r[a] = (*positions[a])[i];
+      if (!std::isfinite(r[a]))
+        throw std::runtime_error("CellGrid: particle " + std::to_string(i) + " has a non-finite position");
+    }
+    domain_.wrap(r);
+    cell[i] = cell_of(r);
+    ++cell_start_[static_cast<std::size_t>(cell[i]) + 1];
+  }
+  for (std::size_t c = 1; c < cell_start_.size(); ++c) cell_start_[c] += cell_start_[c - 1];
+  const std::size_t binned = n - ghosts_.size();
+  ids_.resize(binned);
+  for (auto& c : coords_) c.resize(binned);
+  std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (cell[i] < 0) continue;
+    const auto k = static_cast<std::size_t>(fill[static_cast<std::size_t>(cell[i])]++);
+    ids_[k] = static_cast<int>(i);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[i];
+    domain_.wrap(r);
+    for (std::size_t a = 0; a < D; ++a) coords_[a][k] = r[a];
+  }
+}
+
+template <int D>
+NeighborList BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius) const {
+  NeighborList list;
+  neighbors(particles, radius, list);
+  return list;
+}
+
+template <int D>
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list) const {
+  search(particles, radius, list, nullptr);
+}
+
+template <int D>
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                                 double inner_radius, NeighborList& inner) const {
+  if (!(inner_radius > 0.0) || inner_radius > radius)
+    throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
+  if (&inner == &list) throw std::invalid_argument("CellGrid::neighbors: the inner list must be another list");
+  inner.radius = inner_radius;
+  search(particles, radius, list, &inner);
+}
+
+namespace {
+
+// Appends row[0 .. count) to out, sorted. Runs come in cell order, so once particles have been permuted into
+// cell order a row is nearly sorted and insertion sort finishes it in about one pass; a row far from sorted
+// (particles never reordered) is handed to std::sort instead of costing count^2 moves.
+void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<int>& out) {
+  const auto last = row.begin() + static_cast<std::ptrdiff_t>(count);
+  if (std::is_sorted(row.begin(), last)) {  // the common case right after a reordering: one copy
+    out.insert(out.end(), row.begin(), last);
+    return;
+  }
+  const std::size_t start = out.size();
+  std::size_t moves = 0;
+  for (std::size_t a = 0; a < count; ++a) {
+    const int v = row[a];
+    out.push_back(v);
+    std::size_t b = start + a;
+    for (; b > start && out[b - 1] > v; --b) out[b] = out[b - 1];
+    out[b] = v;
+    moves += start + a - b;
+    if (moves > 4 * count) {
+      out.insert(out.end(), row.begin() + static_cast<std::ptrdiff_t>(a + 1),
+                 row.begin() + static_cast<std::ptrdiff_t>(count));
+      std::sort(out.begin() + static_cast<std::ptrdiff_t>(start), out.end());
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+template <int D>
+void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                              NeighborList* inner) const {
+  if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
+  if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
+    throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  const std::size_t expected_pairs = list.index.size(), expected_inner = inner ? inner->index.size() : 0;
+  list.radius = radius;
+  list.offsets.assign(particles.size() + 1, 0);
+  if (inner) inner->offsets.assign(particles.size() + 1, 0);
+  // Without an inner list its radius is 0: no pair is closer, and its counts stay unused.
+  const double r2 = radius * radius, inner_r2 = inner ? inner->radius * inner->radius : 0.0;
+
+  // One pass: each thread fills its contiguous share of the rows, then copies it into place; the first share is
+  // written straight into the kept list, so one thread copies and allocates nothing after the first step. The
+  // loops write every candidate and advance the count of kept ones: no branch to mispredict.
+  const auto positions = particles.positions();
+  std::array<const double*, D> coords;
+  for (std::size_t a = 0; a < D; ++a) coords[a] = coords_[a].data();
+  auto scan = [&](std::ptrdiff_t i, auto&& run_kernel) {
+    const auto si = static_cast<std::size_t>(i);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[si];
+    domain_.wrap(r);
+    for_each_run(r, radius, [&](int begin, int end, const Vec<D>& shift) {
+      Vec<D> at;
+      for (std::size_t a = 0; a < D; ++a) at[a] = r[a] - shift[a];
+      run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), at);
+    });
+  };
+#pragma omp parallel if (detail::worth_threads(n))
+  {
+#ifdef _OPENMP
+    const std::ptrdiff_t threads = omp_get_num_threads(), thread = omp_get_thread_num();
+#else
+    const std::ptrdiff_t threads = 1, thread = 0;
+#endif
+    const std::ptrdiff_t first_row = n * thread / threads, end_row = n * (thread + 1) / threads;
+    std::vector<int> own_rows, own_inner_rows, row, inner_row;
+    std::vector<int>& rows = thread == 0 ? list.index : own_rows;
+    std::vector<int>& inner_rows = thread == 0 && inner ? inner->index : own_inner_rows;
+    if (thread == 0) {
+      rows.clear();
+      inner_rows.clear();
+    } else {  // about the previous list's share, read before any thread writes it
+      rows.reserve(expected_pairs / static_cast<std::size_t>(threads) + expected_pairs / 32);
+      inner_rows.reserve(expected_inner / static_cast<std::size_t>(threads) + expected_inner / 32);
+    }
+    for (std::ptrdiff_t i = first_row; i < end_row; ++i) {
+      if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
+      std::size_t kept = 0, inner_kept = 0;
+      const int self = static_cast<int>(i);
+      scan(i, [&](std::size_t first, std::size_t last, const Vec<D>& at) {
+        if (row.size() < kept + (last - first)) {
+          row.resize(2 * (kept + (last - first)));
+          inner_row.resize(row.size());
+        }
+        for (std::size_t k = first; k < last; ++k) {
+          const double dx = coords[0][k] - at[0];
+          double d2 = dx * dx;
+          for (std::size_t a = 1; a < D; ++a) {
+            const double da = coords[a][k] - at[a];
+            d2 += da * da;
+          }
+          const int j = ids_[k];
+          row[kept] = j;
+          inner_row[inner_kept] = j;
+          kept += (d2 < r2) & (j != self) ? 1 : 0;
+          inner_kept += (d2 < inner_r2) & (j != self) ? 1 : 0;
+        }
+      });
+      append_sorted(row, kept, rows);
+      list.offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(kept);
+      if (inner) {
+        append_sorted(inner_row, inner_kept, inner_rows);
+        inner->offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(inner_kept);
+      }
+    }
+#pragma omp barrier
+#pragma omp single
+    {
+      // resize keeps the first thread's share, already in place
+      for (std::size_t i = 1; i < list.offsets.size(); ++i) list.offsets[i] += list.offsets[i - 1];
+      list.index.resize(static_cast<std::size_t>(list.offsets.back()));
+      if (inner) {
+        for (std::size_t i = 1; i < inner->offsets.size(); ++i) inner->offsets[i] += inner->offsets[i - 1];
+        inner->index.resize(static_cast<std::size_t>(inner->offsets.back()));
+      }
+    }  // implicit barrier
+    if (thread > 0) {
+      std::copy(rows.begin(), rows.end(), list.index.begin() + list.offsets[static_cast<std::size_t>(first_row)]);
+      if (inner)
+        std::copy(inner_rows.begin(), inner_rows.end(),
+                  inner->index.begin() + inner->offsets[static_cast<std::size_t>(first_row)]);
+    }
+  }
+}
+
+template <int D>
+std::vector<int> BasicCellGrid<D>::cell_order() const {
+  std::vector<int> order(ids_);
+  order.insert(order.end(), ghosts_.begin(), ghosts_.end());
+  return order;
+}
+
+template <int D>
+NeighborList restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                             double radius) {
+  NeighborList out;
+  restrict_radius(list, particles, domain, radius, out);
+  return out;
+}
+
+template <int D>
+void restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                     double radius, NeighborList& out) {
+  if (!(radius > 0.0) || radius > list.radius * (1.0 + 1e-12))
+    throw std::invalid_argument("restrict_radius: radius must be in (0, the list's radius]");
+  if (&out == &list) throw std::invalid_argument("restrict_radius: out must not be the input list");
+  const double r2 = radius * radius;
+  const auto n = static_cast<std::ptrdiff_t>(list.particles());
+  out.radius = radius;
+  out.offsets.assign(list.offsets.size(), 0);
+  auto distance2 = [&](std::size_t i, int j) {
+    const Vec<D> d = domain.displacement(particles.position(i), particles.position(static_cast<std::size_t>(j)));
+    double s = d[0] * d[0];
+    for (std::size_t a = 1; a < D; ++a) s += d[a] * d[a];
+    return s;
+  };
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    int count = 0;
+    for (int j : list.of(i)) count += distance2(i, j) < r2 ? 1 : 0;
+    out.offsets[i + 1] = count;
+  }
+  for (std::size_t i = 1; i < out.offsets.size(); ++i) out.offsets[i] += out.offsets[i - 1];
+  out.index.resize(static_cast<std::size_t>(out.offsets.back()));
+#pragma omp parallel if (detail::worth_threads(n))
+  {
+    std::vector<int> row;  // written unconditionally, kept ones counted: no branch to mispredict
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      const auto candidates = list.of(i);
+      if (row.size() < candidates.size()) row.resize(2 * candidates.size());
+      std::size_t kept = 0;
+      for (int j : candidates) {
+        row[kept] = j;
+        kept += distance2(i, j) < r2 ? 1 : 0;
+      }
+      // stays sorted: a subsequence of a sorted row
+      std::copy_n(row.begin(), kept, out.index.begin() + out.offsets[i]);
+    }
+  }
+}
+
+template <int D>
+NeighborList find_neighbors(const BasicParticles<D>& particles, const BasicDomain<D>& domain, double radius) {
+  BasicCellGrid<D> grid(domain, radius);
+  grid.bin(particles);
+  return grid.neighbors(particles, radius);
+}
+
+template class BasicCellGrid<2>;
+template class BasicCellGrid<3>;
+template NeighborList restrict_radius(const NeighborList&, const Particles&, const Domain&, double);
+template NeighborList restrict_radius(const NeighborList&, const Particles3&, const Domain3&, double);
+template void restrict_radius(const NeighborList&, const Particles&, const Domain&, double, NeighborList&);
+template void restrict_radius(const NeighborList&, const Particles3&, const Domain3&, double, NeighborList&);
+template NeighborList find_neighbors(const Particles&, const Domain&, double);
+template NeighborList find_neighbors(const Particles3&, const Domain3&, double);
+
+}  // namespace mps

@@ -1,0 +1,499 @@
+#include "mps/numerics/operators.hpp"
+#include "mps/core/threads.hpp"
+#include "mps/core/vec.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace mps {
+namespace {
+
+using Index = std::ptrdiff_t;
+
+void check_size(std::size_t got, std::size_t want, const char* what) {
+  if (got != want) throw std::invalid_argument(std::string("operator: ") + what + " has the wrong length");
+}
+
+// Calls f(j, d, r2, w) for every neighbour j of i with w > 0, d = r_j - r_i.
+template <int D, class F>
+void for_each_pair(const BasicStencil<D>& s, std::size_t i, F&& f) {
+  const BasicParticles<D>& p = s.particles;
+  std::array<const double*, D> X;
+  for (std::size_t a = 0; a < D; ++a) X[a] = p.positions()[a]->data();
+  const Displacement<D> displacement(s.domain);
+  Vec<D> ri;
+  for (std::size_t a = 0; a < D; ++a) ri[a] = X[a][i];
+  for (int j : s.neighbors.of(i)) {
+    const auto jj = static_cast<std::size_t>(j);
+    Vec<D> rj;
+    for (std::size_t a = 0; a < D; ++a) rj[a] = X[a][jj];
+    const Vec<D> d = displacement(ri, rj);
+    const double r2 = norm2<D>(d);
+    const double w = s.kernel.w(std::sqrt(r2));
+    if (w > 0.0) f(jj, d, r2, w);
+  }
+}
+
+template <int D>
+Index count(const BasicStencil<D>& s) {
+  return static_cast<Index>(s.particles.size());
+}
+
+// sum_j r_ij/|r_ij|^2 w_ij: up the particle concentration's gradient (shifting), into the liquid (surface normals).
+template <int D>
+Vec<D> concentration_sum(const BasicStencil<D>& s, std::size_t i) {
+  Vec<D> g{};
+  for_each_pair(s, i, [&](std::size_t, const Vec<D>& r, double r2, double w) {
+    for (std::size_t a = 0; a < D; ++a) g[a] += r[a] / r2 * w;
+  });
+  return g;
+}
+
+// A CSR matrix with one row per particle, built from per-pair coefficients in two passes; `diagonal`
+// asks for an explicit diagonal entry placed in column order.
+template <int D, class Coefficient>
+CsrMatrix pair_matrix(const BasicStencil<D>& s, bool diagonal, Coefficient&& coefficient) {
+  const Index n = count(s);
+  CsrMatrix a;
+  a.rows = a.cols = static_cast<int>(n);
+  a.row_ptr.assign(static_cast<std::size_t>(n) + 1, 0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index i = 0; i < n; ++i) {
+    int c = diagonal ? 1 : 0;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>&, double, double) { ++c; });
+    a.row_ptr[static_cast<std::size_t>(i) + 1] = c;
+  }
+  for (std::size_t i = 1; i < a.row_ptr.size(); ++i) a.row_ptr[i] += a.row_ptr[i - 1];
+  a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
+  a.val.resize(a.col.size());
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index i = 0; i < n; ++i) {
+    auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(i)]);
+    std::size_t diag_slot = k;
+    double diag = 0.0;
+    bool placed = !diagonal;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t j, const Vec<D>& d, double r2, double w) {
+      if (!placed && j > static_cast<std::size_t>(i)) {
+        diag_slot = k++;
+        placed = true;
+      }
+      const double c = coefficient(d, r2, w);
+      a.col[k] = static_cast<int>(j);
+      a.val[k++] = c;
+      diag -= c;
+    });
+    if (!placed) diag_slot = k++;
+    if (diagonal) {
+      a.col[diag_slot] = static_cast<int>(i);
+      a.val[diag_slot] = diag;
+    }
+  }
+  return a;
+}
+
+constexpr std::array<std::pair<GradientVariant, std::string_view>, 5> gradient_names{{
+    {GradientVariant::plain, "plain"},
+    {GradientVariant::min_reference, "min-reference"},
+    {GradientVariant::corrected, "corrected"},
+    {GradientVariant::corrected_min_reference, "corrected-min-reference"},
+    {GradientVariant::conservative, "conservative"},
+}};
+
+}  // namespace
+
+std::string_view to_string(GradientVariant variant) {
+  for (const auto& [v, name] : gradient_names)
+    if (v == variant) return name;
+  return "unknown";
+}
+
+GradientVariant gradient_variant_from_name(std::string_view name) {
+  for (const auto& [v, n] : gradient_names)
+    if (n == name) return v;
+  throw std::invalid_argument("unknown pressure gradient '" + std::string(name) +
+                              "': choose plain, min-reference, corrected, corrected-min-reference or conservative");
+}
+
+
+template <int D>
+std::vector<double> number_density(const BasicStencil<D>& s) {
+  std::vector<double> out;
+  number_density(s, out);
+  return out;
+}
+
+template <int D>
+void number_density(const BasicStencil<D>& s, std::vector<double>& out) {
+  const Index n = count(s);
+  out.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index i = 0; i < n; ++i) {
+    double sum = 0.0;
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>&, double, double w) { sum += w; });
+    out[static_cast<std::size_t>(i)] = sum;
+  }
+}
+
+template <int D>
+void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out) {
+  const Index n = count(s);
+  out.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index i = 0; i < n; ++i) {
+    Vec<D> f{};
+    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>& d, double r2, double w) {
+      const double r = std::sqrt(r2);
+      if (r > 0.0)
+        for (std::size_t a = 0; a < D; ++a) f[a] += w * d[a] / r;
+    });
+    out[static_cast<std::size_t>(i)] = norm<D>(f) / s.kernel.n0;
+  }
+}
+
+double asymmetry_of_flat_surface(const Kernel& k, double l0) {
+  const int n = static_cast<int>(std::ceil(k.re / l0));
+  // The lattice below a flat surface: the last axis runs from -n to 0.
+  double f = 0.0;
+  if (k.dim == 2) {
+    for (int j = -n; j <= 0; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const double r = l0 * std::hypot(i, j);
+        if (r > 0.0) f += k.w(r) * j * l0 / r;
+      }
+  } else {
+    for (int c = -n; c <= 0; ++c)
+      for (int j = -n; j <= n; ++j)
+        for (int i = -n; i <= n; ++i) {
+          const double r = l0 * std::hypot(i, j, c);
+          if (r > 0.0) f += k.w(r) * c * l0 / r;
+        }
+  }
+  return std::abs(f) / k.n0;
+}
+
+namespace {
+// The corrective matrix's sums sum w r_a r_b / r^2 over a <= b (2-D: xx, xy, yy; 3-D: xx, xy, xz, yy, yz, zz).
+template <int D>
+using Moments = std::array<double, D * (D + 1) / 2>;
+
+template <int D>
+void add_moments(Moments<D>& m, const Vec<D>& d, double r2, double w) {
+  std::size_t k = 0;
+  for (std::size_t a = 0; a < D; ++a)
+    for (std::size_t b = a; b < D; ++b) m[k++] += w * d[a] * d[b] / r2;
+}
+
+// The sums s = sum (phi_j - ref) w r_ij/|r_ij|^2 scaled to the gradient, multiplied by the inverse of the corrective
+// matrix whose sums are m when `corrected`.
+template <int D>
+Vec<D> scaled_gradient(double scale, Vec<D> g, bool corrected, const Moments<D>& m) {
+  for (std::size_t a = 0; a < D; ++a) g[a] *= scale;
+  if constexpr (D == 2) {
+    const double mxx = m[0], mxy = m[1], myy = m[2], sx = g[0], sy = g[1];
+    const double det = scale * scale * (mxx * myy - mxy * mxy);
+    // A neighbourhood too thin to span the plane (det near 0) keeps the uncorrected value.
+    if (corrected && det > 1e-3) return {scale * (myy * sx - mxy * sy) / det, scale * (mxx * sy - mxy * sx) / det};
+    return g;
+  } else {
+    if (!corrected) return g;
+    const double xx = scale * m[0], xy = scale * m[1], xz = scale * m[2], yy = scale * m[3], yz = scale * m[4],
+                 zz = scale * m[5];
+    // The adjugate of the symmetric matrix over its determinant.
+    const double cxx = yy * zz - yz * yz, cxy = xz * yz - xy * zz, cxz = xy * yz - xz * yy;
+    const double cyy = xx * zz - xz * xz, cyz = xy * xz - xx * yz, czz = xx * yy - xy * xy;
+    const double det = xx * cxx + xy * cxy + xz * cxz;
+    // A neighbourhood too thin to span the space (det near 0) keeps the uncorrected value.
+    if (!(det > 1e-3)) return g;
+    return {(cxx * g[0] + cxy * g[1] + cxz * g[2]) / det, (cxy * g[0] + cyy * g[1] + cyz * g[2]) / det,
+            (cxz * g[0] + cyz * g[1] + czz * g[2]) / det};
+  }
+}
+
+// The velocity's gradient at particle i with the corrective matrix, built once for every component: the numbers of
+// gradient(..., GradientVariant::corrected) for each. g[c][a] = d u_c / d x_a.
+template <int D>
+std::array<Vec<D>, D> corrected_velocity_gradient(const BasicStencil<D>& s, std::size_t i) {
+  const auto vel = s.particles.velocities();
+  std::array<Vec<D>, D> g{};
+  Moments<D> m{};
+  for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
+    for (std::size_t c = 0; c < D; ++c) {
+      const double f = ((*vel[c])[j] - (*vel[c])[i]) * w / r2;
+      for (std::size_t a = 0; a < D; ++a) g[c][a] += f * d[a];
+    }
+    add_moments<D>(m, d, r2, w);
+  });
+  const double scale = D / s.kernel.n0;
+  for (std::size_t c = 0; c < D; ++c) g[c] = scaled_gradient<D>(scale, g[c], true, m);
+  return g;
+}
+
+template <int D>
+void check_components(const BasicStencil<D>& s, const Components<D>& g, const char* what) {
+  for (std::size_t a = 0; a < D; ++a) check_size(g[a].size(), s.particles.size(), what);
+}
+}  // namespace
+
+template <int D>
+void gradient(const BasicStencil<D>& s, std::span<const double> phi, const Components<D>& g, GradientVariant variant,
+              std::span<const char> carriers, const std::type_identity_t<Vec<D>>& min_tilt, std::span<const char> own_reference) {
+  if (!carriers.empty()) check_size(carriers.size(), s.particles.size(), "carriers");
+  if (!own_reference.empty()) check_size(own_reference.size(), s.particles.size(), "own_reference");
+  const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
+  const Index n = count(s);
+  check_size(phi.size(), s.particles.size(), "phi");
+  check_components(s, g, "gradient");
+  const double scale = D / s.kernel.n0;
+  const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
+  const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double ref = variant == GradientVariant::conservative ? -phi[i] : phi[i];
+    if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
+      // The tilted minimum removes the known linear part from the classic one, never going below it: where
+      // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
+      double classic = phi[i], tilted = phi[i];
+      for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double, double) {
+        if (!carries(j)) return;
+        classic = std::min(classic, phi[j]);
+        double untilted = phi[j];
+        for (std::size_t a = 0; a < D; ++a) untilted -= min_tilt[a] * d[a];
+        tilted = std::min(tilted, untilted);
+      });
+      ref = std::max(classic, tilted);
+    }
+    Vec<D> sum{};
+    Moments<D> m{};
+    for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
+      if (!carries(j)) return;
+      const double f = (phi[j] - ref) * w / r2;
+      for (std::size_t a = 0; a < D; ++a) sum[a] += f * d[a];
+      if (!corrected) return;
+      add_moments<D>(m, d, r2, w);
+    });
+    const Vec<D> gi = scaled_gradient<D>(scale, sum, corrected, m);
+    for (std::size_t a = 0; a < D; ++a) g[a][i] = gi[a];
+  }
+}
+
+template <int D>
+void conservative_gradient_terms(const BasicStencil<D>& s, std::span<const double> phi, std::span<const char> sources,
+                                 std::span<const char> targets, std::span<const char> carriers,
+                                 const Components<D>& out) {
+  const std::size_t n = s.particles.size();
+  check_size(phi.size(), n, "phi");
+  check_size(sources.size(), n, "sources");
+  check_size(targets.size(), n, "targets");
+  if (!carriers.empty()) check_size(carriers.size(), n, "carriers");
+  check_components(s, out, "out");
+  const double scale = D / s.kernel.n0;
+#pragma omp parallel for schedule(static) if (detail::worth_threads(count(s)))
+  for (Index jj = 0; jj < count(s); ++jj) {
+    const auto j = static_cast<std::size_t>(jj);
+    Vec<D> sum{};
+    if (targets[j] && (carriers.empty() || carriers[j]))
+      // d = r_i - r_j here, the negative of r_ij in i's gradient
+      for_each_pair(s, j, [&](std::size_t i, const Vec<D>& d, double r2, double w) {
+        if (!sources[i]) return;
+        const double f = (phi[i] + phi[j]) * w / r2;
+        for (std::size_t a = 0; a < D; ++a) sum[a] -= f * d[a];
+      });
+    for (std::size_t a = 0; a < D; ++a) out[a][j] = scale * sum[a];
+  }
+}
+
+template <int D>
+void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out) {
+  const Index n = count(s);
+  for (std::size_t a = 0; a < D; ++a) check_size(u[a].size(), s.particles.size(), "velocity");
+  check_size(out.size(), s.particles.size(), "out");
+  const double scale = D / s.kernel.n0;
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double sum = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
+      double flux = (u[0][j] - u[0][i]) * d[0];
+      for (std::size_t a = 1; a < D; ++a) flux += (u[a][j] - u[a][i]) * d[a];
+      sum += flux * w / r2;
+    });
+    out[i] = scale * sum;
+  }
+}
+
+namespace {
+
+// The Laplacian of K fields in one pass over the pairs: each pair's distance and weight serve them all.
+template <int D, std::size_t K>
+void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const double>, K>& in,
+                  const std::array<std::span<double>, K>& out) {
+  for (std::size_t f = 0; f < K; ++f) {
+    check_size(in[f].size(), s.particles.size(), "field");
+    check_size(out[f].size(), s.particles.size(), "out");
+  }
+  const Index n = count(s);
+  const double scale = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    std::array<double, K> sum{};
+    for_each_pair(s, i, [&](std::size_t j, const Vec<D>&, double, double w) {
+      for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * w;
+    });
+    for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];
+  }
+}
+
+}  // namespace
+
+template <int D>
+void laplacian(const BasicStencil<D>& s, std::span<const double> phi, std::span<double> out) {
+  laplacian_of<D, 1>(s, {phi}, {out});
+}
+
+template <int D>
+void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Components<D>& out) {
+  laplacian_of<D, static_cast<std::size_t>(D)>(s, u, out);
+}
+
+template <int D>
+CsrMatrix laplacian_matrix(const BasicStencil<D>& s) {
+  const double scale = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
+  return pair_matrix(s, true, [scale](const Vec<D>&, double, double w) { return scale * w; });
+}
+
+GradientMatrices gradient_matrices(const Stencil& s) {
+  const double scale = 2 / s.kernel.n0;
+  return {pair_matrix(s, true, [scale](const Vec<2>& d, double r2, double w) { return scale * d[0] * w / r2; }),
+          pair_matrix(s, true, [scale](const Vec<2>& d, double r2, double w) { return scale * d[1] * w / r2; })};
+}
+
+template <int D>
+void surface_normals(const BasicStencil<D>& s, std::span<const char> want, std::type_identity_t<std::array<std::vector<double>, D>>& normal) {
+  const Index n = count(s);
+  check_size(want.size(), static_cast<std::size_t>(n), "want");
+  for (auto& c : normal) c.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (!want[i]) continue;
+    const Vec<D> g = concentration_sum(s, i);
+    // Inside a full kernel the sum is round-off, whose direction means nothing.
+    const double length = norm<D>(g);
+    if (length > 1e-9 * s.kernel.n0 / s.kernel.re)
+      for (std::size_t a = 0; a < D; ++a) normal[a][i] = -g[a] / length;
+  }
+}
+
+template <int D>
+double shift_particles(const BasicStencil<D>& s, double diffusion, double max_shift, std::span<const char> movable,
+                       BasicParticles<D>& particles, const ConstComponents<D>& normal) {
+  if (&s.particles != &particles) throw std::invalid_argument("shift_particles: the stencil must see the particles moved");
+  if (!(diffusion >= 0.0) || !(max_shift >= 0.0)) throw std::invalid_argument("shift_particles: need diffusion, max_shift >= 0");
+  const Index n = count(s);
+  check_size(movable.size(), static_cast<std::size_t>(n), "movable");
+  const auto size = static_cast<std::size_t>(n);
+  const bool along_surface = !normal[0].empty();
+  if (along_surface)
+    for (std::size_t a = 0; a < D; ++a) check_size(normal[a].size(), size, "normal");
+  std::vector<Vec<D>> shift(size, Vec<D>{});
+  const double scale = diffusion * static_cast<double>(D) / s.kernel.n0;
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (!movable[i]) continue;
+    const Vec<D> g = concentration_sum(s, i);
+    Vec<D> sh;
+    for (std::size_t a = 0; a < D; ++a) sh[a] = -scale * g[a];
+    if (along_surface) {
+      double normal_part = sh[0] * normal[0][i];
+      for (std::size_t a = 1; a < D; ++a) normal_part += sh[a] * normal[a][i];
+      for (std::size_t a = 0; a < D; ++a) sh[a] -= normal_part * normal[a][i];
+    }
+    const double length = norm<D>(sh);
+    if (length > max_shift)
+      for (std::size_t a = 0; a < D; ++a) sh[a] *= max_shift / length;
+    shift[i] = sh;
+  }
+  // The velocity gradients before any particle moves, only where a particle moves.
+  std::vector<std::array<Vec<D>, D>> grad(size);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (movable[i]) grad[i] = corrected_velocity_gradient(s, i);
+  }
+  const auto positions = particles.positions();
+  const auto velocities = particles.velocities();
+  double largest = 0.0;
+  for (std::size_t i = 0; i < size; ++i) {
+    if (!movable[i]) continue;
+    for (std::size_t c = 0; c < D; ++c) (*velocities[c])[i] += dot<D>(shift[i], grad[i][c]);
+    Vec<D> r;
+    for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[i] + shift[i][a];
+    s.domain.wrap(r);
+    for (std::size_t a = 0; a < D; ++a) (*positions[a])[i] = r[a];
+    largest = std::max(largest, norm<D>(shift[i]));
+  }
+  return largest;
+}
+
+template <int D>
+long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>& domain,
+                                const NeighborList& neighbors, double reach, double restitution,
+                                std::span<const char> movable, std::type_identity_t<std::array<std::vector<double>, D>>& change) {
+  check_size(movable.size(), p.size(), "movable");
+  const auto n = static_cast<Index>(p.size());
+  for (auto& c : change) c.assign(p.size(), 0.0);
+  const auto vel = p.velocities();
+  long pairs = 0;
+#pragma omp parallel for schedule(static) reduction(+ : pairs) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::fluid || !movable[i]) continue;
+    for (int jn : neighbors.of(i)) {
+      const auto j = static_cast<std::size_t>(jn);
+      if (p.kind[j] == Kind::ghost) continue;
+      const Vec<D> d = domain.displacement(p.position(i), p.position(j));
+      const double r = norm<D>(d);
+      if (r >= reach || r == 0.0) continue;
+      Vec<D> unit;
+      for (std::size_t a = 0; a < D; ++a) unit[a] = d[a] / r;
+      double approach = ((*vel[0])[i] - (*vel[0])[j]) * unit[0];  // > 0: closing in
+      for (std::size_t a = 1; a < D; ++a) approach += ((*vel[a])[i] - (*vel[a])[j]) * unit[a];
+      if (approach <= 0.0) continue;
+      // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the impulse.
+      const double share = p.kind[j] == Kind::fluid && movable[j] ? 0.5 : 1.0;
+      for (std::size_t a = 0; a < D; ++a) change[a][i] -= share * (1.0 + restitution) * approach * unit[a];
+      ++pairs;
+    }
+  }
+  return pairs;
+}
+
+#define MPS_OPERATORS_FOR(D)                                                                                          \
+  template std::vector<double> number_density(const BasicStencil<D>&);                                               \
+  template void number_density(const BasicStencil<D>&, std::vector<double>&);                                        \
+  template void neighbour_asymmetry(const BasicStencil<D>&, std::vector<double>&);                                   \
+  template void gradient<D>(const BasicStencil<D>&, std::span<const double>, const Components<D>&, GradientVariant,     \
+                         std::span<const char>, const Vec<D>&, std::span<const char>);                               \
+  template void conservative_gradient_terms<D>(const BasicStencil<D>&, std::span<const double>, std::span<const char>,  \
+                                            std::span<const char>, std::span<const char>, const Components<D>&);     \
+  template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);                    \
+  template void laplacian(const BasicStencil<D>&, std::span<const double>, std::span<double>);                       \
+  template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&);                  \
+  template CsrMatrix laplacian_matrix(const BasicStencil<D>&);                                                       \
+  template void surface_normals<D>(const BasicStencil<D>&, std::span<const char>, std::array<std::vector<double>, D>&); \
+  template double shift_particles<D>(const BasicStencil<D>&, double, double, std::span<const char>, BasicParticles<D>&, \
+                                  const ConstComponents<D>&);                                                        \
+  template long collision_velocity_changes<D>(const BasicParticles<D>&, const BasicDomain<D>&, const NeighborList&,     \
+                                           double, double, std::span<const char>, std::array<std::vector<double>, D>&);
+MPS_OPERATORS_FOR(2)
+MPS_OPERATORS_FOR(3)
+#undef MPS_OPERATORS_FOR
+
+}  // namespace mps

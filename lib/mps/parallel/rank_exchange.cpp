@@ -1,0 +1,227 @@
+#include "mps/parallel/rank_exchange.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "mps/step/components.hpp"
+#include "mps/step/step.hpp"
+
+namespace mps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+}  // namespace
+
+template <int D>
+BasicRankExchange<D>::BasicRankExchange(int comm, DistributedOptions options) : comm_(comm), options_(options) {
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  MPI_Comm_rank(c, &rank_);
+  MPI_Comm_size(c, &ranks_);
+  if (std::isnan(options_.rebalance_threshold))
+    throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
+                                "count over the mean to tolerate before new cuts (default 1.01)");
+}
+
+template <int D>
+SolverContext BasicRankExchange<D>::solver_context() const {
+  SolverContext context;
+  context.mpi_comm = comm_;
+  return context;
+}
+
+// Components a scene added after construction are refused before the next step, on every rank alike.
+template <int D>
+void BasicRankExchange<D>::check(const BasicSimulation<D>& sim) const {
+  const SimulationConfig& c = sim.config();
+  auto refuse = [](const std::string& what) {
+    throw std::invalid_argument("distributed simulation: " + what + " does not run on several ranks yet; run it "
+                                "serially (mps::Simulation)");
+  };
+  const auto periodic = sim.domain().periodic();
+  if (std::any_of(periodic.begin(), periodic.end(), [](bool b) { return b; }))
+    refuse("a periodic domain (a halo copy would need its periodic image's shift)");
+  if (c.implicit_viscosity) refuse("implicit viscosity (its viscous system is solved over all particles at once)");
+  if (c.initial_reference_density) refuse("initial_reference_density (a t = 0 mean over the whole domain)");
+  if (sim.template find<BasicInitialReferenceDensity<D>>())
+    refuse("InitialReferenceDensity (a t = 0 mean over the whole domain)");
+}
+
+template <int D>
+void BasicRankExchange<D>::distribute(Particles& particles) {
+  if (rank_ != 0) particles = Particles{};  // every rank validated the whole scene; rank 0's copy is distributed
+  const auto start = Clock::now();
+  partition_.emplace(comm_);
+  const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
+  stats_.kept_imbalance = stats_.imbalance = stats_.max_imbalance = placed.imbalance;
+  count(migrate_particles(particles, placed.destination, comm_));
+  stats_.migrate_seconds += seconds_since(start);
+}
+
+template <int D>
+void BasicRankExchange<D>::count(const ExchangeStats& e) {
+  stats_.messages_sent += static_cast<std::size_t>(e.messages_sent);
+  stats_.bytes_sent += e.bytes_sent;
+}
+
+template <int D>
+template <class Field>
+void BasicRankExchange<D>::refresh(Field&& field) {
+  halo_->refresh(std::forward<Field>(field));
+  ++stats_.refreshes;
+  count(halo_->last_refresh());
+}
+
+template <int D>
+void BasicRankExchange<D>::begin_step(Particles& particles, const BasicDomain<D>& domain, double reach) {
+  ++stats_.steps;
+  migrate_to_partition(particles);
+  const auto start = Clock::now();
+  halo_radius_ = reach;
+  halo_.emplace(particles, domain, halo_radius_, comm_);
+  stats_.halo_copies += halo_->copies();
+  count(halo_->setup());
+  stats_.halo_seconds += seconds_since(start);
+}
+
+// The kept cuts' boxes, or new cuts when the load has drifted past the threshold; one migration either way.
+template <int D>
+void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
+  const auto start = Clock::now();
+  const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
+  const double placing = seconds_since(start);
+  if (placed.repartitioned) {
+    ++stats_.repartitions;
+    stats_.repartition_seconds += placing;
+  } else {
+    stats_.assign_seconds += placing;
+  }
+  stats_.kept_imbalance = placed.kept_imbalance;
+  stats_.imbalance = placed.imbalance;
+  stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
+  const ExchangeStats moved = migrate_particles(particles, placed.destination, comm_);
+  stats_.migrated += moved.particles_sent;
+  count(moved);
+  stats_.migrate_seconds += seconds_since(start);
+}
+
+// A ghost turned fluid after the predictor (a pushing plate's column) was in no halo: its copies join now, and the
+// per-particle fields already sized take their owners' entries for them.
+template <int D>
+void BasicRankExchange<D>::share_predicted(Particles& particles, std::vector<char>& prescribed) {
+  const ExchangeStats added = halo_->add_activated(particles);
+  stats_.activated_copies += added.particles_received;
+  count(added);
+  const bool any_added = max(static_cast<double>(added.particles_received)) > 0.0;
+  refresh(particles);
+  if (!any_added) return;
+  prescribed.resize(particles.size(), 0);
+  refresh(std::span<char>(prescribed));
+}
+
+template <int D>
+void BasicRankExchange<D>::share_flags(std::span<char> flags) { refresh(flags); }
+
+template <int D>
+PpeCounts BasicRankExchange<D>::assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
+                                         std::span<const double> source, std::span<const double> held_value,
+                                         double shift) {
+  assemble_distributed_ppe(*halo_, laplacian, held, source, held_value, shift, ppe_);
+  return {static_cast<std::size_t>(ppe_.global_rows), ppe_.closed.size()};
+}
+
+template <int D>
+OwnPpeRows BasicRankExchange<D>::own_rows() const {
+  return {ppe_.rhs, std::span<const int>(ppe_.local.particle).first(ppe_.rows())};
+}
+
+// Starting from P - offset = 0 sets the owned unknowns' pressures to the offset, which solve_distributed_ppe gathers.
+template <int D>
+SolveReport BasicRankExchange<D>::solve(LinearSolver& solver, Particles& particles, bool from_zero,
+                                        bool clamp_negative, std::span<const double> offset) {
+  if (from_zero)
+    for (std::size_t r = 0; r < ppe_.rows(); ++r) {
+      const auto i = static_cast<std::size_t>(ppe_.local.particle[r]);
+      particles.p[i] = offset.empty() ? 0.0 : offset[i];
+    }
+  return solve_distributed_ppe(*halo_, ppe_, solver, particles, clamp_negative, offset);
+}
+
+template <int D>
+void BasicRankExchange<D>::share_pressure(std::span<double> pressure, std::span<char> carriers) {
+  refresh(pressure);
+  refresh(carriers);
+}
+
+// Shifting moves a particle by its neighbours' positions and velocities at n+1.
+template <int D>
+void BasicRankExchange<D>::share_particles(Particles& particles) { refresh(particles); }
+
+template <int D>
+void BasicRankExchange<D>::end_step(Particles& particles) {
+  halo_->remove(particles);
+  halo_.reset();
+}
+
+template <int D>
+void BasicRankExchange<D>::abandon_step() { halo_.reset(); }
+
+template <int D>
+std::size_t BasicRankExchange<D>::owned(const Particles& particles) const {
+  return halo_ ? halo_->owned() : particles.size();
+}
+
+template <int D>
+double BasicRankExchange<D>::max(double value) const {
+  MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, MPI_Comm_f2c(comm_));
+  return value;
+}
+
+template <int D>
+bool BasicRankExchange<D>::all(bool value) const {
+  int v = value;
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_LAND, MPI_Comm_f2c(comm_));
+  return v != 0;
+}
+
+template <int D>
+long long BasicRankExchange<D>::sum(long long value) const {
+  MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_LONG_LONG, MPI_SUM, MPI_Comm_f2c(comm_));
+  return value;
+}
+
+template <int D>
+std::string BasicRankExchange<D>::first_failure(const std::string& failure) const {
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  int first = failure.empty() ? ranks_ : rank_;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, c);
+  if (first == ranks_) return {};
+  std::string reason = failure;
+  int length = static_cast<int>(reason.size());
+  MPI_Bcast(&length, 1, MPI_INT, first, c);
+  reason.resize(static_cast<std::size_t>(length));
+  MPI_Bcast(reason.data(), length, MPI_CHAR, first, c);
+  return "rank " + std::to_string(first) + " of " + std::to_string(ranks_) + " (particle numbers are that rank's): " +
+         reason;
+}
+
+template <int D>
+typename BasicRankExchange<D>::Particles BasicRankExchange<D>::gather(const Particles& own) const {
+  Particles all = own;
+  const std::vector<int> to_root(all.size(), 0);
+  migrate_particles(all, to_root, comm_);
+  return all;
+}
+
+template class BasicRankExchange<2>;
+template class BasicRankExchange<3>;
+
+}  // namespace mps

@@ -1,0 +1,274 @@
+#include "mps/step/components.hpp"
+#include "mps/core/threads.hpp"
+#include "mps/core/vec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+namespace mps {
+
+MirrorNoSlip::MirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }
+
+void MirrorNoSlip::before_predictor(StepContext& c) {
+  apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
+}
+
+// Mirrored values in div u* would put the fluid's streamwise changes into the source wherever the flow develops
+// or the wall changes speed (an inlet channel grew a period-2 pressure oscillation that way).
+void MirrorNoSlip::before_projection(StepContext& c) {
+  Particles& p = c.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall_.group) {
+      const auto U = wall_.velocity_at(p.x[i], p.y[i]);
+      p.u[i] = U[0];
+      p.v[i] = U[1];
+    }
+}
+
+OpenOutlet::OpenOutlet(const OutflowBuffer& buffer) : buffer_(buffer) { buffer_.validate(); }
+
+void OpenOutlet::before_predictor(StepContext& c) {
+  Particles& p = c.particles;
+  in_buffer_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    in_buffer_[i] = p.kind[i] != Kind::ghost && buffer_.contains(p.x[i], p.y[i]);
+  apply_outflow_velocity(buffer_, c.sim.grid(), c.sim.gradient_kernel().re, in_buffer_, p);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (in_buffer_[i]) c.fields.prescribed[i] = 1;
+}
+
+double OpenOutlet::reach(const Simulation& sim) const { return buffer_.thickness + 2.0 * sim.gradient_kernel().re; }
+
+bool OpenOutlet::runs_after(const StepComponent& other) const {
+  return dynamic_cast<const HydrostaticSplit*>(&other) != nullptr;
+}
+
+// Buffer fluid that crossed the outlet may have become a ghost (and a pushing plate may recycle it): left flagged, it
+// was held at P = 0 and read as a carrier. Decided after the predictor's exchange, so that halo copies decide from
+// their owners' r* and kinds as their owners do; copies appended after before_predictor (of particles that were
+// ghosts at the step's start) were in no buffer.
+void OpenOutlet::before_source(StepContext& c) {
+  const Particles& p = c.particles;
+  in_buffer_.resize(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !buffer_.contains(p.x[i], p.y[i]))) {
+      in_buffer_[i] = 0;
+      c.fields.prescribed[i] = 0;
+    }
+}
+
+// Held at P = 0 like a free surface, but no surface: the fluid beside it has full kernels, so its number density
+// stays in the source.
+void OpenOutlet::before_assembly(StepContext& c) {
+  StepFields& f = c.fields;
+  if (f.held.empty()) f.held = f.surface;
+  for (std::size_t i = 0; i < in_buffer_.size(); ++i)
+    if (in_buffer_[i]) {
+      f.held[i] = 1;
+      if (!f.held_value.empty()) f.held_value[i] = f.pressure_offset.empty() ? 0.0 : -f.pressure_offset[i];
+    }
+}
+
+void OpenOutlet::after_pressure(StepContext& c) {
+  for (std::size_t i = 0; i < in_buffer_.size(); ++i)
+    if (in_buffer_[i]) {
+      c.particles.p[i] = 0.0;
+      c.fields.carriers[i] = 1;
+    }
+}
+
+// Mirrored values in div u* would put the fluid's streamwise changes into the source (MirrorNoSlip's reason).
+template <int D>
+void BasicMirrorPlaneNoSlip<D>::before_projection(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const auto vel = p.velocities();
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall_.group)
+      for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = wall_.velocity[a];
+}
+
+template <int D>
+void BasicSurfaceRegion<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  std::vector<char>& surface = c.fields.surface;
+  for (std::size_t i = 0; i < surface.size(); ++i)
+    if (surface[i] && !region_(p.position(i))) surface[i] = 0;
+}
+
+template <int D>
+void BasicAsymmetrySurface<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  const Kernel& k = c.sim.surface_kernel();
+  neighbour_asymmetry<D>({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
+  const double limit = fraction_ * asymmetry_of_flat_surface(k, c.sim.config().l0);
+  std::vector<char>& surface = c.fields.surface;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
+}
+
+template <int D>
+void BasicWetWalls<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  const NeighborList& near = c.sim.neighbors_at_star(c.sim.surface_kernel());
+  std::vector<char>& surface = c.fields.surface;
+  // Decided from the flags as the density test left them, so a wall made wet wets no other.
+  wet_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] != Kind::wall || !surface[i]) continue;
+    const auto list = near.of(i);
+    wet_[i] = std::any_of(list.begin(), list.end(), [&](int j) {
+      const auto jj = static_cast<std::size_t>(j);
+      return p.kind[jj] == Kind::fluid && !surface[jj];
+    });
+  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (wet_[i]) surface[i] = 0;
+}
+
+template <int D>
+void BasicParticleCollision<D>::after_predictor(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const BasicStepFields<D>& f = c.fields;
+  movable_.assign(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) movable_[i] = !f.prescribed[i];
+  collision_velocity_changes<D>(p, c.sim.domain(), c.sim.neighbors_now(), distance_ * c.sim.config().l0, restitution_,
+                                movable_, change_);
+  const auto pos = p.positions();
+  const auto vel = p.velocities();
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && movable_[i]) {
+      Vec<D> r;
+      for (std::size_t a = 0; a < D; ++a) {
+        (*vel[a])[i] += change_[a][i];
+        r[a] = (*pos[a])[i] + f.dt * change_[a][i];  // the predictor having moved it by dt u*
+      }
+      c.sim.domain().wrap(r);
+      for (std::size_t a = 0; a < D; ++a) (*pos[a])[i] = r[a];
+    }
+}
+
+template <int D>
+void BasicRemoveEscaped<D>::after_corrector(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const auto vel = p.velocities();
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && !inside_(p.position(i))) {
+      p.kind[i] = Kind::ghost;
+      for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = 0.0;
+      p.p[i] = 0.0;
+      ++removed_;
+    }
+}
+
+template <int D>
+void BasicHydrostaticSplit<D>::before_predictor(StepContext& c) {
+  c.fields.balanced = force_;
+}
+
+// The unknown is P' = P - P_h. Walls stay zero-flux for P', i.e. dP/dn = rho f . n for P.
+template <int D>
+void BasicHydrostaticSplit<D>::before_assembly(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  const SimulationConfig& config = c.sim.config();
+  BasicStepFields<D>& f = c.fields;
+  f.pressure_offset.resize(p.size());
+  f.held_value.resize(p.size());
+  const double surface_pressure = 0.5 * config.l0 * config.rho * norm<D>(force_);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    f.pressure_offset[i] = config.rho * dot<D>(force_, p.position(i));
+    f.held_value[i] = surface_pressure - f.pressure_offset[i];
+  }
+  // The minimum reference balances only where the kernel is full: at a cut-off surface kernel it pushed particles
+  // up and into the wall at the contact lines (docs/numerics.md).
+  f.surface_own_reference = true;
+}
+
+template <int D>
+BasicInitialReferenceDensity<D>::BasicInitialReferenceDensity(const BasicParticles<D>& initial,
+                                                              const BasicDomain<D>& domain, BasicCellGrid<D>& grid,
+                                                              const Kernel& density) {
+  grid.bin(initial);
+  const NeighborList near = grid.neighbors(initial, density.re);
+  const std::vector<double> n = mps::number_density<D>({initial, domain, near, density});
+  double fluid_sum = 0.0;
+  int max_id = 0;
+  for (std::size_t i = 0; i < initial.size(); ++i) {
+    if (initial.kind[i] == Kind::fluid) fluid_sum += n[i];
+    max_id = std::max(max_id, initial.id[i]);
+  }
+  // Fluid particles travel, so they share one reference; ghosts that become fluid take it too.
+  reference_.assign(static_cast<std::size_t>(max_id) + 1, fluid_sum / static_cast<double>(initial.count(Kind::fluid)));
+  for (std::size_t i = 0; i < initial.size(); ++i)
+    if (initial.kind[i] == Kind::wall || initial.kind[i] == Kind::dummy)
+      reference_[static_cast<std::size_t>(initial.id[i])] = n[i];
+}
+
+// Scaled so that the source's (n - n0)/n0 reads (n* - n_ref)/n_ref.
+template <int D>
+void BasicInitialReferenceDensity<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  BasicStepFields<D>& f = c.fields;
+  const double n0 = c.sim.density_kernel().n0;
+  f.n_source = f.n_star;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto id = static_cast<std::size_t>(p.id[i]);
+    if (id < reference_.size()) f.n_source[i] *= n0 / reference_[id];
+  }
+}
+
+template <int D>
+void BasicParticleShifting<D>::shift_positions(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const BasicStepFields<D>& f = c.fields;
+  const Kernel& k = c.sim.gradient_kernel();
+  const NeighborList& close = c.sim.neighbors_at_star(k);
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  movable_.assign(p.size(), 0);
+  near_surface_.assign(p.size(), 0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
+    const auto near = close.of(i);
+    near_surface_[i] = f.surface[i] || std::any_of(near.begin(), near.end(), [&](int j) {
+                         return f.surface[static_cast<std::size_t>(j)] != 0;
+                       });
+    movable_[i] = along_surface_ || !near_surface_[i];
+  }
+  const double l0 = c.sim.config().l0;
+  const double diffusion = coefficient_ * l0 * std::sqrt(c.sim.max_over_ranks(max_fluid_speed_squared(p))) * f.dt;
+  const BasicStencil<D> stencil{p, c.sim.domain(), close, k};
+  if (!along_surface_) {
+    shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p);
+    return;
+  }
+  // The normal from the wider density kernel follows the surface; at the shift's own radius it would point along
+  // the shift itself and leave nothing to move.
+  const Kernel& wide = c.sim.density_kernel();
+  surface_normals<D>({p, c.sim.domain(), c.sim.neighbors_at_star(wide), wide}, near_surface_, normal_);
+  ConstComponents<D> normal;
+  for (std::size_t a = 0; a < D; ++a) normal[a] = normal_[a];
+  shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p, normal);
+}
+
+template class BasicMirrorPlaneNoSlip<2>;
+template class BasicMirrorPlaneNoSlip<3>;
+template class BasicSurfaceRegion<2>;
+template class BasicSurfaceRegion<3>;
+template class BasicAsymmetrySurface<2>;
+template class BasicAsymmetrySurface<3>;
+template class BasicWetWalls<2>;
+template class BasicWetWalls<3>;
+template class BasicParticleCollision<2>;
+template class BasicParticleCollision<3>;
+template class BasicRemoveEscaped<2>;
+template class BasicRemoveEscaped<3>;
+template class BasicHydrostaticSplit<2>;
+template class BasicHydrostaticSplit<3>;
+template class BasicInitialReferenceDensity<2>;
+template class BasicInitialReferenceDensity<3>;
+template class BasicParticleShifting<2>;
+template class BasicParticleShifting<3>;
+
+}  // namespace mps

@@ -1,0 +1,267 @@
+#pragma once
+/// \file
+/// Components a scene adds to the step (Simulation::add), each a self-contained treatment hooked in at named
+/// points; the last three the simulation adds itself from its configuration. docs/step.md says which hooks each
+/// uses and why each exists.
+#include <cstddef>
+#include <array>
+#include <functional>
+#include <vector>
+
+#include "mps/boundaries/boundary.hpp"
+#include "mps/step/step.hpp"
+
+namespace mps {
+
+// Components that work in D = 2 and 3 are class templates BasicX<D>, with X the 2-D one and X3 the 3-D one;
+// MirrorNoSlip and OpenOutlet are 2-D.
+
+/// Moves walls: called after the predictor with the particles and the new time (RigidMotion, PushingPlate, ...).
+template <int D>
+class BasicBoundaryMotion : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  /// moves particles to their place at `time`
+  using Motion = std::function<void(BasicParticles<D>&, double time)>;
+  /// Same, told that particles [0, owned) are this process's own (Simulation::owned_particles; PushingPlate)
+  using OwnedMotion = std::function<void(BasicParticles<D>&, double time, std::size_t owned)>;
+  /// Calls `motion` every step.
+  explicit BasicBoundaryMotion(Motion motion)
+      : motion_([motion = std::move(motion)](BasicParticles<D>& p, double time, std::size_t) { motion(p, time); }) {}
+  explicit BasicBoundaryMotion(OwnedMotion motion) : motion_(std::move(motion)) {}  ///< calls `motion` every step
+  void after_predictor(StepContext& c) override { motion_(c.particles, c.fields.time, c.sim.owned_particles()); }
+
+ private:
+  OwnedMotion motion_;
+};
+using BoundaryMotion = BasicBoundaryMotion<2>;   ///< 2-D
+using BoundaryMotion3 = BasicBoundaryMotion<3>;  ///< 3-D
+
+/// No-slip by mirror velocities (see MirrorWall): the wall's particles take the mirrored fluid velocity for the
+/// viscous term, and the wall's own velocity for the projection (no penetration).
+class MirrorNoSlip : public StepComponent {
+ public:
+  explicit MirrorNoSlip(const MirrorWall& wall);  ///< throws std::invalid_argument for a bad wall
+  void before_predictor(StepContext& c) override;
+  void before_projection(StepContext& c) override;
+  [[nodiscard]] const MirrorWall& wall() const { return wall_; }  ///< the wall it applies
+
+ private:
+  MirrorWall wall_;
+};
+
+/// No-slip at a flat wall in D dimensions (see MirrorPlane), as MirrorNoSlip does for MirrorWall: the wall's particles
+/// take the mirrored fluid velocity for the viscous term, and the wall's own velocity for the projection.
+template <int D>
+class BasicMirrorPlaneNoSlip : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicMirrorPlaneNoSlip(const MirrorPlane<D>& wall) : wall_(wall) { wall_.validate(); }  ///< checked
+  void before_predictor(StepContext& c) override {
+    apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
+  }
+  void before_projection(StepContext& c) override;
+  [[nodiscard]] const MirrorPlane<D>& wall() const { return wall_; }  ///< the wall it applies
+
+ private:
+  MirrorPlane<D> wall_;
+};
+using MirrorPlaneNoSlip = BasicMirrorPlaneNoSlip<2>;   ///< 2-D
+using MirrorPlaneNoSlip3 = BasicMirrorPlaneNoSlip<3>;  ///< 3-D
+
+/// An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0, and its fluid
+/// leaves at the upstream fluid's velocity, unmoved by viscosity, the pressure gradient and shifting.
+class OpenOutlet : public StepComponent {
+ public:
+  explicit OpenOutlet(const OutflowBuffer& buffer);  ///< throws std::invalid_argument for a bad buffer
+  void before_predictor(StepContext& c) override;
+  void before_source(StepContext& c) override;
+  void before_assembly(StepContext& c) override;
+  void after_pressure(StepContext& c) override;
+  /// The buffer's thickness plus twice the gradient kernel's radius: a buffer particle's velocity is sampled that far
+  /// upstream (apply_outflow_velocity).
+  [[nodiscard]] double reach(const Simulation& sim) const override;
+  /// After a HydrostaticSplit: the buffer is held at P = 0 through the split's pressure offset.
+  [[nodiscard]] bool runs_after(const StepComponent& other) const override;
+  [[nodiscard]] const OutflowBuffer& buffer() const { return buffer_; }  ///< the buffer it applies
+
+ private:
+  OutflowBuffer buffer_;
+  std::vector<char> in_buffer_;  // this step's buffer particles, by position at its start
+};
+
+/// Where a free surface may exist: outside it no particle is flagged free surface, since in a confined liquid a low
+/// n* is a void for the source term to close, not a surface to hold at P = 0.
+template <int D>
+class BasicSurfaceRegion : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  using Region = std::function<bool(const Vec<D>& r)>;  ///< true where a free surface may be
+  explicit BasicSurfaceRegion(Region region) : region_(std::move(region)) {}  ///< free surface only where region() holds
+  /// 2-D: the region as a function of (x, y).
+  explicit BasicSurfaceRegion(std::function<bool(double x, double y)> region)
+    requires(D == 2)
+      : region_([region = std::move(region)](const Vec<2>& r) { return region(r[0], r[1]); }) {}
+  void before_source(StepContext& c) override;
+
+ private:
+  Region region_;
+};
+using SurfaceRegion = BasicSurfaceRegion<2>;   ///< 2-D
+using SurfaceRegion3 = BasicSurfaceRegion<3>;  ///< 3-D
+
+/// Free surface by the neighbours' distribution as well as their density (Khayyer et al. 2009): fluid whose neighbours
+/// within the surface kernel lie one-sided, |sum w r/|r|| / n0 above `fraction` of a flat surface's value, is free
+/// surface too. The density test misses particles whose kernel is full on one side only: the toe of a surge along
+/// a wall, a thin jet.
+template <int D>
+class BasicAsymmetrySurface : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicAsymmetrySurface(double fraction) : fraction_(fraction) {}  ///< a fraction of a flat surface's value
+  void before_source(StepContext& c) override;
+
+ private:
+  double fraction_;
+  std::vector<double> asymmetry_;
+};
+using AsymmetrySurface = BasicAsymmetrySurface<2>;   ///< 2-D
+using AsymmetrySurface3 = BasicAsymmetrySurface<3>;  ///< 3-D
+
+/// Walls wetted by the liquid's interior: a wall particle the density test flags as dry (free surface) becomes an
+/// unknown of the PPE when a fluid particle within the surface kernel is not itself free surface. In a violent flow the
+/// liquid pressed against a wall is disordered, its walls' number density falls below beta n0, and a dry wall reads 0
+/// and carries no pressure where the liquid is at several rho g H (docs/dambreak.md).
+template <int D>
+class BasicWetWalls : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  void before_source(StepContext& c) override;
+
+ private:
+  std::vector<char> wet_;
+};
+using WetWalls = BasicWetWalls<2>;   ///< 2-D
+using WetWalls3 = BasicWetWalls<3>;  ///< 3-D
+
+/// Collisions of close pairs after the predictor (collision_velocity_changes, pairs nearer than `distance` l0): the
+/// pressure then need not stop a pair that nearly touches within one step, which gave single PPE rows spurious
+/// pressures and stopped every dam-break run (docs/dambreak.md).
+template <int D>
+class BasicParticleCollision : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  /// Pairs nearer than distance l0 collide, keeping `restitution` (in [0, 1]) of their approach speed.
+  BasicParticleCollision(double distance, double restitution) : distance_(distance), restitution_(restitution) {}
+  void after_predictor(StepContext& c) override;
+
+ private:
+  double distance_, restitution_;
+  std::vector<char> movable_;
+  std::array<std::vector<double>, D> change_;
+};
+using ParticleCollision = BasicParticleCollision<2>;   ///< 2-D
+using ParticleCollision3 = BasicParticleCollision<3>;  ///< 3-D
+
+/// Fluid that leaves `inside` (spray over a tank's walls) becomes a ghost at rest and is counted, instead of running
+/// on until the guard stops the run at the domain's edge.
+template <int D>
+class BasicRemoveEscaped : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  using Region = std::function<bool(const Vec<D>& r)>;  ///< true where fluid may stay
+  explicit BasicRemoveEscaped(Region inside) : inside_(std::move(inside)) {}  ///< fluid outside inside() is removed
+  /// 2-D: the region as a function of (x, y).
+  explicit BasicRemoveEscaped(std::function<bool(double x, double y)> inside)
+    requires(D == 2)
+      : inside_([inside = std::move(inside)](const Vec<2>& r) { return inside(r[0], r[1]); }) {}
+  void after_corrector(StepContext& c) override;
+  [[nodiscard]] long removed() const { return removed_; }  ///< fluid particles removed so far
+
+ private:
+  Region inside_;
+  long removed_ = 0;
+};
+using RemoveEscaped = BasicRemoveEscaped<2>;   ///< 2-D
+using RemoveEscaped3 = BasicRemoveEscaped<3>;  ///< 3-D
+
+/// SimulationConfig::hydrostatic_split: the body force (fx, fy) along non-periodic axes is balanced by
+/// P_h = rho f . r; the predictor leaves it out, the PPE solves for P - P_h, free-surface particles are held at
+/// P = rho |f| l0/2 (the surface lies half a spacing above them) and take their own P' as gradient reference.
+template <int D>
+class BasicHydrostaticSplit : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicHydrostaticSplit(const Vec<D>& force) : force_(force) {}  ///< the body force per unit mass [m/s^2]
+  /// 2-D: the body force as (fx, fy).
+  BasicHydrostaticSplit(double fx, double fy)
+    requires(D == 2)
+      : force_{fx, fy} {}
+  void before_predictor(StepContext& c) override;
+  void before_assembly(StepContext& c) override;
+
+ private:
+  Vec<D> force_;
+};
+using HydrostaticSplit = BasicHydrostaticSplit<2>;   ///< 2-D
+using HydrostaticSplit3 = BasicHydrostaticSplit<3>;  ///< 3-D
+
+/// SimulationConfig::initial_reference_density: the source reads each wall particle's number density against its
+/// own at t = 0, and the fluid's against the fluid's t = 0 mean.
+template <int D>
+class BasicInitialReferenceDensity : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  /// Measures the t = 0 number densities of `initial` with the density kernel (binning `grid` with them).
+  BasicInitialReferenceDensity(const BasicParticles<D>& initial, const BasicDomain<D>& domain, BasicCellGrid<D>& grid,
+                               const Kernel& density);
+  void before_source(StepContext& c) override;
+
+ private:
+  std::vector<double> reference_;  // by particle id
+};
+using InitialReferenceDensity = BasicInitialReferenceDensity<2>;   ///< 2-D
+using InitialReferenceDensity3 = BasicInitialReferenceDensity<3>;  ///< 3-D
+
+/// SimulationConfig::shifting: after the corrector, fluid that is not prescribed moves down the concentration gradient
+/// (shift_particles); fluid on or beside a free surface (which it would be pushed out through) stays, or moves along
+/// the surface only with SimulationConfig::shift_along_free_surface.
+template <int D>
+class BasicParticleShifting : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  /// Shifting coefficient A (see SimulationConfig::shifting). along_surface: particles on or next to a free surface
+  /// shift too, along the surface only (mps::surface_normals); otherwise they stay where they are.
+  explicit BasicParticleShifting(double coefficient, bool along_surface = false)
+      : coefficient_(coefficient), along_surface_(along_surface) {}
+  void shift_positions(StepContext& c) override;
+
+ private:
+  double coefficient_;
+  bool along_surface_;
+  std::vector<char> movable_, near_surface_;
+  std::array<std::vector<double>, D> normal_;
+};
+using ParticleShifting = BasicParticleShifting<2>;   ///< 2-D
+using ParticleShifting3 = BasicParticleShifting<3>;  ///< 3-D
+
+extern template class BasicMirrorPlaneNoSlip<2>;
+extern template class BasicMirrorPlaneNoSlip<3>;
+extern template class BasicSurfaceRegion<2>;
+extern template class BasicSurfaceRegion<3>;
+extern template class BasicAsymmetrySurface<2>;
+extern template class BasicAsymmetrySurface<3>;
+extern template class BasicWetWalls<2>;
+extern template class BasicWetWalls<3>;
+extern template class BasicParticleCollision<2>;
+extern template class BasicParticleCollision<3>;
+extern template class BasicRemoveEscaped<2>;
+extern template class BasicRemoveEscaped<3>;
+extern template class BasicHydrostaticSplit<2>;
+extern template class BasicHydrostaticSplit<3>;
+extern template class BasicInitialReferenceDensity<2>;
+extern template class BasicInitialReferenceDensity<3>;
+extern template class BasicParticleShifting<2>;
+extern template class BasicParticleShifting<3>;
+
+}  // namespace mps

@@ -1,0 +1,135 @@
+#pragma once
+/// \file
+/// Where a step meets the other processes it runs on: the exchange policy a Simulation is given. The step's stages
+/// (mps/step/step.hpp) are the same on one process and on many; the policy says what crosses between processes at the
+/// points between them, where the PPE lives, and how a failure on one process reaches the others. SerialExchange,
+/// the default, exchanges nothing; RankExchange (mps/parallel/rank_exchange.hpp) spreads a run over MPI ranks. docs/step.md.
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mps/core/neighbors.hpp"
+#include "mps/core/particles.hpp"
+#include "mps/numerics/ppe.hpp"
+#include "mps/solvers/solver.hpp"
+
+namespace mps {
+
+template <int D>
+class BasicSimulation;
+
+/// The PPE's global size, as the step reports it (StepInfo::unknowns, floating_groups).
+struct PpeCounts {
+  std::size_t unknowns = 0;         ///< unknowns over every process
+  std::size_t floating_groups = 0;  ///< closed groups (each gauged) over every process
+};
+
+/// This process's own rows of the PPE: what the solve's special cases are decided on.
+struct OwnPpeRows {
+  std::span<const double> rhs;   ///< their right-hand side
+  std::span<const int> particle;  ///< the particle of each
+};
+
+/// The exchange policy: one call for each point of the step where processes meet, in the order the step calls them.
+/// Every call is collective over the processes of a run.
+template <int D>
+class BasicExchange {
+ public:
+  using Particles = BasicParticles<D>;  ///< the particles it exchanges
+  virtual ~BasicExchange() = default;   ///< a Simulation owns its policy through this base
+
+  /// @{ Set-up, by the Simulation's constructor
+  /// What the pressure solver is made with (on ranks: the communicator).
+  [[nodiscard]] virtual SolverContext solver_context() const = 0;
+  /// Throws std::invalid_argument naming what of `sim` this policy cannot run; again before each step, since
+  /// components are added after construction.
+  virtual void check(const BasicSimulation<D>& sim) const = 0;
+  /// Every process passes the same validated scene; keeps the particles this process owns.
+  virtual void distribute(Particles& particles) = 0;
+  /// Whether the step may reorder particles by cell (on ranks they stay in id order).
+  [[nodiscard]] virtual bool reorders() const = 0;
+  /// @}
+
+  /// @{ Within a step, in this order
+  /// Before the step: particles move to the process that owns them now; copies of those within `reach` [m] of
+  /// this process's own (the halo) join after them.
+  virtual void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach) = 0;
+  /// After the predictor: copies take their owners' r*, u* (and `prescribed` flags for copies new in this step).
+  virtual void share_predicted(Particles& particles, std::vector<char>& prescribed) = 0;
+  /// Copies take their owners' entries of a per-particle flag.
+  virtual void share_flags(std::span<char> flags) = 0;
+  /// Assembles the PPE (assemble_ppe's arguments) over the particles this process holds.
+  virtual PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
+                             std::span<const double> source, std::span<const double> held_value, double shift) = 0;
+  /// This process's part of the last PPE (on ranks: its owned and halo unknowns, as assembled locally).
+  [[nodiscard]] virtual const PpeSystem& ppe() const = 0;
+  /// The unknowns this process owns.
+  [[nodiscard]] virtual OwnPpeRows own_rows() const = 0;
+  /// Solves the PPE with `solver`, starting from P - offset = 0 (`from_zero`) or from the particles' pressures, and
+  /// writes the pressures into the particles as PpeSystem::scatter does (copies too).
+  virtual SolveReport solve(LinearSolver& solver, Particles& particles, bool from_zero, bool clamp_negative,
+                            std::span<const double> offset) = 0;
+  /// After the pressure boundary values: copies take their owners' pressures and carrier flags.
+  virtual void share_pressure(std::span<double> pressure, std::span<char> carriers) = 0;
+  /// After the corrector: copies take their owners' r^{n+1}, u^{n+1} (for particle shifting).
+  virtual void share_particles(Particles& particles) = 0;
+  /// After shift_positions: the copies are dropped.
+  virtual void end_step(Particles& particles) = 0;
+  /// A failed step is rolled back: whatever begin_step set up is undone (the particles are restored by the step).
+  virtual void abandon_step() = 0;
+  /// @}
+
+  /// @{ Over every process
+  /// Particles [0, owned) are this process's own, the rest copies.
+  [[nodiscard]] virtual std::size_t owned(const Particles& particles) const = 0;
+  [[nodiscard]] virtual double max(double value) const = 0;  ///< the largest value
+  [[nodiscard]] virtual bool all(bool value) const = 0;      ///< true where every process has true
+  [[nodiscard]] virtual long long sum(long long value) const = 0;  ///< the sum
+  /// Each process's failure of the stage just run ("" for none): every process gets the failure of the first process
+  /// that failed, saying which it was, or "" when none did. How an error on one process stops them all.
+  [[nodiscard]] virtual std::string first_failure(const std::string& failure) const = 0;
+  /// @}
+};
+
+/// One process: nothing to exchange, the PPE assembled and solved here (assemble_ppe, PpeSystem::scatter).
+template <int D>
+class BasicSerialExchange final : public BasicExchange<D> {
+ public:
+  using typename BasicExchange<D>::Particles;
+  [[nodiscard]] SolverContext solver_context() const override { return {}; }  ///< no communicator
+  void check(const BasicSimulation<D>&) const override {}    ///< runs everything
+  void distribute(Particles&) override {}                    ///< keeps every particle
+  [[nodiscard]] bool reorders() const override { return true; }  ///< reordering by cell allowed
+  void begin_step(Particles&, const BasicDomain<D>&, double) override {}            ///< nothing to move
+  void share_predicted(Particles&, std::vector<char>&) override {}  ///< no copies
+  void share_flags(std::span<char>) override {}              ///< no copies
+  /// assemble_ppe into the kept system.
+  PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held, std::span<const double> source,
+                     std::span<const double> held_value, double shift) override;
+  [[nodiscard]] const PpeSystem& ppe() const override { return ppe_; }  ///< the whole PPE
+  [[nodiscard]] OwnPpeRows own_rows() const override { return {ppe_.rhs, ppe_.particle}; }  ///< every row
+  /// Warm start by PpeSystem::gather, the solve, PpeSystem::scatter.
+  SolveReport solve(LinearSolver& solver, Particles& particles, bool from_zero, bool clamp_negative,
+                    std::span<const double> offset) override;
+  void share_pressure(std::span<double>, std::span<char>) override {}  ///< no copies
+  void share_particles(Particles&) override {}              ///< no copies
+  void end_step(Particles&) override {}                      ///< no copies
+  void abandon_step() override {}                            ///< nothing set up
+  [[nodiscard]] std::size_t owned(const Particles& particles) const override { return particles.size(); }  ///< all
+  [[nodiscard]] double max(double value) const override { return value; }      ///< the value
+  [[nodiscard]] bool all(bool value) const override { return value; }          ///< the value
+  [[nodiscard]] long long sum(long long value) const override { return value; }  ///< the value
+  [[nodiscard]] std::string first_failure(const std::string& failure) const override { return failure; }  ///< it
+
+ private:
+  PpeSystem ppe_;                 // kept between steps for its memory
+  std::vector<double> pressure_;  // the solve's unknowns
+};
+using SerialExchange = BasicSerialExchange<2>;   ///< one process, 2-D
+using SerialExchange3 = BasicSerialExchange<3>;  ///< one process, 3-D
+
+extern template class BasicSerialExchange<2>;
+extern template class BasicSerialExchange<3>;
+
+}  // namespace mps

@@ -1,0 +1,352 @@
+#pragma once
+/// \file
+/// The semi-implicit MPS step (design §3), time-step control and the stability guard. A step runs named stages,
+/// neighbours -> predictor -> n*, div u* -> free surface -> PPE source -> assemble -> solve -> pressure boundary
+/// values -> corrector -> post-step, and a scene adds components (mps/step/components.hpp) that hook in between them.
+/// docs/step.md describes the stages, the hooks and each component.
+#include <array>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "mps/core/errors.hpp"
+#include "mps/core/kernel.hpp"
+#include "mps/core/neighbors.hpp"
+#include "mps/core/particles.hpp"
+#include "mps/core/vec.hpp"
+#include "mps/numerics/operators.hpp"
+#include "mps/numerics/ppe.hpp"
+#include "mps/solvers/solver.hpp"
+#include "mps/step/exchange.hpp"
+
+namespace mps {
+
+/// The physics and numerics of a run; docs/step.md gives the reason and the measurement behind each default.
+struct SimulationConfig {
+  double l0 = 0;  ///< initial particle spacing [m]
+  /// @{ Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1
+  /// Laplacian, short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
+  double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;  /// @}
+  Weight weight = Weight::bounded;  ///< the weight function of every kernel
+  double rho = 1000.0;          ///< density [kg/m^3]
+  double nu = 1e-6;             ///< kinematic viscosity [m^2/s]
+  /// @{ body force per unit mass [m/s^2] (fz: 3-D only, 0 in 2-D)
+  double fx = 0.0, fy = 0.0, fz = 0.0;  /// @}
+  double gamma = 0.99;          ///< mixed source weight: 1 = number density error only, 0 = divergence only
+  double beta = 0.97;           ///< free surface: n* < beta n0 ...
+  double theta = 0.85;          ///< ... and fewer than theta N0 neighbours (0: density test only)
+  double dt_max = 0;            ///< the time step when neither limit below binds [s]
+  double cfl = 0.2;             ///< dt <= cfl l0 / |u|max
+  double viscous_number = 0.2;  ///< dt <= viscous_number l0^2 / nu (explicit viscosity)
+  /// Implicit viscosity: (I - dt nu L) u* = u^n + dt f, solved with `viscosity_solver`; drops the viscous limit.
+  bool implicit_viscosity = false;
+  std::string viscosity_solver = "eigen-cg:precond=jacobi";  ///< solver spec for the implicit viscous systems
+  /// Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
+  /// the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
+  bool initial_reference_density = false;
+  GradientVariant pressure_gradient = GradientVariant::min_reference;  ///< the pressure gradient's form
+  /// Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
+  /// destabilises a liquid at rest under gravity).
+  bool min_reference_tilt = true;
+  /// With min_reference_tilt: the body force along non-periodic axes is balanced by P_h = rho f_h . r exactly and
+  /// the PPE solves for P - P_h (component HydrostaticSplit), so a liquid at rest is an equilibrium on any packing.
+  bool hydrostatic_split = true;
+  /// Artificial sound speed [m/s] (0: incompressible): the PPE becomes (-lap + 1/(c dt)^2) P = -source, so a long
+  /// channel's coherent density error is not expelled within one step.
+  double sound_speed = 0;
+  /// Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
+  /// the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
+  double shifting = 0;
+  /// With shifting: particles on or next to a free surface shift too, along it only (Lind et al. 2012).
+  bool shift_along_free_surface = false;
+  bool clamp_negative_pressure = true;  ///< P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
+  int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
+  double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
+  double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]
+  /// The host program's option for the time step, named in the guard's advice (e.g. --dt-factor).
+  std::string dt_option;
+  /// The pressure solver's spec. "auto" picks Jacobi-CG or reused AMG-PCG per solve by a fixed rule (docs/solvers.md);
+  /// "eigen-cg" (incomplete-Cholesky CG) is the classic MPS baseline.
+  std::string solver = "auto";
+  /// Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
+  bool warm_start = true;
+
+  void validate() const;  ///< throws std::invalid_argument naming the bad parameter and its valid range
+  /// The body force as a vector of a D-dimensional run.
+  template <int D>
+  [[nodiscard]] Vec<D> body_force() const {
+    if constexpr (D == 2) return {fx, fy};
+    else return {fx, fy, fz};
+  }
+};
+
+/// What the last step did.
+struct StepInfo {
+  int step = 0;                 ///< steps completed
+  /// @{ simulated time at the end of the step, and the step's time step [s]
+  double time = 0, dt = 0;  /// @}
+  std::string dt_limit;         ///< which bound set dt: "dt_max", "cfl" or "viscous"
+  SolveReport solve;            ///< the pressure solve
+  int viscosity_iterations = 0;  ///< implicit viscosity: CG iterations of both components
+  /// @{ the PPE's unknowns, free-surface particles and closed groups (each with its gauge)
+  std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;  /// @}
+  double max_speed = 0;         ///< the fluid's largest speed at the end of the step [m/s]
+};
+
+/// Wall-clock seconds spent in each phase of the step, summed over every step so far.
+struct PhaseTimes {
+  /// @{ neighbour searches, predictor, n* to assembly, solver setup, solve, pressure boundary values to corrector
+  double neighbors = 0, predict = 0, assemble = 0, solver_setup = 0, solve = 0, correct = 0;  /// @}
+  /// The sum of the phases.
+  [[nodiscard]] double total() const { return neighbors + predict + assemble + solver_setup + solve + correct; }
+};
+
+/// What one step's stages hand on to the next, per particle unless said. Kept by the simulation so that its memory
+/// is reused from step to step. Components read and write it at their hooks.
+template <int D>
+struct BasicStepFields {
+  double dt = 0;    ///< this step's time step [s]
+  double time = 0;  ///< at the end of the step
+  /// The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
+  Vec<D> balanced{};
+  std::vector<char> prescribed;  ///< fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
+  std::vector<double> n_star;    ///< number density at r* (density kernel)
+  std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
+  std::vector<double> n_source;  ///< the density the source reads in place of n_star (empty: n_star)
+  std::vector<double> div;       ///< div u*
+  std::vector<char> surface;     ///< free-surface particles
+  std::vector<double> source;    ///< right-hand side of lap P = source
+  std::vector<char> held;        ///< particles held at a given pressure in the PPE (empty: the free surface)
+  std::vector<double> held_value;       ///< the pressure they are held at (empty: 0)
+  std::vector<double> pressure_offset;  ///< the PPE solves for P - offset (empty: for P)
+  bool surface_own_reference = false;   ///< free-surface particles take their own P as the gradient's reference
+  std::vector<char> carriers;    ///< particles whose pressure the gradient sees
+  /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis
+  std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
+  /// @{ scratch
+  std::vector<double> pressure, residual;  /// @}
+};
+using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
+
+/// max |u|^2 over the fluid particles.
+template <int D>
+double max_fluid_speed_squared(const BasicParticles<D>& particles);
+
+template <int D>
+class BasicSimulation;
+
+/// What a hook sees: the simulation (configuration, domain, kernels, grid and neighbour lists), its particles and
+/// this step's fields.
+template <int D>
+struct BasicStepContext {
+  const BasicSimulation<D>& sim;  ///< the simulation, read-only
+  BasicParticles<D>& particles;   ///< its particles, for the component to change
+  BasicStepFields<D>& fields;     ///< this step's fields
+};
+using StepContext = BasicStepContext<2>;  ///< a 2-D hook's view
+
+/// A scene-specific treatment hooked into the step. Each hook runs at a named point, components in the order they
+/// were added; a component overrides the hooks it needs (docs/step.md lists which one each uses).
+template <int D>
+class BasicStepComponent {
+ public:
+  using StepContext = BasicStepContext<D>;  ///< what a hook sees
+  virtual ~BasicStepComponent() = default;  ///< components are owned through this base (Simulation::add)
+  virtual void before_predictor(StepContext&) {}   ///< neighbours of r^n found, grid binned at r^n
+  virtual void after_predictor(StepContext&) {}    ///< particles at r*, fields.time the new time
+  virtual void before_projection(StepContext&) {}  ///< before n* and div u*
+  virtual void before_source(StepContext&) {}      ///< n*, div u* and the free surface known
+  virtual void before_assembly(StepContext&) {}    ///< source known
+  virtual void after_pressure(StepContext&) {}     ///< pressures scattered, dummies set, carriers known
+  /// Velocities and positions at n+1, the neighbour lists of r* still in place (on ranks, the halo's copies too, at
+  /// n+1): where particle shifting moves particles by their neighbours.
+  virtual void shift_positions(StepContext&) {}
+  virtual void after_corrector(StepContext&) {}    ///< velocities and positions at n+1, final (on ranks: own only)
+  /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
+  /// [m] (0: within them): a distributed step's halo must reach as far.
+  [[nodiscard]] virtual double reach(const BasicSimulation<D>&) const { return 0.0; }
+  /// Whether this component reads what `other` writes at a hook they share, and so must run after it: the order
+  /// Simulation::add checks (the configuration's own components come first).
+  [[nodiscard]] virtual bool runs_after(const BasicStepComponent& other) const {
+    (void)other;
+    return false;
+  }
+};
+using StepComponent = BasicStepComponent<2>;  ///< a 2-D component
+
+/// The stages of a step, in order (docs/step.md). Simulation::step runs them all; Simulation::advance_to runs them
+/// up to one, so that a caller can stop after the assembly. Each stage that begins with an exchange begins with it
+/// (a no-op on one process), and processes agree after every stage whether one of them failed.
+enum class Stage {
+  exchange,           ///< the exchange's begin_step (on ranks: migration and halo)
+  time_step,          ///< dt from dt_max, the CFL and viscous limits; this step's fields reset
+  neighbors,          ///< grid binned and neighbours found at r^n; hook before_predictor
+  predictor,          ///< viscosity and body force give u*, r*; hooks after_predictor, before_projection
+  neighbors_at_star,  ///< copies take r*, u*; neighbours at r*
+  projection,         ///< n*, div u* and the free surface
+  free_surface,       ///< copies take the free-surface flags; hook before_source
+  source,             ///< copies take the flags again; the mixed source; hook before_assembly
+  assembly,           ///< the PPE
+  solve,              ///< the pressure solve (its special cases decided over every process), pressures scattered
+  pressure_boundary,  ///< free-surface particles' held pressures, dummies' pressures, the carriers
+  corrector,          ///< copies take pressures and carriers; hook after_pressure; u^{n+1}, r^{n+1}
+  shifting,           ///< copies take r^{n+1}, u^{n+1}; hook shift_positions
+  end_corrector,      ///< copies dropped; hook after_corrector
+  finish,             ///< the largest speed, time and step count advanced, the stability guard
+};
+/// The stage's name, as in the enum.
+const char* to_string(Stage stage);
+
+/// A run: particles in a D-dimensional domain, stepped by the semi-implicit MPS step with the components added to it,
+/// on one process or, given a RankExchange (mps/parallel/rank_exchange.hpp), on the ranks of an MPI communicator.
+template <int D>
+class BasicSimulation {
+ public:
+  using Particles = BasicParticles<D>;        ///< its particles
+  using Domain = BasicDomain<D>;              ///< its domain
+  using StepComponent = BasicStepComponent<D>;  ///< its components' base
+  using StepContext = BasicStepContext<D>;    ///< what a component's hook sees
+  using StepFields = BasicStepFields<D>;      ///< what the stages hand on
+  using CellGrid = BasicCellGrid<D>;          ///< its cell grid
+  using Stencil = BasicStencil<D>;            ///< an operator's view of it
+  using Exchange = BasicExchange<D>;          ///< its exchange policy's base
+
+  /// Validates the configuration and the particles (throws std::invalid_argument naming what is wrong), makes the
+  /// pressure solver from config.solver and adds the components the configuration asks for. One process.
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config);
+  /// Same, with a pressure solver of the caller's making (config.solver is then not read).
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver);
+  /// Same, on the processes of `exchange` (e.g. a RankExchange): every process passes the same scene, each keeps the
+  /// particles it owns, and the pressure solver is made from config.solver for the exchange's communicator.
+  /// Throws std::invalid_argument for what the exchange cannot run. Collective.
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<Exchange> exchange);
+
+  /// Advances one step (the rest of one advance_to began) or throws SimulationError and keeps the previous state;
+  /// on several processes every one throws, with the message of the first that failed.
+  const StepInfo& step();
+  /// Runs the stages of the step up to and including `last` (opening a step if none is open) and leaves the step
+  /// open there: its fields, last_ppe() and the particles are as that stage left them; step() completes it. A
+  /// failure rolls back as step() does. Throws std::logic_error for a stage this step has passed.
+  void advance_to(Stage last);
+  /// The stage the open step runs next (Stage::exchange when no step is open).
+  [[nodiscard]] Stage next_stage() const { return static_cast<Stage>(next_stage_); }
+
+  /// Adds a component (mps/step/components.hpp, or a scene's own) after those already there; returns it. Throws
+  /// std::invalid_argument when one already there must run after it (StepComponent::runs_after).
+  template <class Component, class... Args>
+  Component& add(Args&&... args) {
+    auto component = std::make_unique<Component>(std::forward<Args>(args)...);
+    check_order(*component);
+    Component& added = *component;
+    components_.push_back(std::move(component));
+    return added;
+  }
+  /// The first component of that type, or nullptr.
+  template <class Component>
+  [[nodiscard]] const Component* find() const {
+    for (const auto& c : components_)
+      if (const auto* found = dynamic_cast<const Component*>(c.get())) return found;
+    return nullptr;
+  }
+
+  [[nodiscard]] const Particles& particles() const { return particles_; }  ///< the particles now
+  /// Particles [0, owned) are this process's own; during a step on ranks the rest are halo copies of other processes'
+  /// particles (serially: all).
+  [[nodiscard]] std::size_t owned_particles() const { return exchange_->owned(particles_); }
+  [[nodiscard]] const Domain& domain() const { return domain_; }           ///< the domain
+  [[nodiscard]] const SimulationConfig& config() const { return config_; }  ///< the configuration
+  [[nodiscard]] const LinearSolver& solver() const { return *solver_; }    ///< the pressure solver
+  [[nodiscard]] const Exchange& exchange() const { return *exchange_; }    ///< the exchange policy
+  [[nodiscard]] const StepInfo& last_step() const { return info_; }        ///< what the last step did
+  [[nodiscard]] const PhaseTimes& times() const { return times_; }         ///< time per phase, all steps so far
+  [[nodiscard]] double time() const { return info_.time; }                 ///< simulated time [s]
+  /// @{ the kernels at the configured radii: number density (source), free surface, gradient, Laplacian
+  [[nodiscard]] const Kernel& density_kernel() const { return k_density_; }
+  [[nodiscard]] const Kernel& surface_kernel() const { return k_surface_; }
+  [[nodiscard]] const Kernel& gradient_kernel() const { return k_gradient_; }
+  [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
+  /// @}
+  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  ///< n* of the last step
+  [[nodiscard]] const StepFields& fields() const { return fields_; }  ///< the fields of the last (or open) step
+  /// The last step's PPE (matrix, rhs, maps); on ranks this process's part, as assembled locally.
+  [[nodiscard]] const PpeSystem& last_ppe() const { return exchange_->ppe(); }
+  [[nodiscard]] const CellGrid& grid() const { return grid_; }  ///< the cell grid, binned at the last search
+  /// Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
+  /// largest of the smaller ones.
+  [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
+    return k.re <= small_radius_ ? close_star_ : near_star_;
+  }
+  /// Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection: the list at
+  /// r* is later found into the same memory).
+  [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
+  /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
+  [[nodiscard]] double max_over_ranks(double value) const { return exchange_->max(value); }
+
+ private:
+  // A null solver is made from config.solver for the exchange's context.
+  BasicSimulation(Particles particles, Domain domain, SimulationConfig config, std::unique_ptr<LinearSolver> solver,
+                  std::unique_ptr<Exchange> exchange);
+  void check_order(const StepComponent& added) const;
+  void run_stage(Stage stage);
+  [[nodiscard]] std::string describe_failure(std::exception_ptr error) const;
+  void roll_back();
+  [[nodiscard]] double components_reach() const;
+  [[nodiscard]] std::string dt_advice() const;
+  [[nodiscard]] double choose_dt(std::string& limit) const;
+  void run(void (StepComponent::*hook)(StepContext&));
+  // The stages' work, in order.
+  void begin_exchange();
+  void choose_time_step();
+  void find_neighbors_now();
+  void predict();
+  void explicit_viscous_predictor();
+  void implicit_viscous_predictor();
+  void find_neighbors_at_star();
+  void number_density_and_divergence();
+  void detect_surface();
+  void compute_source();
+  void assemble();
+  void solve();
+  void set_pressure_boundary_values();
+  void correct();
+  void finish_step();
+  void check_guard() const;
+
+  Particles particles_;
+  StepInfo info_;
+  StepFields fields_;
+  std::unique_ptr<Exchange> exchange_;
+  std::unique_ptr<LinearSolver> solver_;
+  Domain domain_;
+  SimulationConfig config_;
+  std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
+  Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
+  CellGrid grid_;
+  std::vector<std::unique_ptr<StepComponent>> components_;
+  PhaseTimes times_;
+  // The lists at r^n and at the wider r* radius share one buffer: their uses do not overlap, and a list at 4.1 l0
+  // costs about 200 bytes a particle.
+  NeighborList near_star_, close_star_;
+  double small_radius_ = 0;
+  int next_stage_ = 0;      // of the open step (0: none open)
+  Particles before_step_;   // the state a failed step rolls back to
+  StepInfo info_before_;
+  struct ViscousSystem {
+    std::vector<int> row;             // particle -> row of the fluid system, or -1
+    std::vector<std::size_t> fluid;   // row -> particle
+    CsrMatrix matrix;                 // I - dt nu L over the fluid
+    std::array<std::vector<double>, D> b, u;  // right-hand sides and solutions by component
+  } viscous_;  // implicit viscosity's system, kept between steps for its memory
+};
+
+using Simulation = BasicSimulation<2>;   ///< a 2-D run
+using Simulation3 = BasicSimulation<3>;  ///< a 3-D run
+
+extern template class BasicSimulation<2>;
+extern template class BasicSimulation<3>;
+
+}  // namespace mps

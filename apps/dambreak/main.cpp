@@ -52,6 +52,287 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim
           {"wall_layers", 1}, {"dummy_layers", 4}, {"ranks", ranks}};
 }
 
+
+// The command line.
+struct Options {
+  std::string column_name, gradient = "min-reference", out = "runs/dambreak",
+              data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
+  double dx = 0, end_time = 0, front_tolerance = 0.03;
+  int frames = 20;
+  std::string particles_file, write_particles;
+  std::vector<int> export_ppe;
+  dambreak::Params p;
+};
+
+void add_options(CLI::App& app, Options& o) {
+  add_general_options(app);
+  app.add_option("--particles", o.particles_file,
+                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
+                 "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
+                 "--dx or the file's")
+      ->transform(existing_file_made_absolute())->group("Scene");
+  // No default string: a run from --particles then writes no column into config.toml, and its replay is no conflict.
+  app.add_option("--column", o.column_name,
+                 "classic (the default): a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, "
+                 "H = 1 m high, tank 5.366 m x 3 m (Buchner's wall pressure); not with --particles")
+      ->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
+  app.add_option("--data", o.data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
+                 "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
+  app.add_option("--dx", o.dx, "particle spacing (default: a/20 for classic, H/25 for seed, the seed's own is 0.02; with "
+                             "--particles, the file's) [m]")
+      ->check(positive_up_to(1.0))->group("Numerics");
+  app.add_option("--gamma", o.p.gamma, "mixed source weight in [0,1] (1: number density only)")
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
+  app.add_option("--gradient", o.gradient, "pressure gradient: min-reference (Koshizuka's, repulsive) | plain | corrected "
+                 "(the corrective matrix) | corrected-min-reference")
+      ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}))
+      ->group("Numerics");
+  app.add_option("--cfl", o.p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10))
+      ->group("Numerics");
+  app.add_option("--collision", o.p.collision, "close pairs collide: two particles nearer than this that approach each "
+                 "other keep only --restitution of their approach speed (0: off) [l0]")
+      ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
+  app.add_option("--restitution", o.p.restitution, "restitution of a collision")
+      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
+  app.add_option("--asymmetry", o.p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
+                 "fraction of a flat surface's asymmetry (0: the density test alone)")
+      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+  app.add_flag("--wet-walls", o.p.wet_walls, "wall particles next to fluid that is not free surface carry pressure even "
+               "where their number density calls them dry (mps::WetWalls)")->group("Numerics");
+  add_shifting_option(app, o.p.shifting);
+  add_solver_options(app, o.p.solver);
+  add_cold_start_flag(app, o.p.warm_start);
+  app.add_option("--end-time", o.end_time, "simulated time (default: T = 2.5 for classic, t sqrt(g/H) = 6 for seed) [s]")
+      ->check(positive_up_to(1e4))->group("Run");
+  app.add_option("--front-tolerance", o.front_tolerance,
+                 "classic: pass if the front is within this relative error of either Martin & Moyce series for T <= 2.5")
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--out", o.out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
+  app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
+      ->check(whole_in(0, 100000))->group("Output");
+  add_export_ppe_option(app, o.export_ppe);
+  app.add_option("--write-particles", o.write_particles,
+                 "write the scene's initial particles to this CSV file (a start for --particles) and exit")
+      ->check(output_file())->group("Output");
+}
+
+// The scene's parameters and particles: the column the options describe, or a particle file's scene.
+struct Start {
+  dambreak::Params p;
+  mps::Particles particles;
+  std::string column_name, scene_name;
+};
+
+Start make_start(const Options& o) {
+  Start start{o.p, {}, o.column_name, ""};
+  dambreak::Params& p = start.p;
+  p.gradient = mps::gradient_variant_from_name(o.gradient);
+  if (!o.particles_file.empty() && !o.column_name.empty())
+    throw std::invalid_argument("--column " + o.column_name + " and --particles: the particle file is the scene (its "
+                                "tank, water and spacing); give one of them");
+  if (start.column_name.empty()) start.column_name = "classic";
+  start.scene_name = start.column_name + " column";
+  if (o.particles_file.empty()) {
+    const dambreak::Column column = dambreak::column_from_name(start.column_name);
+    dambreak::take_column_geometry(p, column);
+    if (o.end_time > 0) p.end_time = o.end_time;
+    p.l0 = o.dx > 0 ? o.dx : dambreak::defaults(column).l0;
+    if (p.l0 > dambreak::coarsest_spacing(p))
+      throw std::invalid_argument("--dx " + short_number(p.l0) + " m is coarser than the " + start.column_name +
+                                  " column takes: at most " + short_number(dambreak::coarsest_spacing(p)) +
+                                  " m, four particles across its width and height");
+    check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5), dambreak::estimated_steps(p),
+                   "raise --dx", "shorten --end-time or raise --dx (the viscous limit dt <= 0.2 dx^2/nu binds at "
+                   "small spacings)");
+    start.particles = dambreak::make_particles(p);
+    return start;
+  }
+  const bool frame = fs::path(o.particles_file).extension() == ".vtp";
+  dambreak::FileScene file = dambreak::from_particles(
+      frame ? mps::read_vtp(o.particles_file) : mps::read_particles_csv(o.particles_file), o.dx, p);
+  std::cout << "particles from " << o.particles_file << ": " << file.description << "\n";
+  p = file.params;
+  p.end_time = o.end_time > 0 ? o.end_time : file.params.end_time;
+  start.particles = std::move(file.particles);
+  start.column_name = dambreak::to_string(p.column);
+  start.scene_name =
+      p.column == dambreak::Column::file ? "particles of " + o.particles_file : start.column_name + " column";
+  check_run_size(static_cast<double>(start.particles.size()), dambreak::estimated_steps(p),
+                 "use a coarser particle file", "shorten --end-time or use a coarser particle file (the viscous "
+                 "limit dt <= 0.2 dx^2/nu binds at small spacings)");
+  return start;
+}
+
+// --write-particles: the scene's particles at rest, with the command that runs them.
+void write_start(const std::string& path, const Start& start) {
+  char spacing[40];
+  std::snprintf(spacing, sizeof spacing, "%.17g", start.p.l0);
+  mps::write_particles_csv(path, start.particles,
+                           {"SparseMPS dam break: the " + start.scene_name + " at spacing " + spacing + " m, at rest",
+                            "run it with: dambreak --particles THIS-FILE --dx " + std::string(spacing)});
+  std::cout << "wrote " << start.particles.size() << " particles to " << path
+            << "; run them with: dambreak --particles " << path << " --dx " << spacing << "\n";
+}
+
+// The experiments the runs are compared with (docs/dambreak.md).
+struct Experiments {
+  dambreak::Table mm1, mm2, ko, buchner;
+};
+
+Experiments read_experiments(const std::string& data) {
+  const fs::path dir(data);
+  Experiments e{dambreak::read_table((dir / "mm_data_1.txt").string()),
+                dambreak::read_table((dir / "mm_data_2.txt").string()),
+                dambreak::read_table((dir / "ko_data.txt").string()),
+                dambreak::read_table((dir / "buchner_exp_data.txt").string())};
+  std::sort(e.buchner.begin(), e.buchner.end());  // digitised points, a few out of time order
+  return e;
+}
+
+// Steps to the end, writing frames and a line every tenth of the run; a SimulationError goes to the caller.
+void run(dambreak::Scene& scene, FrameSeries& series, Progress& progress, const AppRanks& ranks) {
+  const mps::Simulation& sim = scene.sim();
+  const dambreak::Params& p = scene.params();
+  double next_report = p.end_time / 10;
+  while (!scene.done()) {
+    scene.step();
+    progress.update(sim.time(), sim.last_step().step);
+    series.write_if_due(sim.time(), scene.all_particles());
+    if (ranks.root() && sim.time() >= next_report - 1e-12) {
+      const auto& s = sim.last_step();
+      progress.clear();
+      std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "
+                  "|u|max %.2f m/s  front %.3f a\n",
+                  s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.free_surface, s.solve.backend.c_str(),
+                  s.solve.iterations, s.max_speed, scene.samples().back().front / p.width);
+      next_report += p.end_time / 10;
+    }
+  }
+}
+
+// The sampled series in the experiments' units: T = t sqrt(2g/a) for the front, t sqrt(g/H) and rho g H for the rest.
+struct Series {
+  std::vector<double> T, x_over_a, t_hat;
+  std::vector<std::vector<double>> levels, pressures;
+};
+
+Series write_series(const fs::path& dir, const dambreak::Scene& scene, double rho) {
+  const dambreak::Params& p = scene.params();
+  const double front_scale = dambreak::front_time_scale(p), scale = std::sqrt(p.g / p.height);
+  const double rho_g_h = rho * p.g * p.height;
+  Series out{{}, {}, {}, std::vector<std::vector<double>>(p.level_probes.size()),
+             std::vector<std::vector<double>>(p.pressure_probes.size())};
+  for (const auto& s : scene.samples()) {
+    out.T.push_back(s.time * front_scale);
+    out.x_over_a.push_back(s.front / p.width);
+    out.t_hat.push_back(s.time * scale);
+    for (std::size_t k = 0; k < out.levels.size(); ++k) out.levels[k].push_back(s.levels[k] / p.height);
+    for (std::size_t k = 0; k < out.pressures.size(); ++k) out.pressures[k].push_back(s.pressures[k] / rho_g_h);
+  }
+  mps::write_csv(dir / "front.csv", {"T", "x_over_a"}, {out.T, out.x_over_a});
+  std::vector<std::string> level_header{"t_sqrt_g_over_H"}, pressure_header{"t_sqrt_g_over_H"};
+  std::vector<std::vector<double>> level_columns{out.t_hat}, pressure_columns{out.t_hat};
+  for (std::size_t k = 0; k < out.levels.size(); ++k) {
+    level_header.push_back("level_over_H_at_" + short_number(p.level_probes[k]) + "H");
+    level_columns.push_back(out.levels[k]);
+  }
+  for (std::size_t k = 0; k < out.pressures.size(); ++k) {
+    pressure_header.push_back("p_over_rho_g_H_at_" + short_number(p.pressure_probes[k]) + "H");
+    pressure_columns.push_back(out.pressures[k]);
+  }
+  mps::write_csv(dir / "level.csv", level_header, level_columns);
+  mps::write_csv(dir / "pressure.csv", pressure_header, pressure_columns);
+  return out;
+}
+
+// A figure the run could not give (no experimental point within it, no impact yet) is left out, not written NaN.
+void put(nlohmann::json& to, const std::string& key, double v) {
+  if (std::isfinite(v)) to[key] = v;
+}
+
+// The classic column's surge front against Martin & Moyce and Koshizuka & Oka; returns whether it is within tolerance.
+bool check_front(const dambreak::Scene& scene, const Experiments& e, double tolerance, nlohmann::json& checks) {
+  const auto& samples = scene.samples();
+  const dambreak::Params& p = scene.params();
+  const double e1 = dambreak::max_front_error(samples, p, e.mm1, 2.5);
+  const double e2 = dambreak::max_front_error(samples, p, e.mm2, 2.5);
+  const double eko = dambreak::max_front_error(samples, p, e.ko, 2.5);
+  const double best = std::min(std::isfinite(e1) ? e1 : 1e300, std::isfinite(e2) ? e2 : 1e300);
+  const bool pass = best <= tolerance;
+  checks = {{"front_compared_up_to_t_sqrt_2g_over_a", 2.5}, {"front_tolerance", tolerance}};
+  put(checks, "martin_moyce_1_front_max_error", e1);
+  put(checks, "martin_moyce_2_front_max_error", e2);
+  put(checks, "koshizuka_oka_front_max_error", eko);
+  // An experiment with no point within the run has no error to print.
+  auto percent = [](double err) {
+    char text[40] = "no point yet";
+    if (std::isfinite(err)) std::snprintf(text, sizeof text, "%.2f %%", 100 * err);
+    return std::string(text);
+  };
+  std::printf("\nsurge front, largest relative error for T <= 2.5: Martin & Moyce %s / %s, Koshizuka & Oka %s "
+              "(limit %.1f %% against either Martin & Moyce series): %s\n",
+              percent(e1).c_str(), percent(e2).c_str(), percent(eko).c_str(), 100 * tolerance, pass ? "PASS" : "FAIL");
+  return pass;
+}
+
+// Buchner's probe at 0.2 H, in the experiment's own units: arrival, first peak and noise of the impact.
+void check_impact(const Series& series, const dambreak::Params& p, const Experiments& e, nlohmann::json& checks) {
+  std::vector<double> bt, bp;
+  for (const auto& [t, pe] : e.buchner) {
+    bt.push_back(t);
+    bp.push_back(pe);
+  }
+  for (std::size_t k = 0; k < p.pressure_probes.size(); ++k) {
+    if (p.column == dambreak::Column::file || std::abs(p.pressure_probes[k] - 0.2) > 1e-12) continue;
+    const dambreak::Impact sim_impact = dambreak::impact(series.t_hat, series.pressures[k]);
+    const dambreak::Impact exp_impact = dambreak::impact(bt, bp);
+    // The probe's height is a value, not part of a key: keys hold no dots.
+    nlohmann::json at{{"probe_H", p.pressure_probes[k]}, {"arrived", std::isfinite(sim_impact.arrival)},
+                      {"arrival_buchner_t_sqrt_g_over_H", exp_impact.arrival},
+                      {"first_peak_buchner_over_rho_g_H", exp_impact.peak},
+                      {"noise_buchner_over_range", exp_impact.noise}};
+    put(at, "arrival_t_sqrt_g_over_H", sim_impact.arrival);
+    put(at, "first_peak_over_rho_g_H", sim_impact.peak);
+    put(at, "noise_over_range", sim_impact.noise);
+    checks["impact"] = at;
+    if (std::isfinite(sim_impact.arrival))
+      std::printf("impact at 0.2 H: arrival t sqrt(g/H) = %.3f (Buchner %.3f), first peak %.3f rho g H (Buchner %.3f), "
+                  "noise %.3f of the range (Buchner %.3f)\n",
+                  sim_impact.arrival, exp_impact.arrival, sim_impact.peak, exp_impact.peak, sim_impact.noise,
+                  exp_impact.noise);
+    else
+      std::printf("impact at 0.2 H: the pressure there never reached 0.25 rho g H\n");
+  }
+}
+
+// Rank 0, after the run: the series, the checks against the experiments and the summary; returns the exit status.
+int report(const fs::path& dir, const dambreak::Scene& scene, const Experiments& e, double front_tolerance,
+           long removed, const nlohmann::json& params, const FrameSeries& frames) {
+  const mps::Simulation& sim = scene.sim();
+  const dambreak::Params& p = scene.params();
+  const Series series = write_series(dir, scene, sim.config().rho);
+  nlohmann::json checks;
+  const bool pass = p.column != dambreak::Column::classic || check_front(scene, e, front_tolerance, checks);
+  check_impact(series, p, e, checks);
+  if (p.column == dambreak::Column::file)
+    std::printf("a scene from a particle file: no experiment applies; its front, levels and wall pressure are in "
+                "front.csv, level.csv and pressure.csv\n");
+  checks["fluid_removed_as_spray_count"] = removed;
+  checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
+  checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
+  write_solves(dir, sim);
+  write_summary(dir, {{"status", p.column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
+                      {"parameters", params},
+                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", scene.all_particles().size()}}},
+                      {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
+                      {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
+  std::printf("spray removed: %ld particles; most fluid particles inside a wall at once: %ld; deepest past a wall "
+              "line: %.3f l0\n", removed, scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall_line() / p.l0));
+  std::printf("outputs: %s (ParaView), front.csv, level.csv, pressure.csv, summary.json in %s\n",
+              frames.path().string().c_str(), dir.string().c_str());
+  return pass ? 0 : 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -59,128 +340,29 @@ int main(int argc, char** argv) {
   const AppRanks ranks(&argc, &argv);
   record_run("dambreak", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::string column_name, gradient = "min-reference", out = "runs/dambreak",
-              data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
-  double dx = 0, end_time = 0, front_tolerance = 0.03;
-  int frames = 20;
-  dambreak::Params p;
   CLI::App app{"SparseMPS dam break: a water column collapses in an open tank (seed 003 §2.1); the surge front against "
                "Martin & Moyce, the downstream-wall pressure against Buchner"};
-  add_general_options(app);
-  std::string particles_file, write_particles;
-  app.add_option("--particles", particles_file,
-                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
-                 "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
-                 "--dx or the file's")
-      ->transform(existing_file_made_absolute())->group("Scene");
-  // No default string: a run from --particles then writes no column into config.toml, and its replay is no conflict.
-  app.add_option("--column", column_name,
-                 "classic (the default): a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, "
-                 "H = 1 m high, tank 5.366 m x 3 m (Buchner's wall pressure); not with --particles")
-      ->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
-  app.add_option("--data", data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
-                 "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
-  app.add_option("--dx", dx, "particle spacing (default: a/20 for classic, H/25 for seed, the seed's own is 0.02; with "
-                             "--particles, the file's) [m]")
-      ->check(positive_up_to(1.0))->group("Numerics");
-  app.add_option("--gamma", p.gamma, "mixed source weight in [0,1] (1: number density only)")
-      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
-  app.add_option("--gradient", gradient, "pressure gradient: min-reference (Koshizuka's, repulsive) | plain | corrected "
-                 "(the corrective matrix) | corrected-min-reference")
-      ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}))
-      ->group("Numerics");
-  app.add_option("--cfl", p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10))
-      ->group("Numerics");
-  app.add_option("--collision", p.collision, "close pairs collide: two particles nearer than this that approach each "
-                 "other keep only --restitution of their approach speed (0: off) [l0]")
-      ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
-  app.add_option("--restitution", p.restitution, "restitution of a collision")
-      ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
-  app.add_option("--asymmetry", p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
-                 "fraction of a flat surface's asymmetry (0: the density test alone)")
-      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
-  app.add_flag("--wet-walls", p.wet_walls, "wall particles next to fluid that is not free surface carry pressure even "
-               "where their number density calls them dry (mps::WetWalls)")->group("Numerics");
-  add_shifting_option(app, p.shifting);
-  add_solver_options(app, p.solver);
-  add_cold_start_flag(app, p.warm_start);
-  app.add_option("--end-time", end_time, "simulated time (default: T = 2.5 for classic, t sqrt(g/H) = 6 for seed) [s]")
-      ->check(positive_up_to(1e4))->group("Run");
-  app.add_option("--front-tolerance", front_tolerance,
-                 "classic: pass if the front is within this relative error of either Martin & Moyce series for T <= 2.5")
-      ->capture_default_str()->check(positive_up_to(10))->group("Run");
-  app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
-  app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
-      ->check(whole_in(0, 100000))->group("Output");
-  std::vector<int> export_ppe;
-  add_export_ppe_option(app, export_ppe);
-  app.add_option("--write-particles", write_particles,
-                 "write the scene's initial particles to this CSV file (a start for --particles) and exit")
-      ->check(output_file())->group("Output");
+  Options o;
+  add_options(app, o);
   if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
   try {
-    if (ranks.distributed() && !export_ppe.empty())
+    if (ranks.distributed() && !o.export_ppe.empty())
       throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
-    p.gradient = mps::gradient_variant_from_name(gradient);
-    if (!particles_file.empty() && !column_name.empty())
-      throw std::invalid_argument("--column " + column_name + " and --particles: the particle file is the scene (its "
-                                  "tank, water and spacing); give one of them");
-    if (column_name.empty()) column_name = "classic";
-    mps::Particles particles;
-    std::string scene_name = column_name + " column";
-    if (particles_file.empty()) {
-      const dambreak::Column column = dambreak::column_from_name(column_name);
-      dambreak::take_column_geometry(p, column);
-      if (end_time > 0) p.end_time = end_time;
-      p.l0 = dx > 0 ? dx : dambreak::defaults(column).l0;
-      if (p.l0 > dambreak::coarsest_spacing(p))
-        throw std::invalid_argument("--dx " + short_number(p.l0) + " m is coarser than the " + column_name +
-                                    " column takes: at most " + short_number(dambreak::coarsest_spacing(p)) +
-                                    " m, four particles across its width and height");
-      check_run_size((p.tank_length / p.l0 + 10) * (p.tank_height / p.l0 + 5), dambreak::estimated_steps(p),
-                     "raise --dx", "shorten --end-time or raise --dx (the viscous limit dt <= 0.2 dx^2/nu binds at "
-                     "small spacings)");
-      particles = dambreak::make_particles(p);
-    } else {
-      const bool frame = fs::path(particles_file).extension() == ".vtp";
-      dambreak::FileScene file = dambreak::from_particles(
-          frame ? mps::read_vtp(particles_file) : mps::read_particles_csv(particles_file), dx, p);
-      std::cout << "particles from " << particles_file << ": " << file.description << "\n";
-      p = file.params;
-      p.end_time = end_time > 0 ? end_time : file.params.end_time;
-      particles = std::move(file.particles);
-      column_name = dambreak::to_string(p.column);
-      scene_name = p.column == dambreak::Column::file ? "particles of " + particles_file : column_name + " column";
-      check_run_size(static_cast<double>(particles.size()), dambreak::estimated_steps(p),
-                     "use a coarser particle file", "shorten --end-time or use a coarser particle file (the viscous "
-                     "limit dt <= 0.2 dx^2/nu binds at small spacings)");
-    }
-    const dambreak::Column column = p.column;
-    if (!write_particles.empty()) {
-      if (!ranks.root()) return 0;
-      char spacing[40];
-      std::snprintf(spacing, sizeof spacing, "%.17g", p.l0);
-      mps::write_particles_csv(write_particles, particles,
-                               {"SparseMPS dam break: the " + scene_name + " at spacing " + spacing + " m, at rest",
-                                "run it with: dambreak --particles THIS-FILE --dx " + std::string(spacing)});
-      std::cout << "wrote " << particles.size() << " particles to " << write_particles
-                << "; run them with: dambreak --particles " << write_particles << " --dx " << spacing << "\n";
+    Start start = make_start(o);
+    if (!o.write_particles.empty()) {
+      if (ranks.root()) write_start(o.write_particles, start);
       return 0;
     }
-    const fs::path data_dir(data);
-    const dambreak::Table mm1 = dambreak::read_table((data_dir / "mm_data_1.txt").string());
-    const dambreak::Table mm2 = dambreak::read_table((data_dir / "mm_data_2.txt").string());
-    const dambreak::Table ko = dambreak::read_table((data_dir / "ko_data.txt").string());
-    dambreak::Table buchner = dambreak::read_table((data_dir / "buchner_exp_data.txt").string());
-    std::sort(buchner.begin(), buchner.end());  // digitised points, a few out of time order
-
-    dambreak::Scene scene(p, std::move(particles), ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+    const Experiments experiments = read_experiments(o.data);
+    dambreak::Scene scene(start.p, std::move(start.particles),
+                          ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     const mps::Simulation& sim = scene.sim();
-    nlohmann::json params = params_json(p, sim, data, ranks.size());
-    if (!particles_file.empty()) params["particle_file"] = particles_file;
+    const dambreak::Params& p = scene.params();
+    nlohmann::json params = params_json(p, sim, o.data, ranks.size());
+    if (!o.particles_file.empty()) params["particle_file"] = o.particles_file;
     std::cout << parameter_table(
-        "dam break, " + scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
+        "dam break, " + start.scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
             std::to_string(scene.initial_fluid()) + " fluid)" +
             (ranks.distributed() ? " on " + std::to_string(ranks.size()) + " MPI ranks" : ""),
         params,
@@ -190,38 +372,25 @@ int main(int argc, char** argv) {
                        "shifting", "wet_walls"}},
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
-    const fs::path dir(out);
+    const fs::path dir(o.out);
     // Rank 0 writes every output; the others step with it and join its gathers.
-    FrameSeries series(dir, "dambreak", ranks.root() ? frames : 0, p.end_time);
+    FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
     if (ranks.root()) {
       clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
                           "last_good.vtp", "config.toml", "solves.csv", "ppe"});
-      scene.sim().add<SolveLog>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), "dambreak, " + scene_name);
+      scene.sim().add<SolveLog>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
+                                "dambreak, " + start.scene_name);
       write_run_config(app, "dambreak", dir);
       fs::create_directories(dir / "frames");
     }
     series.write_if_due(sim.time(), scene.all_particles());
-    double next_report = p.end_time / 10;
     Progress progress(p.end_time, "s");
     try {
-      while (!scene.done()) {
-        scene.step();
-        progress.update(sim.time(), sim.last_step().step);
-        series.write_if_due(sim.time(), scene.all_particles());
-        if (ranks.root() && sim.time() >= next_report - 1e-12) {
-          const auto& s = sim.last_step();
-          progress.clear();
-          std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "
-                      "|u|max %.2f m/s  front %.3f a\n",
-                      s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.free_surface, s.solve.backend.c_str(),
-                      s.solve.iterations, s.max_speed, scene.samples().back().front / p.width);
-          next_report += p.end_time / 10;
-        }
-      }
+      run(scene, series, progress, ranks);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time(), sim.last_step().step);
-      // The guard stops every rank at the same step (the scene's gathering is the last good state); a component's
-      // error may be one rank's alone.
+      // The step stops every rank at the same stage (the scene's gathering is the last good state); the scene's own
+      // check after a step may be one rank's alone.
       if (!ranks.every_rank_failed())
         ranks.end_alone(e.what(), [&] { record_failure_alone(dir, e.what(), params, sim); });
       return ranks.root() ? report_guard_stop(dir, e, params, sim, &scene.all_particles()) : 1;
@@ -229,107 +398,7 @@ int main(int argc, char** argv) {
     progress.finish(sim.time(), sim.last_step().step);
     const long removed = scene.removed();
     if (!ranks.root()) return 0;
-
-    // The series in the experiments' units: T = t sqrt(2g/a) for the front, t sqrt(g/H) and rho g H for the rest.
-    const auto& samples = scene.samples();
-    const double front_scale = dambreak::front_time_scale(p), scale = std::sqrt(p.g / p.height);
-    const double rho_g_h = sim.config().rho * p.g * p.height;
-    std::vector<double> T, x_over_a, t_hat;
-    std::vector<std::vector<double>> levels(p.level_probes.size()), pressures(p.pressure_probes.size());
-    for (const auto& s : samples) {
-      T.push_back(s.time * front_scale);
-      x_over_a.push_back(s.front / p.width);
-      t_hat.push_back(s.time * scale);
-      for (std::size_t k = 0; k < levels.size(); ++k) levels[k].push_back(s.levels[k] / p.height);
-      for (std::size_t k = 0; k < pressures.size(); ++k) pressures[k].push_back(s.pressures[k] / rho_g_h);
-    }
-    mps::write_csv(dir / "front.csv", {"T", "x_over_a"}, {T, x_over_a});
-    std::vector<std::string> level_header{"t_sqrt_g_over_H"}, pressure_header{"t_sqrt_g_over_H"};
-    std::vector<std::vector<double>> level_columns{t_hat}, pressure_columns{t_hat};
-    for (std::size_t k = 0; k < levels.size(); ++k) {
-      level_header.push_back("level_over_H_at_" + short_number(p.level_probes[k]) + "H");
-      level_columns.push_back(levels[k]);
-    }
-    for (std::size_t k = 0; k < pressures.size(); ++k) {
-      pressure_header.push_back("p_over_rho_g_H_at_" + short_number(p.pressure_probes[k]) + "H");
-      pressure_columns.push_back(pressures[k]);
-    }
-    mps::write_csv(dir / "level.csv", level_header, level_columns);
-    mps::write_csv(dir / "pressure.csv", pressure_header, pressure_columns);
-
-    nlohmann::json checks;
-    bool pass = true;
-    // A figure the run could not give (no experimental point within it, no impact yet) is left out, not written NaN.
-    auto put = [](nlohmann::json& to, const std::string& key, double v) {
-      if (std::isfinite(v)) to[key] = v;
-    };
-    if (column == dambreak::Column::classic) {
-      const double e1 = dambreak::max_front_error(samples, p, mm1, 2.5);
-      const double e2 = dambreak::max_front_error(samples, p, mm2, 2.5);
-      const double eko = dambreak::max_front_error(samples, p, ko, 2.5);
-      const double best = std::min(std::isfinite(e1) ? e1 : 1e300, std::isfinite(e2) ? e2 : 1e300);
-      pass = best <= front_tolerance;
-      checks = {{"front_compared_up_to_t_sqrt_2g_over_a", 2.5}, {"front_tolerance", front_tolerance}};
-      put(checks, "martin_moyce_1_front_max_error", e1);
-      put(checks, "martin_moyce_2_front_max_error", e2);
-      put(checks, "koshizuka_oka_front_max_error", eko);
-      // An experiment with no point within the run has no error to print.
-      auto percent = [](double e) {
-        char text[40] = "no point yet";
-        if (std::isfinite(e)) std::snprintf(text, sizeof text, "%.2f %%", 100 * e);
-        return std::string(text);
-      };
-      std::printf("\nsurge front, largest relative error for T <= 2.5: Martin & Moyce %s / %s, Koshizuka & Oka %s "
-                  "(limit %.1f %% against either Martin & Moyce series): %s\n",
-                  percent(e1).c_str(), percent(e2).c_str(), percent(eko).c_str(), 100 * front_tolerance,
-                  pass ? "PASS" : "FAIL");
-    }
-    // Buchner's probe at 0.2 H, in the experiment's own units.
-    std::vector<double> bt, bp;
-    for (const auto& [t, pe] : buchner) {
-      bt.push_back(t);
-      bp.push_back(pe);
-    }
-    for (std::size_t k = 0; k < p.pressure_probes.size(); ++k) {
-      if (column == dambreak::Column::file || std::abs(p.pressure_probes[k] - 0.2) > 1e-12) continue;
-      const dambreak::Impact sim_impact = dambreak::impact(t_hat, pressures[k]);
-      const dambreak::Impact exp_impact = dambreak::impact(bt, bp);
-      // The probe's height is a value, not part of a key: keys hold no dots.
-      nlohmann::json at{{"probe_H", p.pressure_probes[k]}, {"arrived", std::isfinite(sim_impact.arrival)},
-                        {"arrival_buchner_t_sqrt_g_over_H", exp_impact.arrival},
-                        {"first_peak_buchner_over_rho_g_H", exp_impact.peak},
-                        {"noise_buchner_over_range", exp_impact.noise}};
-      put(at, "arrival_t_sqrt_g_over_H", sim_impact.arrival);
-      put(at, "first_peak_over_rho_g_H", sim_impact.peak);
-      put(at, "noise_over_range", sim_impact.noise);
-      checks["impact"] = at;
-      if (std::isfinite(sim_impact.arrival))
-        std::printf("impact at 0.2 H: arrival t sqrt(g/H) = %.3f (Buchner %.3f), first peak %.3f rho g H (Buchner %.3f), "
-                    "noise %.3f of the range (Buchner %.3f)\n",
-                    sim_impact.arrival, exp_impact.arrival, sim_impact.peak, exp_impact.peak, sim_impact.noise,
-                    exp_impact.noise);
-      else
-        std::printf("impact at 0.2 H: the pressure there never reached 0.25 rho g H\n");
-    }
-    if (column == dambreak::Column::file)
-      std::printf("a scene from a particle file: no experiment applies; its front, levels and wall pressure are in "
-                  "front.csv, level.csv and pressure.csv\n");
-    checks["fluid_removed_as_spray_count"] = removed;
-    checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
-    checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
-    write_solves(dir, sim);
-    write_summary(dir,
-                    {{"status", column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
-                     {"parameters", params},
-                     {"particles", {{"fluid", scene.initial_fluid()}, {"total", scene.all_particles().size()}}},
-                     {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
-                     {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
-    std::printf("spray removed: %ld particles; most fluid particles inside a wall at once: %ld; deepest past a wall "
-                "line: %.3f l0\n", removed, scene.most_inside_walls(),
-                std::max(0.0, scene.deepest_past_wall_line() / p.l0));
-    std::printf("outputs: %s (ParaView), front.csv, level.csv, pressure.csv, summary.json in %s\n",
-                series.path().string().c_str(), dir.string().c_str());
-    return pass ? 0 : 2;
+    return report(dir, scene, experiments, o.front_tolerance, removed, params, series);
   } catch (const std::exception& e) {
     if (!ranks.every_rank_failed()) ranks.end_alone(error_message(e));
     ranks.say_error(error_message(e));

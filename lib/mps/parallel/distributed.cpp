@@ -559,35 +559,16 @@ DistributedPpe assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D
   return d;
 }
 
+namespace {
+
+// The owned rows with global numbers: rank by rank in order, the halo's columns numbered by their owners (one refresh
+// of an int field), each row's columns sorted.
 template <int D>
-void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
-                              std::span<const double> source, std::span<const double> dirichlet, double shift,
-                              DistributedPpe& d) {
-  const std::size_t n = s.particles.size();
-  if (n != halo.owned() + halo.copies() || free_surface.size() != n || source.size() != n ||
-      (!dirichlet.empty() && dirichlet.size() != n))
-    throw std::invalid_argument("assemble_distributed_ppe: particles, free-surface flags, source and Dirichlet values "
-                                "must have one entry per particle, owned and halo (" +
-                                std::to_string(halo.owned()) + " + " + std::to_string(halo.copies()) + ")");
-  if (s.kernel.re > halo.radius() || s.neighbors.radius > halo.radius())
-    throw std::invalid_argument("assemble_distributed_ppe: the halo's radius " + std::to_string(halo.radius()) +
-                                " is below the Laplacian's " + std::to_string(std::max(s.kernel.re, s.neighbors.radius)) +
-                                ": owned rows next to another rank would miss neighbours; build the Halo with at least it");
+void number_globally(BasicHalo<D>& halo, std::size_t rows, DistributedPpe& d) {
   const MPI_Comm comm = to_comm(halo.comm());
-  const int me = rank_of(comm), ranks = size_of(comm);
-
-  // The halo's flags and held values as their owners have them: a copy's row is not kept, but whether it is an
-  // unknown or held, and at what, enters the owned rows next to it.
-  std::vector<char> surface(free_surface.begin(), free_surface.end());
-  halo.refresh(surface);
-  std::vector<double> held(dirichlet.begin(), dirichlet.end());
-  if (!held.empty()) halo.refresh(held);
-  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave);
+  const int me = rank_of(comm);
   const PpeSystem& sys = d.local;
-  const std::size_t m = sys.size();
-  std::size_t rows = 0;  // owned particles come first, so their unknowns are the first rows
-  while (rows < m && static_cast<std::size_t>(sys.particle[rows]) < halo.owned()) ++rows;
-
+  const std::size_t m = sys.size(), n = halo.owned() + halo.copies();
   long long local_rows = static_cast<long long>(rows), first = 0, total = 0;
   MPI_Exscan(&local_rows, &first, 1, MPI_LONG_LONG, MPI_SUM, comm);
   if (me == 0) first = 0;
@@ -628,11 +609,18 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
     for (std::size_t k = b; k < e; ++k) std::tie(a.col[k], a.val[k]) = row[k - b];
   }
   d.rhs.assign(sys.rhs.begin(), sys.rhs.begin() + static_cast<std::ptrdiff_t>(rows));
+}
 
-  // Closed groups across ranks. Pieces: connected components of this rank's unknowns (owned and halo: every coupling
-  // between two of them is one of the global system's). A piece is anchored if a row of it is; an owned row sees all
-  // its neighbours, so a group is anchored iff some rank's piece holding its anchored row says so. Pieces are joined
-  // where a halo unknown lies in a piece of its owner's: rank 0 joins them all.
+// Closed groups across ranks: each owned row's group (-1 where a free surface anchors it) and the number of groups.
+// Pieces: connected components of this rank's unknowns (owned and halo: every coupling between two of them is one of
+// the global system's). A piece is anchored if a row of it is; an owned row sees all its neighbours, so a group is
+// anchored iff some rank's piece holding its anchored row says so. Pieces are joined where a halo unknown lies in a
+// piece of its owner's: rank 0 joins them all.
+template <int D>
+std::vector<int> closed_groups_of_rows(BasicHalo<D>& halo, const PpeSystem& sys, std::size_t rows, int& closed_groups) {
+  const MPI_Comm comm = to_comm(halo.comm());
+  const int me = rank_of(comm), ranks = size_of(comm);
+  const std::size_t m = sys.size(), n = halo.owned() + halo.copies();
   std::vector<int> parent(m);
   std::iota(parent.begin(), parent.end(), 0);
   for (std::size_t r = 0; r < m; ++r)
@@ -691,7 +679,7 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
               comm);
   // Rank 0: each piece's closed group (numbered in order of its lowest label), or -1; sent back to the pieces' ranks.
   std::vector<int> all_groups(all_anchored.size(), -1);
-  int closed_groups = 0;
+  closed_groups = 0;
   if (me == 0) {
     std::vector<int> root(all_anchored.size());
     std::iota(root.begin(), root.end(), 0);
@@ -711,14 +699,21 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
   std::vector<int> piece_group(static_cast<std::size_t>(pieces));
   MPI_Scatterv(all_groups.data(), counts.data(), offsets.data(), MPI_INT, piece_group.data(), pieces, MPI_INT, 0, comm);
 
-  // The gauge of ppe.hpp over each closed group as a whole: its rhs mean out, the lowest global member pinned.
-  d.group.assign(rows, -1);
+  std::vector<int> group(rows);
+  for (std::size_t r = 0; r < rows; ++r) group[r] = piece_group[static_cast<std::size_t>(piece_of[r])];
+  return group;
+}
+
+// The gauge of ppe.hpp over each closed group as a whole: its rhs mean out, the lowest global member pinned.
+void gauge_closed_groups(DistributedPpe& d, int closed_groups, MPI_Comm comm) {
+  CsrMatrix& a = d.matrix;
+  const std::size_t rows = d.rows();
+  const long long first = d.first_row;
   std::vector<double> sum(static_cast<std::size_t>(closed_groups), 0.0);
   std::vector<long long> size(sum.size(), 0);
   std::vector<int> lowest(sum.size(), std::numeric_limits<int>::max());
   for (std::size_t r = 0; r < rows; ++r) {
-    const int g = piece_group[static_cast<std::size_t>(piece_of[r])];
-    d.group[r] = g;
+    const int g = d.group[r];
     if (g < 0) continue;
     const auto gg = static_cast<std::size_t>(g);
     sum[gg] += d.rhs[r];
@@ -740,6 +735,40 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
     for (int k = a.row_ptr[r]; k < a.row_ptr[r + 1]; ++k)
       if (a.col[static_cast<std::size_t>(k)] == fg.pinned) a.val[static_cast<std::size_t>(k)] *= 2.0;
   }
+}
+
+}  // namespace
+
+template <int D>
+void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
+                              std::span<const double> source, std::span<const double> dirichlet, double shift,
+                              DistributedPpe& d) {
+  const std::size_t n = s.particles.size();
+  if (n != halo.owned() + halo.copies() || free_surface.size() != n || source.size() != n ||
+      (!dirichlet.empty() && dirichlet.size() != n))
+    throw std::invalid_argument("assemble_distributed_ppe: particles, free-surface flags, source and Dirichlet values "
+                                "must have one entry per particle, owned and halo (" +
+                                std::to_string(halo.owned()) + " + " + std::to_string(halo.copies()) + ")");
+  if (s.kernel.re > halo.radius() || s.neighbors.radius > halo.radius())
+    throw std::invalid_argument("assemble_distributed_ppe: the halo's radius " + std::to_string(halo.radius()) +
+                                " is below the Laplacian's " + std::to_string(std::max(s.kernel.re, s.neighbors.radius)) +
+                                ": owned rows next to another rank would miss neighbours; build the Halo with at least it");
+  // The halo's flags and held values as their owners have them: a copy's row is not kept, but whether it is an
+  // unknown or held, and at what, enters the owned rows next to it.
+  std::vector<char> surface(free_surface.begin(), free_surface.end());
+  halo.refresh(surface);
+  std::vector<double> held(dirichlet.begin(), dirichlet.end());
+  if (!held.empty()) halo.refresh(held);
+  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave);
+  const PpeSystem& sys = d.local;
+  const std::size_t m = sys.size();
+  std::size_t rows = 0;  // owned particles come first, so their unknowns are the first rows
+  while (rows < m && static_cast<std::size_t>(sys.particle[rows]) < halo.owned()) ++rows;
+
+  number_globally(halo, rows, d);
+  int closed_groups = 0;
+  d.group = closed_groups_of_rows(halo, sys, rows, closed_groups);
+  gauge_closed_groups(d, closed_groups, to_comm(halo.comm()));
 }
 
 template <int D>

@@ -293,13 +293,22 @@ DuctRun run_duct(int across, double t_end) {
 
 // The square duct at 10 across, developed (t = 3 s, six times the slowest mode's a^2 / (2 pi^2 nu) = 0.51 s): every
 // fluid particle's velocity within 2.5 % of the series' peak. The error falls about as l0 (measured 2.24 % at 10
-// across, 1.14 % at 16); the 20-across run of docs/method.md is within 1 %. Early in the start-up the explicit step
-// lags by about one dt (5.6 % at t = 0.5 s, 25 steps), which is why the developed state is compared.
+// across, 1.14 % at 16). Early in the start-up the explicit step lags by about one dt (5.6 % at t = 0.5 s, 25 steps),
+// which is why the developed state is compared.
 TEST(ThreeD, SquareDuctDevelopsTheSeriesSolutionsProfile) {
   const DuctRun r = run_duct(10, 3.0);
   std::printf("duct, 10 across, t = 3 s: largest error %.3g m/s of a peak %.3g m/s (%.2f %%)\n", r.largest_error,
               r.peak, 100 * r.largest_error / r.peak);
   EXPECT_LT(r.largest_error, 0.025 * r.peak);
+}
+
+// The target, 1 % at 20 across; it fails today (1.27 %, docs/method.md). Minutes, so run by hand:
+//   build/release/tests/mps_tests --gtest_also_run_disabled_tests --gtest_filter=ThreeD.DISABLED_SquareDuct*
+TEST(ThreeD, DISABLED_SquareDuctAt20AcrossIsWithinOnePercent) {
+  const DuctRun r = run_duct(20, 3.0);
+  std::printf("duct, 20 across, t = 3 s: largest error %.3g m/s of a peak %.3g m/s (%.2f %%)\n", r.largest_error,
+              r.peak, 100 * r.largest_error / r.peak);
+  EXPECT_LT(r.largest_error, 0.01 * r.peak);
 }
 
 // RigidMotion3 turns a wall group about an axis through a point and shifts it. Checked against what does not depend

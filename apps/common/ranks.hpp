@@ -1,5 +1,5 @@
 #pragma once
-// An app started by mpirun runs its scene on the ranks (mps::DistributedSimulation, docs/scaling.md); started
+// An app started by mpirun runs its scene on the ranks (an mps::RankExchange, docs/scaling.md); started
 // plainly, or on one rank, it is the serial app and never starts MPI itself.
 #include <CLI/CLI.hpp>
 #include <mpi.h>

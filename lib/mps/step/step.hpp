@@ -127,8 +127,7 @@ struct BasicStepFields {
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees
   /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis
   std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
-  /// @{ scratch
-  std::vector<double> pressure, residual;  /// @}
+  std::vector<double> residual;  ///< scratch: P - offset for the corrector
 };
 using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
 

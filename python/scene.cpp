@@ -211,65 +211,35 @@ struct Field {
   std::string doc;
 };
 
-Field number(const char* name, double Config::*m, const char* doc) {
-  return {name, [m](const Config& c) { return py::object(py::float_(c.*m)); },
-          [m, name](Config& c, py::handle v) { c.*m = as_number(v, name); }, doc};
+// A Python value as a field of type T (the schema's types), and back.
+template <class T>
+py::object python_value(const T& v) {
+  if constexpr (std::is_same_v<T, mps::Weight> || std::is_same_v<T, mps::GradientVariant>)
+    return py::str(std::string(mps::to_string(v)));
+  else return py::cast(v);
 }
-Field flag(const char* name, bool Config::*m, const char* doc) {
-  return {name, [m](const Config& c) { return py::object(py::bool_(c.*m)); },
-          [m, name](Config& c, py::handle v) { c.*m = as_bool(v, name); }, doc};
-}
-Field text(const char* name, std::string Config::*m, const char* doc) {
-  return {name, [m](const Config& c) { return py::object(py::str(c.*m)); },
-          [m, name](Config& c, py::handle v) { c.*m = as_string(v, name); }, doc};
+template <class T>
+T field_value(py::handle v, const char* name) {
+  if constexpr (std::is_same_v<T, double>) return as_number(v, name);
+  else if constexpr (std::is_same_v<T, int>) return as_int(v, name);
+  else if constexpr (std::is_same_v<T, bool>) return as_bool(v, name);
+  else if constexpr (std::is_same_v<T, std::string>) return as_string(v, name);
+  else if constexpr (std::is_same_v<T, mps::Weight>) return mps::parse_weight(as_string(v, name));
+  else return mps::gradient_variant_from_name(as_string(v, name));
 }
 
-// mps::SimulationConfig's fields, in its order (lib/mps/step/step.hpp has the reasons behind the defaults).
+// mps::SimulationConfig's fields as its schema lists them (mps::for_each_parameter, lib/mps/step/config.hpp).
 const std::vector<Field>& config_fields() {
-  static const std::vector<Field> fields = {
-      number("l0", &Config::l0, "initial particle spacing [m] (required)"),
-      number("radius_density", &Config::radius_density, "number density (source) kernel radius [l0]"),
-      number("radius_surface", &Config::radius_surface, "free-surface detection kernel radius [l0]"),
-      number("radius_gradient", &Config::radius_gradient, "gradient and divergence kernel radius [l0]"),
-      number("radius_laplacian", &Config::radius_laplacian, "Laplacian (PPE, viscosity) kernel radius [l0]"),
-      {"weight", [](const Config& c) { return py::object(py::str(std::string(mps::to_string(c.weight)))); },
-       [](Config& c, py::handle v) { c.weight = mps::parse_weight(as_string(v, "weight")); },
-       "'bounded' (seed 004) or 'classic' (re/r - 1)"},
-      number("rho", &Config::rho, "density [kg/m^3]"),
-      number("nu", &Config::nu, "kinematic viscosity [m^2/s]"),
-      number("fx", &Config::fx, "body force per unit mass, x [m/s^2]"),
-      number("fy", &Config::fy, "body force per unit mass, y [m/s^2]"),
-      number("gamma", &Config::gamma, "mixed source weight: 1 number density error only, 0 divergence only"),
-      number("beta", &Config::beta, "free surface: n* < beta n0 ..."),
-      number("theta", &Config::theta, "... and fewer than theta N0 neighbours (0: density test only)"),
-      number("dt_max", &Config::dt_max, "the time step when neither the CFL nor the viscous limit binds [s]"),
-      number("cfl", &Config::cfl, "dt <= cfl l0 / |u|max"),
-      number("viscous_number", &Config::viscous_number, "dt <= viscous_number l0^2 / nu (explicit viscosity)"),
-      flag("implicit_viscosity", &Config::implicit_viscosity, "solve the viscous predictor implicitly"),
-      text("viscosity_solver", &Config::viscosity_solver, "solver spec of the implicit viscosity"),
-      flag("initial_reference_density", &Config::initial_reference_density,
-           "source against each particle's t = 0 number density instead of the lattice n0"),
-      {"pressure_gradient",
-       [](const Config& c) { return py::object(py::str(std::string(mps::to_string(c.pressure_gradient)))); },
-       [](Config& c, py::handle v) {
-         c.pressure_gradient = mps::gradient_variant_from_name(as_string(v, "pressure_gradient"));
-       },
-       "plain, min-reference, corrected, corrected-min-reference or conservative"},
-      flag("min_reference_tilt", &Config::min_reference_tilt, "min-reference of P - rho f.r instead of P"),
-      flag("hydrostatic_split", &Config::hydrostatic_split, "solve for P - rho f.r (with min_reference_tilt)"),
-      number("sound_speed", &Config::sound_speed, "artificial sound speed [m/s] (0: incompressible)"),
-      number("shifting", &Config::shifting, "particle shifting coefficient (0: off)"),
-      flag("shift_along_free_surface", &Config::shift_along_free_surface, "shift surface particles along it"),
-      flag("clamp_negative_pressure", &Config::clamp_negative_pressure, "P < 0 -> 0 where a free surface is near"),
-      {"reorder_every", [](const Config& c) { return py::object(py::int_(c.reorder_every)); },
-       [](Config& c, py::handle v) { c.reorder_every = as_int(v, "reorder_every"); },
-       "steps between reorderings of the particles by cell (0: never)"},
-      number("max_displacement", &Config::max_displacement, "guard: largest move in one step [l0]"),
-      number("max_speed", &Config::max_speed, "guard: largest speed [m/s]"),
-      text("dt_option", &Config::dt_option, "the host's option for the time step, named in the guard's advice"),
-      text("solver", &Config::solver, "pressure solver spec (default 'auto')"),
-      flag("warm_start", &Config::warm_start, "start each solve from the previous pressure"),
-  };
+  static const std::vector<Field> fields = [] {
+    std::vector<Field> out;
+    mps::for_each_parameter([&out]<class T>(const mps::Parameter<T>& p) {
+      std::string doc = p.doc;
+      if (*p.unit) doc += " [" + std::string(p.unit) + "]";
+      out.push_back({p.name, [m = p.member](const Config& c) { return python_value(c.*m); },
+                     [m = p.member, name = p.name](Config& c, py::handle v) { c.*m = field_value<T>(v, name); }, doc});
+    });
+    return out;
+  }();
   return fields;
 }
 
@@ -620,7 +590,7 @@ void bind_scene(py::module_& m) {
   def_array(particles_class, "p", &mps::Particles::p, "pressure [Pa]");
 
   std::string config_doc =
-      "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step/step.hpp and docs/step.md give each\n"
+      "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step/config.hpp and docs/step.md give each\n"
       "default's reason). SimulationConfig(**fields); a misspelt field is a ValueError naming it.\n\nFields:\n";
   for (const Field& f : config_fields()) config_doc += "  " + f.name + ": " + f.doc + "\n";
   py::class_<Config> config_class(m, "SimulationConfig", config_doc.c_str());

@@ -181,7 +181,8 @@ int main(int argc, char** argv) {
         {"poisson", p.poisson_ratio}, {"density_kg_per_m3", p.density}, {"solid_cfl", p.solid_cfl},
         {"relaxation", p.relaxation}, {"wet_walls", p.wet_walls},
         {"pressure_gradient", mps::to_string(p.pressure_gradient)}, {"cfl", p.cfl},
-        {"end_time_s", p.end_time}, {"solver", sim.solver().spec()}, {"hydrostatic_split", false},
+        {"end_time_s", p.end_time}, {"solver", sim.solver().spec()},
+        {"simulation_config", mps::config_json(sim.config())},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"}};
     std::cout << parameter_table(
         "fsi, " + o.scene_name + (p.rigid ? " (rigid): " : " (elastic): ") +

@@ -29,9 +29,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::BasicSimulation<D>&
           {"width_m", p.width}, {"height_m", p.water_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
           {"beta", c.beta}, {"dt_s", p.dt}, {"end_time_s", p.end_time}, {"window_s", p.window},
           {"band_l0", p.band}, {"g_m_per_s2", p.g}, {"rho_kg_per_m3", c.rho}, {"nu_m2_per_s", c.nu},
-          {"radii", {{"density_l0", c.radius_density}, {"surface_l0", c.radius_surface},
-                     {"gradient_l0", c.radius_gradient}, {"laplacian_l0", c.radius_laplacian}}},
-          {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"simulation_config", mps::config_json(c)}, {"solver", sim.solver().spec()},
           {"physics_on", {"gravity", "viscosity (explicit)", "free surface"}},
           {"wall_layers", 1}, {"dummy_layers", 4}};
 }

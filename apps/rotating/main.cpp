@@ -47,9 +47,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim
                                                                                               : "corrected-min-reference"},
           {"reference_number_density", p.initial_reference ? "initial packing" : "lattice n0"}, {"cfl", c.cfl}, {"viscous_number", c.viscous_number}, {"dt_factor", p.dt_factor}, {"shifting", p.shifting},
           {"times_s", times}, {"average_fraction", average},
-          {"radii", {{"density_l0", c.radius_density}, {"gradient_l0", c.radius_gradient},
-                     {"laplacian_l0", c.radius_laplacian}}},
-          {"weight", mps::to_string(c.weight)}, {"solver", sim.solver().spec()},
+          {"simulation_config", mps::config_json(c)}, {"solver", sim.solver().spec()},
           {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
           {"walls", p.mirror ? "mirror velocities on the circles" : "plain (wall velocity)"},
           {"physics_on", physics}};

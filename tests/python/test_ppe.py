@@ -179,7 +179,7 @@ def test_bad_particles_raise_clear_errors():
         sparsemps.assemble_ppe([0.0, np.nan], [0.0, 0.0], [0, 0], [0, 0], [0, 0], dt=1e-3, l0=0.01)
     with pytest.raises(ValueError, match=r"dt must be positive"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=0.0, l0=0.01)
-    with pytest.raises(ValueError, match=r"particle spacing l0 must be positive"):
+    with pytest.raises(ValueError, match=r"l0 must be positive \(in m\), got 0"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3)
     with pytest.raises(ValueError, match=r"no field 'gama'"):
         sparsemps.assemble_ppe([0.0], [0.0], [0], [0], [0], dt=1e-3, l0=0.01, gama=0.5)

@@ -273,6 +273,23 @@ void write_vtp(const fs::path& path, const BasicParticles<D>& p, double time,
   });
 }
 
+nlohmann::json config_json(const SimulationConfig& config) {
+  // The schema's units as the summaries' key suffixes (docs/summary.schema.json).
+  static const std::map<std::string, std::string> suffix{
+      {"m", "_m"},           {"l0", "_l0"},   {"s", "_s"},         {"m/s", "_m_per_s"}, {"m/s^2", "_m_per_s2"},
+      {"kg/m^3", "_kg_per_m3"}, {"m^2/s", "_m2_per_s"}, {"steps", "_steps"}, {"", ""}};
+  nlohmann::json out = nlohmann::json::object();
+  for_each_parameter([&]<class T>(const Parameter<T>& p) {
+    const std::string key = p.name + suffix.at(p.unit);
+    if constexpr (std::is_same_v<T, Weight> || std::is_same_v<T, GradientVariant>)
+      out[key] = std::string(to_string(config.*p.member));
+    else if constexpr (std::is_same_v<T, double>)  // the guard's infinity (off) as JSON's null, as dump() writes it
+      out[key] = std::isfinite(config.*p.member) ? nlohmann::json(config.*p.member) : nlohmann::json(nullptr);
+    else out[key] = config.*p.member;
+  });
+  return out;
+}
+
 PvdSeries::PvdSeries(fs::path pvd_path) : path_(std::move(pvd_path)) {}
 
 void PvdSeries::add(double time, const fs::path& frame_path) {

@@ -16,6 +16,7 @@
 
 #include "mps/core/csr.hpp"
 #include "mps/core/particles.hpp"
+#include "mps/step/config.hpp"
 
 namespace mps {
 
@@ -62,6 +63,9 @@ void write_csv(const std::filesystem::path& path, const std::vector<std::string>
                const std::vector<std::vector<double>>& columns);
 
 void write_json(const std::filesystem::path& path, const nlohmann::json& value);  ///< indented, as a whole file
+/// Every field of the config from its schema (for_each_parameter), each key ending in its unit as the summaries'
+/// naming rule has it ("l0_m", "radius_density_l0", "nu_m2_per_s", "gamma"): what an app's summary records.
+nlohmann::json config_json(const SimulationConfig& config);
 void write_text(const std::filesystem::path& path, const std::string& text);      ///< the text as a whole file
 
 /// Matrix Market "coordinate real general", 17 significant digits, so a read returns the same matrix.

@@ -22,10 +22,6 @@ using Index = std::ptrdiff_t;
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-void require(bool ok, const std::string& message) {
-  if (!ok) throw std::invalid_argument("simulation config: " + message);
-}
-
 std::string fmt(double v) {
   std::ostringstream s;
   s << v;
@@ -113,34 +109,6 @@ const char* to_string(Stage stage) {
     case Stage::finish: return "finish";
   }
   return "unknown stage";
-}
-
-void SimulationConfig::validate() const {
-  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
-  require(positive(l0), "particle spacing l0 must be positive, got " + fmt(l0));
-  const auto radius_in_range = [](double re, const char* name) {
-    require(re > 1.0 && re <= kMaxRadius,
-            std::string(name) + " must be in (1, " + fmt(kMaxRadius) + "] (in l0), got " + fmt(re));
-  };
-  radius_in_range(radius_density, "radius_density");
-  radius_in_range(radius_surface, "radius_surface");
-  radius_in_range(radius_gradient, "radius_gradient");
-  radius_in_range(radius_laplacian, "radius_laplacian");
-  require(positive(rho), "density rho must be positive, got " + fmt(rho));
-  require(nu >= 0.0 && std::isfinite(nu), "viscosity nu must be >= 0, got " + fmt(nu));
-  require(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(fz), "body force must be finite");
-  require(gamma >= 0.0 && gamma <= 1.0, "gamma must be in [0, 1], got " + fmt(gamma));
-  require(beta > 0.0 && beta < 1.0, "beta must be in (0, 1), got " + fmt(beta));
-  require(theta >= 0.0 && theta <= 1.0, "theta must be in [0, 1], got " + fmt(theta));
-  require(positive(dt_max), "time step dt_max must be positive, got " + fmt(dt_max));
-  require(positive(cfl), "cfl must be positive, got " + fmt(cfl));
-  require(positive(viscous_number), "viscous_number must be positive, got " + fmt(viscous_number));
-  require(shifting >= 0.0 && std::isfinite(shifting), "shifting must be >= 0 (0: off), got " + fmt(shifting));
-  require(reorder_every >= 0, "reorder_every must be >= 0");
-  require(positive(max_displacement), "max_displacement must be positive (in l0)");
-  require(max_speed > 0.0, "max_speed must be positive");
-  require(sound_speed >= 0.0 && std::isfinite(sound_speed),
-          "sound_speed must be >= 0 (0: incompressible), got " + fmt(sound_speed));
 }
 
 template <int D>

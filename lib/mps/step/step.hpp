@@ -21,68 +21,10 @@
 #include "mps/numerics/operators.hpp"
 #include "mps/numerics/ppe.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/step/config.hpp"
 #include "mps/step/exchange.hpp"
 
 namespace mps {
-
-/// The physics and numerics of a run; docs/step.md gives the reason and the measurement behind each default.
-struct SimulationConfig {
-  double l0 = 0;  ///< initial particle spacing [m]
-  /// @{ Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1
-  /// Laplacian, short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
-  double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;  /// @}
-  Weight weight = Weight::bounded;  ///< the weight function of every kernel
-  double rho = 1000.0;          ///< density [kg/m^3]
-  double nu = 1e-6;             ///< kinematic viscosity [m^2/s]
-  /// @{ body force per unit mass [m/s^2] (fz: 3-D only, 0 in 2-D)
-  double fx = 0.0, fy = 0.0, fz = 0.0;  /// @}
-  double gamma = 0.99;          ///< mixed source weight: 1 = number density error only, 0 = divergence only
-  double beta = 0.97;           ///< free surface: n* < beta n0 ...
-  double theta = 0.85;          ///< ... and fewer than theta N0 neighbours (0: density test only)
-  double dt_max = 0;            ///< the time step when neither limit below binds [s]
-  double cfl = 0.2;             ///< dt <= cfl l0 / |u|max
-  double viscous_number = 0.2;  ///< dt <= viscous_number l0^2 / nu (explicit viscosity)
-  /// Implicit viscosity: (I - dt nu L) u* = u^n + dt f, solved with `viscosity_solver`; drops the viscous limit.
-  bool implicit_viscosity = false;
-  std::string viscosity_solver = "eigen-cg:precond=jacobi";  ///< solver spec for the implicit viscous systems
-  /// Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
-  /// the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
-  bool initial_reference_density = false;
-  GradientVariant pressure_gradient = GradientVariant::min_reference;  ///< the pressure gradient's form
-  /// Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
-  /// destabilises a liquid at rest under gravity).
-  bool min_reference_tilt = true;
-  /// With min_reference_tilt: the body force along non-periodic axes is balanced by P_h = rho f_h . r exactly and
-  /// the PPE solves for P - P_h (component HydrostaticSplit), so a liquid at rest is an equilibrium on any packing.
-  bool hydrostatic_split = true;
-  /// Artificial sound speed [m/s] (0: incompressible): the PPE becomes (-lap + 1/(c dt)^2) P = -source, so a long
-  /// channel's coherent density error is not expelled within one step.
-  double sound_speed = 0;
-  /// Particle shifting coefficient A (0: off; component ParticleShifting): fluid away from free surfaces moves down
-  /// the concentration gradient with diffusion A l0 |u|max dt, at most 0.2 l0 per step.
-  double shifting = 0;
-  /// With shifting: particles on or next to a free surface shift too, along it only (Lind et al. 2012).
-  bool shift_along_free_surface = false;
-  bool clamp_negative_pressure = true;  ///< P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
-  int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
-  double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
-  double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]
-  /// The host program's option for the time step, named in the guard's advice (e.g. --dt-factor).
-  std::string dt_option;
-  /// The pressure solver's spec. "auto" picks Jacobi-CG or reused AMG-PCG per solve by a fixed rule (docs/solvers.md);
-  /// "eigen-cg" (incomplete-Cholesky CG) is the classic MPS baseline.
-  std::string solver = "auto";
-  /// Initial guess of each pressure solve: the previous step's pressure (true) or zeros (false, the classic baseline).
-  bool warm_start = true;
-
-  void validate() const;  ///< throws std::invalid_argument naming the bad parameter and its valid range
-  /// The body force as a vector of a D-dimensional run.
-  template <int D>
-  [[nodiscard]] Vec<D> body_force() const {
-    if constexpr (D == 2) return {fx, fy};
-    else return {fx, fy, fz};
-  }
-};
 
 /// What the last step did.
 struct StepInfo {

@@ -81,7 +81,8 @@ py::array_t<std::uint8_t> kinds_to_numpy(const std::vector<mps::Kind>& kinds) {
   return out;
 }
 
-unsigned sides_of(py::handle obj) {
+// Names from 'a|b,c' or a list of names.
+std::vector<std::string> words_of(py::handle obj) {
   std::vector<std::string> names;
   if (py::isinstance<py::str>(obj)) {
     std::string text = obj.cast<std::string>();
@@ -91,8 +92,12 @@ unsigned sides_of(py::handle obj) {
   } else {
     for (py::handle item : obj) names.push_back(py::str(item).cast<std::string>());
   }
+  return names;
+}
+
+unsigned sides_of(py::handle obj) {
   unsigned sides = 0;
-  for (const std::string& name : names) {
+  for (const std::string& name : words_of(obj)) {
     if (name == "left") sides |= mps::left;
     else if (name == "right") sides |= mps::right;
     else if (name == "bottom") sides |= mps::bottom;
@@ -104,24 +109,45 @@ unsigned sides_of(py::handle obj) {
 
 std::string type_name(py::handle obj) { return py::str(py::type::of(obj).attr("__name__")).cast<std::string>(); }
 
-// Four numbers from a tuple or list; `what` and `form` name it in the messages.
-std::vector<double> four_numbers(py::handle obj, const std::string& what, const std::string& form) {
+// `count` numbers from a tuple or list; `what` and `form` name it in the messages.
+std::vector<double> numbers(py::handle obj, std::size_t count, const std::string& what, const std::string& form) {
   std::vector<double> v;
   try {
     v = obj.cast<std::vector<double>>();
   } catch (const py::cast_error&) {
     throw py::type_error(what + " must be " + form + ", got " + type_name(obj));
   }
-  if (v.size() != 4)
+  if (v.size() != count)
     throw py::value_error(what + " must be " + form + ", got " + std::to_string(v.size()) + " numbers");
   return v;
 }
 
 mps::Rect rect_of(py::handle obj, const char* what) {
-  const std::vector<double> v = four_numbers(obj, what, "(x0, y0, x1, y1)");
+  const std::vector<double> v = numbers(obj, 4, what, "(x0, y0, x1, y1)");
   for (const double c : v)
     if (!std::isfinite(c)) throw py::value_error(std::string(what) + " holds " + repr(c) + "; give finite coordinates");
   return {v[0], v[1], v[2], v[3]};
+}
+
+mps::Box box_of(py::handle obj, const char* what) {
+  const std::vector<double> v = numbers(obj, 6, what, "(x0, y0, z0, x1, y1, z1)");
+  for (const double c : v)
+    if (!std::isfinite(c)) throw py::value_error(std::string(what) + " holds " + repr(c) + "; give finite coordinates");
+  return {v[0], v[1], v[2], v[3], v[4], v[5]};
+}
+
+unsigned faces_of(py::handle obj) {
+  static const std::map<std::string, unsigned> names{{"x_low", mps::x_low}, {"x_high", mps::x_high},
+                                                     {"y_low", mps::y_low}, {"y_high", mps::y_high},
+                                                     {"z_low", mps::z_low}, {"z_high", mps::z_high}};
+  unsigned faces = 0;
+  for (const std::string& name : words_of(obj)) {
+    const auto it = names.find(name);
+    if (it == names.end())
+      throw py::value_error("unknown face '" + name + "'; valid: x_low, x_high, y_low, y_high, z_low, z_high");
+    faces |= it->second;
+  }
+  return faces;
 }
 
 // As the apps refuse a run too large (apps/common/checks.hpp), before anything is allocated: more particles than 2e7
@@ -144,22 +170,131 @@ void check_particle_count(double added, std::size_t existing, const std::string&
 // Lattice cells along a length, as mps::geometry counts them (rounded), in floating point so that nothing overflows.
 double cells(double length, double l0) { return std::max(0.0, std::round(length / l0)); }
 
-// A per-particle double array: a copy out, and a checked copy in.
-void def_array(py::class_<mps::Particles>& c, const char* name, std::vector<double> mps::Particles::*member,
-               const char* doc) {
-  c.def_property(
-      name, [member](const mps::Particles& p) { return to_numpy(p.*member); },
-      [member, name](mps::Particles& p, py::handle values) {
-        p.*member = to_finite_doubles(values, name, static_cast<py::ssize_t>(p.size()));
-      },
-      doc);
+// The particles' own field list (BasicParticles::for_each_field) as properties: a NumPy copy out, a checked copy in
+// (doubles finite, kinds 0-3 or one name for all); id is read-only. A field added to the list appears here by itself.
+const char* field_doc(std::string_view name) {
+  if (name.size() == 1 && std::string_view("xyz").find(name[0]) != std::string_view::npos) return "position [m]";
+  if (name.size() == 1 && std::string_view("uvw").find(name[0]) != std::string_view::npos) return "velocity [m/s]";
+  if (name == "p") return "pressure [Pa]";
+  if (name == "kind") return "uint8 array: 0 fluid, 1 wall, 2 dummy, 3 ghost";
+  if (name == "group") return "user tag, e.g. which wall moves with which motion";
+  if (name == "id") return "index at creation: follows the particle through reorderings";
+  return "per-particle array";
 }
 
-mps::Domain domain_of(py::handle obj) {
-  if (py::isinstance<mps::Domain>(obj)) return obj.cast<mps::Domain>();
-  const std::vector<double> v =
-      four_numbers(obj, "the domain", "a sparsemps.Domain or a 4-tuple (xmin, xmax, ymin, ymax)");
-  const mps::Domain d{v[0], v[1], v[2], v[3]};
+template <class T>
+py::object field_to_python(const std::vector<T>& v) {
+  if constexpr (std::is_same_v<T, mps::Kind>) return kinds_to_numpy(v);
+  else return to_numpy(v);
+}
+
+template <class T>
+void field_from_python(std::vector<T>& field, py::handle values, const char* name, std::size_t n) {
+  if constexpr (std::is_same_v<T, double>) field = to_finite_doubles(values, name, static_cast<py::ssize_t>(n));
+  else if constexpr (std::is_same_v<T, mps::Kind>) field = kinds_of(values, n);
+  else field = to_ints(values, name, static_cast<py::ssize_t>(n));
+}
+
+// An (N, D) array of finite numbers as D columns; n >= 0 demands N = n.
+template <int D>
+std::array<std::vector<double>, D> columns_of(py::handle obj, const std::string& what, py::ssize_t n = -1) {
+  if (!py::isinstance<py::array>(obj) && !py::isinstance<py::sequence>(obj))
+    throw py::type_error(what + " must be an array of shape (N, " + std::to_string(D) + "), got " + type_name(obj));
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || a.ndim() != 2 || a.shape(1) != D || (n >= 0 && a.shape(0) != n)) {
+    std::string shape = "(";
+    for (py::ssize_t k = 0; a && k < a.ndim(); ++k) shape += (k ? ", " : "") + std::to_string(a.shape(k));
+    throw py::value_error(what + " must have shape (" + (n >= 0 ? std::to_string(n) : std::string("N")) + ", " +
+                          std::to_string(D) + "), got " + (a ? shape + (a.ndim() == 1 ? ",)" : ")") : "no array"));
+  }
+  std::array<std::vector<double>, D> out;
+  const auto v = a.template unchecked<2>();
+  for (std::size_t d = 0; d < D; ++d) {
+    out[d].resize(static_cast<std::size_t>(a.shape(0)));
+    for (py::ssize_t i = 0; i < a.shape(0); ++i) {
+      const double value = v(i, static_cast<py::ssize_t>(d));
+      if (!std::isfinite(value))
+        throw py::value_error(what + "[" + std::to_string(i) + ", " + std::to_string(d) + "] is " + repr(value) +
+                              ": every entry must be a finite number");
+      out[d][static_cast<std::size_t>(i)] = value;
+    }
+  }
+  return out;
+}
+
+template <int D, class Columns>
+py::array_t<double> rows_of(const Columns& columns, std::size_t n) {
+  py::array_t<double> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(D)});
+  auto a = out.template mutable_unchecked<2>();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t d = 0; d < D; ++d) a(static_cast<py::ssize_t>(i), static_cast<py::ssize_t>(d)) = (*columns[d])[i];
+  return out;
+}
+
+template <int D>
+void def_fields(py::class_<mps::BasicParticles<D>>& c) {
+  using P = mps::BasicParticles<D>;
+  P().for_each_field([&c]<class T>(const char* name, const std::vector<T>&) {
+    auto get = [name](const P& p) {
+      py::object out;
+      p.for_each_field([&]<class U>(const char* n, const std::vector<U>& v) {
+        if (std::string_view(n) == name) out = field_to_python(v);
+      });
+      return out;
+    };
+    if (std::string_view(name) == "id") {
+      c.def_property_readonly(name, get, field_doc(name));
+      return;
+    }
+    c.def_property(
+        name, get,
+        [name](P& p, py::handle values) {
+          const std::size_t n = p.size();
+          p.for_each_field([&]<class U>(const char* f, std::vector<U>& v) {
+            if (std::string_view(f) == name) field_from_python(v, values, name, n);
+          });
+        },
+        field_doc(name));
+  });
+  const std::string shape = "(N, " + std::to_string(D) + ")";
+  c.def_property(
+      "positions", [](const P& p) { return rows_of<D>(p.positions(), p.size()); },
+      [](P& p, py::handle values) {
+        auto columns = columns_of<D>(values, "positions", static_cast<py::ssize_t>(p.size()));
+        for (std::size_t d = 0; d < D; ++d) *p.positions()[d] = std::move(columns[d]);
+      },
+      ("positions as an array of shape " + shape + " [m] (a copy; assigning one sets them all)").c_str());
+  c.def_property(
+      "velocities", [](const P& p) { return rows_of<D>(p.velocities(), p.size()); },
+      [](P& p, py::handle values) {
+        auto columns = columns_of<D>(values, "velocities", static_cast<py::ssize_t>(p.size()));
+        for (std::size_t d = 0; d < D; ++d) *p.velocities()[d] = std::move(columns[d]);
+      },
+      ("velocities as an array of shape " + shape + " [m/s] (a copy; assigning one sets them all)").c_str());
+  c.def("__len__", &P::size);
+  c.def("count", [](const P& p, py::handle kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
+        "How many particles are of this kind.");
+  c.def("__repr__", [](const P& p) {
+    return std::string(D == 2 ? "Particles(" : "Particles3(") + std::to_string(p.size()) + ": " +
+           std::to_string(p.count(mps::Kind::fluid)) + " fluid, " + std::to_string(p.count(mps::Kind::wall)) +
+           " wall, " + std::to_string(p.count(mps::Kind::dummy)) + " dummy, " +
+           std::to_string(p.count(mps::Kind::ghost)) + " ghost)";
+  });
+}
+
+template <int D = 2>
+mps::BasicDomain<D> domain_of(py::handle obj) {
+  if (py::isinstance<mps::BasicDomain<D>>(obj)) return obj.cast<mps::BasicDomain<D>>();
+  mps::BasicDomain<D> d;
+  if constexpr (D == 2) {
+    const std::vector<double> v =
+        numbers(obj, 4, "the domain", "a sparsemps.Domain or a 4-tuple (xmin, xmax, ymin, ymax)");
+    d = {v[0], v[1], v[2], v[3]};
+  } else {
+    const std::vector<double> v =
+        numbers(obj, 6, "the domain", "a sparsemps.Domain3 or a 6-tuple (xmin, xmax, ymin, ymax, zmin, zmax)");
+    d = {v[0], v[1], v[2], v[3], v[4], v[5]};
+  }
   d.validate();
   return d;
 }
@@ -285,11 +420,12 @@ struct Ppe {
 
 // Copies the step's fields at the last hook before assembly (components run in the order added, so it sees the
 // source and held values every earlier component set).
-class Recorder : public mps::StepComponent {
+template <int D>
+class Recorder : public mps::BasicStepComponent<D> {
  public:
   explicit Recorder(std::shared_ptr<Ppe> out) : out_(std::move(out)) {}
-  void before_assembly(mps::StepContext& c) override {
-    const mps::StepFields& f = c.fields;
+  void before_assembly(mps::BasicStepContext<D>& c) override {
+    const mps::BasicStepFields<D>& f = c.fields;
     Ppe& o = *out_;
     o.kind = c.particles.kind;
     o.surface = f.surface;
@@ -307,7 +443,7 @@ class Recorder : public mps::StepComponent {
 
 // The particles at r* with velocities u*, whatever the predictor made of them; wrapped onto periodic axes as the
 // predictor wraps r*, so that r + dt u* given unwrapped lands where the step puts it.
-class Injector final : public Recorder {
+class Injector final : public Recorder<2> {
  public:
   Injector(std::shared_ptr<Ppe> out, const mps::Particles& star) : Recorder(std::move(out)), star_(star) {}
   void after_predictor(mps::StepContext& c) override {
@@ -331,33 +467,36 @@ const char* ppe_doc =
     "Per-unknown arrays are in unknown order, per-particle arrays in the particles' order of that step.";
 
 // The scene components that need no callback, with the ranges the apps accept.
-void add_asymmetry_surface(mps::Simulation& sim, double fraction) {
+template <int D>
+void add_asymmetry_surface(mps::BasicSimulation<D>& sim, double fraction) {
   if (!(fraction > 0.0 && fraction <= 10.0))
     throw py::value_error("asymmetry fraction must be in (0, 10], got " + std::to_string(fraction));
-  sim.add<mps::AsymmetrySurface>(fraction);
+  sim.template add<mps::BasicAsymmetrySurface<D>>(fraction);
 }
 
-void add_particle_collision(mps::Simulation& sim, double distance, double restitution) {
+template <int D>
+void add_particle_collision(mps::BasicSimulation<D>& sim, double distance, double restitution) {
   if (!(distance > 0.0 && distance < 1.0))
     throw py::value_error("collision distance must be in (0, 1) l0, got " + std::to_string(distance));
   if (!(restitution >= 0.0 && restitution <= 1.0))
     throw py::value_error("restitution must be in [0, 1], got " + std::to_string(restitution));
-  sim.add<mps::ParticleCollision>(distance, restitution);
+  sim.template add<mps::BasicParticleCollision<D>>(distance, restitution);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
 // The simulation, with a lock so that a step running without the GIL is never overlapped by another call.
 
+template <int D>
 struct Simulation {
-  std::unique_ptr<mps::Simulation> sim;
+  std::unique_ptr<mps::BasicSimulation<D>> sim;
   std::shared_ptr<Ppe> recorded = std::make_shared<Ppe>();
   mutable std::mutex mutex;
 
   // The recorder goes first among the scene's components: those offered here do not hook before_assembly, so it
   // still sees every field as the assembly does.
-  Simulation(const mps::Particles& particles, const mps::Domain& domain, const Config& config)
-      : sim(std::make_unique<mps::Simulation>(particles, domain, config)) {
-    sim->add<Recorder>(recorded);
+  Simulation(const mps::BasicParticles<D>& particles, const mps::BasicDomain<D>& domain, const Config& config)
+      : sim(std::make_unique<mps::BasicSimulation<D>>(particles, domain, config)) {
+    sim->template add<Recorder<D>>(recorded);
   }
 
   template <class F>
@@ -375,7 +514,8 @@ struct Simulation {
 
 // A run that cannot advance, or one too long to be meant (the apps' bound, apps/common/checks.hpp), is refused before
 // the first step: end_time NaN or Inf ran until the guard tripped, end_time in the past or steps < 1 returned silently.
-void check_run(const Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
+template <int D>
+void check_run(const Simulation<D>& s, std::optional<double> end_time, std::optional<long long> steps) {
   constexpr double kMaxSteps = 1e8;
   if (!end_time && !steps) throw py::value_error("run: give end_time, steps or both");
   if (steps && *steps < 1)
@@ -474,6 +614,227 @@ const char* assemble_doc =
     "wrapped as the predictor wraps it (default: a box around the particles). config / keyword fields: SimulationConfig fields (l0 required; the radii, weight, rho,\n"
     "gamma, beta, theta, fx, fy, hydrostatic_split, sound_speed, initial_reference_density matter).";
 
+template <int D>
+void bind_simulation(py::module_& m) {
+  py::class_<Simulation<D>>(m, D == 2 ? "Simulation" : "Simulation3",
+                            D == 2 ? "The 2-D MPS time loop (mps::Simulation) on a copy of the particles. Steps run without "
+                                     "the GIL."
+                                   : "The 3-D MPS time loop (mps::Simulation3) on a copy of the particles. Steps run without "
+                                     "the GIL.")
+      .def(py::init([](const mps::BasicParticles<D>& p, py::handle domain, py::handle config, const py::kwargs& fields) {
+             return std::make_unique<Simulation<D>>(p, domain_of<D>(domain), config_of(config, fields));
+           }),
+           py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
+           D == 2 ? "particles: Particles. domain: Domain or (xmin, xmax, ymin, ymax). config: SimulationConfig or dict;\n"
+                   "keyword fields override it. Raises ValueError for a bad configuration, particles outside the domain, a\n"
+                   "NaN or Inf velocity or pressure, or two particles at one position."
+                 : "particles: Particles3. domain: Domain3 or (xmin, xmax, ymin, ymax, zmin, zmax). config:\n"
+                   "SimulationConfig or dict; keyword fields override it. Raises ValueError as Simulation does.")
+      .def("step", &Simulation<D>::step,
+           "Advances one step; returns its StepInfo. Raises SimulationError (the state kept as before the step) if\n"
+           "the stability guard trips or the solve fails.")
+      .def(
+          "run",
+          [](Simulation<D>& s, std::optional<double> end_time, std::optional<long long> steps) {
+            check_run(s, end_time, steps);
+            for (long long done = 0;; ++done) {
+              if (end_time && s.sim->time() >= *end_time - 1e-12) break;
+              if (steps && done >= *steps) break;
+              s.step();
+              if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C between steps
+            }
+            return s.sim->last_step();
+          },
+          py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
+          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.\n"
+          "Raises ValueError for an end_time that is not finite or not beyond the current time, steps below 1, or\n"
+          "a run of more than 1e8 steps.")
+      .def(
+          "add_particle_collision",
+          [](Simulation<D>& s, double distance, double restitution) {
+            s.locked([&] { add_particle_collision(*s.sim, distance, restitution); });
+          },
+          py::arg("distance") = 0.8, py::arg("restitution") = 0.2,
+          "Close pairs collide after the predictor (mps::ParticleCollision): fluid particles nearer than distance l0\n"
+          "that approach lose their approach speed down to restitution of it (the dam break's default).")
+      .def(
+          "add_asymmetry_surface",
+          [](Simulation<D>& s, double fraction) { s.locked([&] { add_asymmetry_surface(*s.sim, fraction); }); },
+          py::arg("fraction") = 0.9,
+          "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
+          "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
+      .def(
+          "add_wet_walls", [](Simulation<D>& s) { s.locked([&] { s.sim->template add<mps::BasicWetWalls<D>>(); }); },
+          "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")
+      .def_property_readonly("time", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->time(); }); })
+      .def_property_readonly("steps", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
+      .def_property_readonly("last_step", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step(); }); })
+      .def_property_readonly(
+          "particles",
+          [](Simulation<D>& s) {
+            const std::lock_guard<std::mutex> lock(s.mutex);
+            return s.sim->particles();
+          },
+          "a copy of the particles (reordered by cell every reorder_every steps: id follows each one)")
+      .def_property_readonly(
+          "last_ppe",
+          [](Simulation<D>& s) {
+            const std::lock_guard<std::mutex> lock(s.mutex);
+            Ppe out = *s.recorded;
+            out.system = s.sim->last_ppe();
+            return out;
+          },
+          "the PPE of the last step (a copy)")
+      .def_property_readonly("solver_spec", [](const Simulation<D>& s) { return s.sim->solver().spec(); })
+      .def_property_readonly("config", [](const Simulation<D>& s) { return s.sim->config(); }, "a copy")
+      .def_property_readonly("domain", [](const Simulation<D>& s) { return s.sim->domain(); })
+      .def_property_readonly(
+          "phase_times",
+          [](const Simulation<D>& s) {
+            const mps::PhaseTimes& t = s.sim->times();
+            return py::dict(py::arg("neighbors") = t.neighbors, py::arg("predict") = t.predict,
+                            py::arg("assemble") = t.assemble, py::arg("solver_setup") = t.solver_setup,
+                            py::arg("solve") = t.solve, py::arg("correct") = t.correct, py::arg("total") = t.total());
+          },
+          "wall-clock seconds per phase, summed over the steps");
+}
+
+// write_vtp(path, particles, fields, time=, vectors=) for D-dimensional particles.
+template <int D>
+void def_write_vtp(py::module_& m) {
+  m.def(
+      "write_vtp",
+      [](const std::string& path, const mps::BasicParticles<D>& particles, const py::dict& fields, double time,
+         const py::dict& vectors) {
+        const auto n = static_cast<py::ssize_t>(particles.size());
+        std::deque<std::vector<double>> columns;  // the arrays the spans of `extra` view (a deque never moves them)
+        mps::BasicPointFields<D> extra;
+        for (const auto& [key, values] : fields) {
+          const std::string name = py::str(key).cast<std::string>();
+          extra.scalars[name] = columns.emplace_back(to_doubles(values, name, n));
+        }
+        static constexpr const char* axes[3] = {" x", " y", " z"};
+        for (const auto& [key, tuple] : vectors) {
+          const std::string name = py::str(key).cast<std::string>();
+          const auto components = tuple.template cast<py::sequence>();
+          if (components.size() != D)
+            throw py::value_error("vector " + name + (D == 2 ? " must be a pair (x, y) of arrays"
+                                                             : " must be a triple (x, y, z) of arrays"));
+          for (std::size_t d = 0; d < D; ++d)
+            extra.vectors[name][d] = columns.emplace_back(to_doubles(components[d], name + axes[d], n));
+        }
+        mps::write_vtp(path, particles, time, extra);
+      },
+      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(), py::kw_only(), py::arg("time"),
+      py::arg("vectors") = py::dict(),
+      "Writes a ParaView frame (VTK PolyData, binary and zlib-compressed, as the apps' frames) at simulation time\n"
+      "`time` (its field array TIME): position, velocity, pressure, kind, group, id, the per-particle arrays of\n"
+      "`fields` ({name: array}) and the vectors of `vectors` ({name: (x, y)}, or (x, y, z) for Particles3), written\n"
+      "with 3 components.");
+}
+
+// The 3-D scene: Particles3 (positions and velocities as (N, 3) arrays, and the field list), Domain3, Simulation3.
+void bind_dimension3(py::module_& m) {
+  py::class_<mps::Domain3>(m, "Domain3", "A 3-D domain; a periodic axis wraps positions (mps::Domain3).")
+      .def(py::init([](double xmin, double xmax, double ymin, double ymax, double zmin, double zmax, bool px, bool py_,
+                       bool pz) {
+             mps::Domain3 d{xmin, xmax, ymin, ymax, zmin, zmax, px, py_, pz};
+             d.validate();
+             return d;
+           }),
+           py::arg("xmin"), py::arg("xmax"), py::arg("ymin"), py::arg("ymax"), py::arg("zmin"), py::arg("zmax"),
+           py::arg("periodic_x") = false, py::arg("periodic_y") = false, py::arg("periodic_z") = false)
+      .def_readwrite("xmin", &mps::Domain3::xmin)
+      .def_readwrite("xmax", &mps::Domain3::xmax)
+      .def_readwrite("ymin", &mps::Domain3::ymin)
+      .def_readwrite("ymax", &mps::Domain3::ymax)
+      .def_readwrite("zmin", &mps::Domain3::zmin)
+      .def_readwrite("zmax", &mps::Domain3::zmax)
+      .def_readwrite("periodic_x", &mps::Domain3::periodic_x)
+      .def_readwrite("periodic_y", &mps::Domain3::periodic_y)
+      .def_readwrite("periodic_z", &mps::Domain3::periodic_z)
+      .def("contains", [](const mps::Domain3& d, double x, double y, double z) { return d.contains({x, y, z}); },
+           py::arg("x"), py::arg("y"), py::arg("z"))
+      .def("__repr__", [](const mps::Domain3& d) {
+        std::ostringstream s;
+        s.precision(17);
+        auto flag = [](bool b) { return b ? "True" : "False"; };
+        s << "Domain3(" << d.xmin << ", " << d.xmax << ", " << d.ymin << ", " << d.ymax << ", " << d.zmin << ", "
+          << d.zmax << ", periodic_x=" << flag(d.periodic_x) << ", periodic_y=" << flag(d.periodic_y)
+          << ", periodic_z=" << flag(d.periodic_z) << ")";
+        return s.str();
+      });
+
+  py::class_<mps::Particles3> particles(
+      m, "Particles3",
+      "3-D particle state as arrays (mps::Particles3): x, y, z, u, v, w, p, kind, group, id (the library's field\n"
+      "list), and positions, velocities of shape (N, 3). Reading gives a NumPy copy; assigning takes an array of the\n"
+      "same length (positions, velocities and pressures finite).");
+  particles
+      .def(py::init([](py::handle positions, py::handle kind, py::handle velocities, py::handle p, py::handle group) {
+             mps::Particles3 out;
+             if (positions.is_none()) {
+               if (!kind.is_none() || !velocities.is_none() || !p.is_none() || !group.is_none())
+                 throw py::value_error("Particles3(positions, kind, ...): positions are required with other arrays");
+               return out;
+             }
+             if (kind.is_none()) throw py::value_error("Particles3(positions, kind): kind is required with positions");
+             const auto r = columns_of<3>(positions, "positions");
+             const std::size_t n = r[0].size();
+             const std::vector<mps::Kind> kinds = kinds_of(kind, n);
+             out.reserve(n);
+             for (std::size_t i = 0; i < n; ++i) out.add({r[0][i], r[1][i], r[2][i]}, kinds[i]);
+             if (!velocities.is_none()) {
+               auto vel = columns_of<3>(velocities, "velocities", static_cast<py::ssize_t>(n));
+               for (std::size_t d = 0; d < 3; ++d) *out.velocities()[d] = std::move(vel[d]);
+             }
+             if (!p.is_none()) out.p = to_finite_doubles(p, "p", static_cast<py::ssize_t>(n));
+             if (!group.is_none()) out.group = to_ints(group, "group", static_cast<py::ssize_t>(n));
+             return out;
+           }),
+           py::arg("positions") = py::none(), py::arg("kind") = py::none(), py::arg("velocities") = py::none(),
+           py::arg("p") = py::none(), py::arg("group") = py::none(),
+           "Empty, or from arrays: positions (N, 3) and kind (an array of 0-3, or one Kind / name for all);\n"
+           "velocities (N, 3), p and group default to 0.")
+      .def(
+          "fill_box",
+          [](mps::Particles3& p, py::handle box_in, double l0, py::handle kind, int group) -> mps::Particles3& {
+            const mps::Box box = box_of(box_in, "box");
+            if (l0 > 0.0 && std::isfinite(l0))  // else the library names l0
+              check_particle_count(cells(box.x1 - box.x0, l0) * cells(box.y1 - box.y0, l0) * cells(box.z1 - box.z0, l0),
+                                   p.size(), "fill_box");
+            mps::fill_box(p, box, l0, kind_of(kind), group);
+            return p;
+          },
+          py::arg("box"), py::arg("l0"), py::arg("kind") = "fluid", py::arg("group") = 0,
+          py::return_value_policy::reference_internal,
+          "Adds a cubic lattice of spacing l0 filling box = (x0, y0, z0, x1, y1, z1), points at cell centres;\n"
+          "returns self.")
+      .def(
+          "add_box_walls",
+          [](mps::Particles3& p, py::handle inner, double l0, py::handle faces, int wall_layers, int dummy_layers,
+             int group) -> mps::Particles3& {
+            const mps::Box box = box_of(inner, "inner");
+            if (l0 > 0.0 && std::isfinite(l0) && wall_layers >= 0 && dummy_layers >= 0) {  // else the library says why
+              const double layers = 2.0 * (static_cast<double>(wall_layers) + dummy_layers);
+              const double nx = cells(box.x1 - box.x0, l0), ny = cells(box.y1 - box.y0, l0),
+                           nz = cells(box.z1 - box.z0, l0);
+              check_particle_count((nx + layers) * (ny + layers) * (nz + layers) - nx * ny * nz, p.size(),
+                                   "add_box_walls");
+            }
+            mps::add_box_walls(p, box, l0, faces_of(faces), wall_layers, dummy_layers, group);
+            return p;
+          },
+          py::arg("inner"), py::arg("l0"), py::arg("faces") = "x_low|x_high|y_low|y_high|z_low",
+          py::arg("wall_layers") = 1, py::arg("dummy_layers") = 4, py::arg("group") = 0,
+          py::return_value_policy::reference_internal,
+          "Adds wall_layers of wall and dummy_layers of dummy particles outside inner = (x0, y0, z0, x1, y1, z1) on\n"
+          "the given faces ('x_low|x_high|y_low|y_high|z_low', a tank open at the top, or a list of names; edges and\n"
+          "corners between walled faces included); returns self.");
+  def_fields(particles);
+  bind_simulation<3>(m);
+}
+
 }  // namespace
 
 void bind_scene(py::module_& m) {
@@ -512,9 +873,10 @@ void bind_scene(py::module_& m) {
 
   py::class_<mps::Particles> particles_class(
       m, "Particles",
-      "Particle state as arrays (mps::Particles): x, y, u, v, p, kind, group, id. Reading an attribute gives a\n"
-      "NumPy copy; assigning one takes an array of the same length (positions, velocities and pressures finite).\n"
-      "id is each particle's index at creation and follows it through the reorderings a Simulation makes.");
+      "2-D particle state as arrays (mps::Particles): x, y, u, v, p, kind, group, id (the library's field list),\n"
+      "and positions, velocities of shape (N, 2). Reading an attribute gives a NumPy copy; assigning one takes an\n"
+      "array of the same length (positions, velocities and pressures finite). id is each particle's index at\n"
+      "creation and follows it through the reorderings a Simulation makes.");
   particles_class
       .def(py::init([](py::handle x, py::handle y, py::handle kind, py::handle u, py::handle v, py::handle p,
                        py::handle group) {
@@ -531,9 +893,6 @@ void bind_scene(py::module_& m) {
            py::arg("group") = py::none(),
            "Empty, or from arrays: x, y and kind (an array of 0-3, or one Kind / name for all); u, v, p, group\n"
            "default to 0.")
-      .def("__len__", &mps::Particles::size)
-      .def("count", [](const mps::Particles& p, py::handle kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
-           "How many particles are of this kind.")
       .def(
           "fill_rectangle",
           [](mps::Particles& p, py::handle rect_in, double l0, py::handle kind, int group) -> mps::Particles& {
@@ -564,30 +923,8 @@ void bind_scene(py::module_& m) {
           py::arg("inner"), py::arg("l0"), py::arg("sides") = "left|right|bottom", py::arg("wall_layers") = 1,
           py::arg("dummy_layers") = 4, py::arg("group") = 0, py::return_value_policy::reference_internal,
           "Adds wall_layers of wall and dummy_layers of dummy particles outside inner = (x0, y0, x1, y1) on the\n"
-          "given sides ('left|right|bottom' or a list of names; corners between walled sides included); returns self.")
-      .def_property(
-          "kind", [](const mps::Particles& p) { return kinds_to_numpy(p.kind); },
-          [](mps::Particles& p, py::handle values) { p.kind = kinds_of(values, p.size()); },
-          "uint8 array: 0 fluid, 1 wall, 2 dummy, 3 ghost")
-      .def_property(
-          "group", [](const mps::Particles& p) { return to_numpy(p.group); },
-          [](mps::Particles& p, py::handle values) {
-            p.group = to_ints(values, "group", static_cast<py::ssize_t>(p.size()));
-          },
-          "user tag, e.g. which wall moves with which motion")
-      .def_property_readonly(
-          "id", [](const mps::Particles& p) { return to_numpy(p.id); }, "index at creation")
-      .def("__repr__", [](const mps::Particles& p) {
-        return "Particles(" + std::to_string(p.size()) + ": " + std::to_string(p.count(mps::Kind::fluid)) +
-               " fluid, " + std::to_string(p.count(mps::Kind::wall)) + " wall, " +
-               std::to_string(p.count(mps::Kind::dummy)) + " dummy, " + std::to_string(p.count(mps::Kind::ghost)) +
-               " ghost)";
-      });
-  def_array(particles_class, "x", &mps::Particles::x, "position x [m]");
-  def_array(particles_class, "y", &mps::Particles::y, "position y [m]");
-  def_array(particles_class, "u", &mps::Particles::u, "velocity x [m/s]");
-  def_array(particles_class, "v", &mps::Particles::v, "velocity y [m/s]");
-  def_array(particles_class, "p", &mps::Particles::p, "pressure [Pa]");
+          "given sides ('left|right|bottom' or a list of names; corners between walled sides included); returns self.");
+  def_fields(particles_class);
 
   std::string config_doc =
       "The physics and numerics of a run (mps::SimulationConfig; lib/mps/step/config.hpp and docs/step.md give each\n"
@@ -699,108 +1036,10 @@ void bind_scene(py::module_& m) {
       py::arg("wet_walls") = false,
       "Same, from arrays: positions x, y (r*), velocities u, v (u*) and kind (0 fluid, 1 wall, 2 dummy, 3 ghost).");
 
-  m.def(
-      "write_vtp",
-      [](const std::string& path, const mps::Particles& particles, const py::dict& fields, double time,
-         const py::dict& vectors) {
-        const auto n = static_cast<py::ssize_t>(particles.size());
-        std::deque<std::vector<double>> columns;  // the arrays the spans of `extra` view (a deque never moves them)
-        mps::PointFields extra;
-        for (const auto& [key, values] : fields) {
-          const std::string name = py::str(key).cast<std::string>();
-          extra.scalars[name] = columns.emplace_back(to_doubles(values, name, n));
-        }
-        for (const auto& [key, pair] : vectors) {
-          const std::string name = py::str(key).cast<std::string>();
-          const auto xy = pair.cast<py::sequence>();
-          if (xy.size() != 2) throw py::value_error("vector " + name + " must be a pair (x, y) of arrays");
-          extra.vectors[name] = {columns.emplace_back(to_doubles(xy[0], name + " x", n)),
-                                 columns.emplace_back(to_doubles(xy[1], name + " y", n))};
-        }
-        mps::write_vtp(path, particles, time, extra);
-      },
-      py::arg("path"), py::arg("particles"), py::arg("fields") = py::dict(), py::kw_only(), py::arg("time"),
-      py::arg("vectors") = py::dict(),
-      "Writes a ParaView frame (VTK PolyData, binary and zlib-compressed, as the apps' frames) at simulation time\n"
-      "`time` (its field array TIME): position, velocity, pressure, kind, group, id, the per-particle arrays of\n"
-      "`fields` ({name: array}) and the vectors of `vectors` ({name: (x, y)}), written with 3 components.");
-
-  py::class_<Simulation>(m, "Simulation",
-                         "The MPS time loop (mps::Simulation) on a copy of the particles. Steps run without the GIL.")
-      .def(py::init([](const mps::Particles& p, py::handle domain, py::handle config, const py::kwargs& fields) {
-             return std::make_unique<Simulation>(p, domain_of(domain), config_of(config, fields));
-           }),
-           py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
-           "particles: Particles. domain: Domain or (xmin, xmax, ymin, ymax). config: SimulationConfig or dict;\n"
-           "keyword fields override it. Raises ValueError for a bad configuration, particles outside the domain, a\n"
-           "NaN or Inf velocity or pressure, or two particles at one position.")
-      .def("step", &Simulation::step,
-           "Advances one step; returns its StepInfo. Raises SimulationError (the state kept as before the step) if\n"
-           "the stability guard trips or the solve fails.")
-      .def(
-          "run",
-          [](Simulation& s, std::optional<double> end_time, std::optional<long long> steps) {
-            check_run(s, end_time, steps);
-            for (long long done = 0;; ++done) {
-              if (end_time && s.sim->time() >= *end_time - 1e-12) break;
-              if (steps && done >= *steps) break;
-              s.step();
-              if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C between steps
-            }
-            return s.sim->last_step();
-          },
-          py::arg("end_time") = py::none(), py::arg("steps") = py::none(),
-          "Steps until time >= end_time and/or `steps` steps are done; returns the last StepInfo.\n"
-          "Raises ValueError for an end_time that is not finite or not beyond the current time, steps below 1, or\n"
-          "a run of more than 1e8 steps.")
-      .def(
-          "add_particle_collision",
-          [](Simulation& s, double distance, double restitution) {
-            s.locked([&] { add_particle_collision(*s.sim, distance, restitution); });
-          },
-          py::arg("distance") = 0.8, py::arg("restitution") = 0.2,
-          "Close pairs collide after the predictor (mps::ParticleCollision): fluid particles nearer than distance l0\n"
-          "that approach lose their approach speed down to restitution of it (the dam break's default).")
-      .def(
-          "add_asymmetry_surface",
-          [](Simulation& s, double fraction) { s.locked([&] { add_asymmetry_surface(*s.sim, fraction); }); },
-          py::arg("fraction") = 0.9,
-          "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
-          "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
-      .def(
-          "add_wet_walls", [](Simulation& s) { s.locked([&] { s.sim->add<mps::WetWalls>(); }); },
-          "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")
-      .def_property_readonly("time", [](const Simulation& s) { return s.locked([&] { return s.sim->time(); }); })
-      .def_property_readonly("steps", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
-      .def_property_readonly("last_step", [](const Simulation& s) { return s.locked([&] { return s.sim->last_step(); }); })
-      .def_property_readonly(
-          "particles",
-          [](Simulation& s) {
-            const std::lock_guard<std::mutex> lock(s.mutex);
-            return s.sim->particles();
-          },
-          "a copy of the particles (reordered by cell every reorder_every steps: id follows each one)")
-      .def_property_readonly(
-          "last_ppe",
-          [](Simulation& s) {
-            const std::lock_guard<std::mutex> lock(s.mutex);
-            Ppe out = *s.recorded;
-            out.system = s.sim->last_ppe();
-            return out;
-          },
-          "the PPE of the last step (a copy)")
-      .def_property_readonly("solver_spec", [](const Simulation& s) { return s.sim->solver().spec(); })
-      .def_property_readonly("config", [](const Simulation& s) { return s.sim->config(); }, "a copy")
-      .def_property_readonly("domain", [](const Simulation& s) { return s.sim->domain(); })
-      .def_property_readonly(
-          "phase_times",
-          [](const Simulation& s) {
-            const mps::PhaseTimes& t = s.sim->times();
-            return py::dict(py::arg("neighbors") = t.neighbors, py::arg("predict") = t.predict,
-                            py::arg("assemble") = t.assemble, py::arg("solver_setup") = t.solver_setup,
-                            py::arg("solve") = t.solve, py::arg("correct") = t.correct, py::arg("total") = t.total());
-          },
-          "wall-clock seconds per phase, summed over the steps");
+  def_write_vtp<2>(m);
+  def_write_vtp<3>(m);
+  bind_simulation<2>(m);
+  bind_dimension3(m);
 }
 
 }  // namespace sparsemps

@@ -84,5 +84,7 @@ TEST(ConfigSchema, TheSummarysConfigHoldsEveryFieldWithItsUnit) {
   EXPECT_EQ(j.at("weight"), "bounded");
   EXPECT_EQ(j.at("pressure_gradient"), "min-reference");
   EXPECT_EQ(j.at("warm_start"), true);
-  EXPECT_TRUE(j.at("max_speed_m_per_s").is_null());  // infinity: no guard; JSON has no infinity
+  EXPECT_EQ(j.at("max_speed"), "off");  // infinity: no guard; JSON has no infinity
+  c.max_speed = 5;
+  EXPECT_EQ(mps::config_json(c).at("max_speed_m_per_s"), 5.0);
 }

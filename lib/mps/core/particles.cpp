@@ -17,16 +17,16 @@ std::string_view to_string(Kind kind) {
 
 template <int D>
 void BasicParticles<D>::add(const Vec<D>& r, Kind k, int grp, const Vec<D>& vel) {
+  for_each_field([](const char*, auto& field) { field.emplace_back(); });  // every field, each at its default
   const auto pos = this->positions();
   const auto velocity = this->velocities();
   for (std::size_t d = 0; d < D; ++d) {
-    pos[d]->push_back(r[d]);
-    velocity[d]->push_back(vel[d]);
+    pos[d]->back() = r[d];
+    velocity[d]->back() = vel[d];
   }
-  p.push_back(0.0);
-  kind.push_back(k);
-  group.push_back(grp);
-  id.push_back(static_cast<int>(id.size()));
+  kind.back() = k;
+  group.back() = grp;
+  id.back() = static_cast<int>(id.size() - 1);
 }
 
 template <int D>

@@ -143,6 +143,48 @@ void write_atomically(const fs::path& path, Body&& body) {
   throw std::runtime_error("Matrix Market file " + path.string() + ": " + what);
 }
 
+// Whether `field` is a component of the position or the velocity: frames write those as the points and the vector
+// "velocity", particle files as their first columns; every other field of the list is written by its name.
+template <int D, class T>
+bool is_vector_component(const BasicParticles<D>& p, const std::vector<T>& field) {
+  if constexpr (std::is_same_v<T, double>) {
+    for (std::size_t a = 0; a < D; ++a)
+      if (&field == p.positions()[a] || &field == p.velocities()[a]) return true;
+  }
+  return false;
+}
+
+// A particle file's columns, f(name, field) in their order: the position's components, kind, then every other field
+// of the particles' list but id (a read numbers the particles afresh).
+template <class Particles, class F>
+void for_each_file_column(Particles& p, F&& f) {
+  auto is_position = [&p](const auto& field) {
+    if constexpr (std::is_same_v<std::remove_cvref_t<decltype(field)>, std::vector<double>>) {
+      for (const auto* component : p.positions())
+        if (&field == component) return true;
+    }
+    return false;
+  };
+  p.for_each_field([&](const char* name, auto& field) {
+    if (is_position(field)) f(name, field);
+  });
+  f("kind", p.kind);
+  p.for_each_field([&](const char* name, auto& field) {
+    if (!is_position(field) && static_cast<const void*>(&field) != &p.kind && std::string_view(name) != "id")
+      f(name, field);
+  });
+}
+
+template <class Particles>
+std::vector<std::string> file_columns(Particles& p) {
+  std::vector<std::string> names;
+  for_each_file_column(p, [&](const char* name, const auto&) { names.emplace_back(name); });
+  return names;
+}
+
+// A field's array in frames: the field list's name, but "pressure" for p (the name ParaView users and readers know).
+std::string frame_name(std::string_view field) { return field == "p" ? "pressure" : std::string(field); }
+
 void check_field_name(const std::string& name, std::set<std::string>& taken) {
   for (char ch : name)
     if (ch == '"' || ch == '<' || ch == '>' || ch == '&') throw std::invalid_argument("write_vtp: bad field name " + name);
@@ -198,7 +240,10 @@ template <int D>
 void write_vtp(const fs::path& path, const BasicParticles<D>& p, double time,
                const std::type_identity_t<BasicPointFields<D>>& extra) {
   if (!std::isfinite(time)) throw std::invalid_argument("write_vtp: the time of " + path.string() + " is not finite");
-  std::set<std::string> names{"velocity", "pressure", "kind", "group", "id"};
+  std::set<std::string> names{"velocity"};
+  p.for_each_field([&](const char* name, const auto& field) {
+    if (!is_vector_component(p, field)) names.insert(frame_name(name));
+  });
   for (const auto& [name, field] : extra.scalars) {
     check_field_name(name, names);
     if (field.size() != p.size()) throw std::invalid_argument("write_vtp: field " + name + " has the wrong length");
@@ -255,10 +300,11 @@ void write_vtp(const fs::path& path, const BasicParticles<D>& p, double time,
   element("Int64", "offsets", 1, data.add<std::int64_t>("offsets", offsets));
   xml << "</Verts>\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n";
   vector("velocity", components(p.velocities()));
-  scalar("pressure", p.p);
-  integers("kind", [&](std::size_t i) { return static_cast<int>(p.kind[i]); });
-  integers("group", [&](std::size_t i) { return p.group[i]; });
-  integers("id", [&](std::size_t i) { return p.id[i]; });
+  p.for_each_field([&]<class T>(const char* name, const std::vector<T>& field) {
+    if (is_vector_component(p, field)) return;
+    if constexpr (std::is_same_v<T, double>) scalar(frame_name(name), field);
+    else integers(frame_name(name), [&](std::size_t i) { return static_cast<int>(field[i]); });
+  });
   for (const auto& [name, field] : extra.vectors) vector(name, field);
   for (const auto& [name, field] : extra.scalars) scalar(name, field);
   xml << "</PointData>\n</Piece>\n</PolyData>\n";
@@ -283,9 +329,13 @@ nlohmann::json config_json(const SimulationConfig& config) {
     const std::string key = p.name + suffix.at(p.unit);
     if constexpr (std::is_same_v<T, Weight> || std::is_same_v<T, GradientVariant>)
       out[key] = std::string(to_string(config.*p.member));
-    else if constexpr (std::is_same_v<T, double>)  // the guard's infinity (off) as JSON's null, as dump() writes it
-      out[key] = std::isfinite(config.*p.member) ? nlohmann::json(config.*p.member) : nlohmann::json(nullptr);
-    else out[key] = config.*p.member;
+    else if constexpr (std::is_same_v<T, double>) {
+      // The one infinity validate() lets through is the guard's "off": written as such, where JSON has no infinity.
+      if (std::isfinite(config.*p.member)) out[key] = config.*p.member;
+      else out[p.name] = "off";
+    } else {
+      out[key] = config.*p.member;
+    }
   });
   return out;
 }
@@ -666,14 +716,16 @@ BasicParticles<D> read_particles_csv(const fs::path& path) {
   auto fail = [&](const std::string& what) -> void {
     throw std::runtime_error("particle file " + path.string() + ":" + std::to_string(line_number) + ": " + what);
   };
-  enum Column { x, y, z, kind, u, v, w, p, group, columns };
-  static const std::array<const char*, columns> names{"x", "y", "z", "kind", "u", "v", "w", "p", "group"};
-  const std::string valid = D == 2 ? "the columns are x, y, kind (required) and u, v, p, group (optional)"
-                                   : "the columns are x, y, z, kind (required) and u, v, w, p, group (optional)";
-  std::vector<int> field_column;  // the column each field of a row holds
-  std::array<int, columns> field_of{};
-  field_of.fill(-1);
+  // The columns: every field of the particles' list but id (a read numbers the particles afresh); the position's
+  // components and kind are required.
   BasicParticles<D> out;
+  const std::vector<std::string> names = file_columns(out);
+  std::string required, optional;
+  for (std::size_t c = 0; c < names.size(); ++c)
+    ((c <= D) ? required : optional) += std::string(((c <= D) ? required : optional).empty() ? "" : ", ") + names[c];
+  const std::string valid = "the columns are " + required + " (required) and " + optional + " (optional)";
+  std::vector<int> field_column;  // the column each field of a row holds
+  std::vector<int> field_of(names.size(), -1);
   std::vector<long> lines;  // each particle's line, for the messages of the spacing check
   for (std::string line; std::getline(in, line);) {
     ++line_number;
@@ -684,60 +736,51 @@ BasicParticles<D> read_particles_csv(const fs::path& path) {
       for (const std::string& field : fields) {
         const std::string name = lower(field);
         const auto at = std::find(names.begin(), names.end(), name);
+        if (D == 2 && (name == "z" || name == "w"))
+          fail("column '" + name + "': a 3-D particle file; this scene is 2-D (" + valid + ")");
         if (at == names.end())
           fail("unknown column '" + field + "' in the header (the first line that is not a comment names the " +
                "columns, comma-separated: " + valid.substr(16) + ")");
-        const auto column = static_cast<int>(at - names.begin());
-        if (D == 2 && (column == Column::z || column == Column::w))
-          fail("column '" + name + "': a 3-D particle file; this scene is 2-D (" + valid + ")");
-        if (field_of[static_cast<std::size_t>(column)] >= 0) fail("column '" + name + "' named twice in the header");
-        field_of[static_cast<std::size_t>(column)] = static_cast<int>(field_column.size());
-        field_column.push_back(column);
+        const auto column = static_cast<std::size_t>(at - names.begin());
+        if (field_of[column] >= 0) fail("column '" + name + "' named twice in the header");
+        field_of[column] = static_cast<int>(field_column.size());
+        field_column.push_back(static_cast<int>(column));
       }
-      for (int c : {Column::x, Column::y, D == 3 ? Column::z : Column::x, Column::kind})
-        if (field_of[static_cast<std::size_t>(c)] < 0)
-          fail(std::string("the header has no column '") + names[static_cast<std::size_t>(c)] + "' (" + valid + ")");
+      for (std::size_t c = 0; c <= D; ++c)
+        if (field_of[c] < 0) fail("the header has no column '" + names[c] + "' (" + valid + ")");
       continue;
     }
     if (fields.size() != field_column.size())
       fail("expected " + std::to_string(field_column.size()) + " comma-separated fields, as the header names, found " +
            std::to_string(fields.size()));
-    std::array<double, columns> value{};
-    Kind particle_kind = Kind::fluid;
-    int particle_group = 0;
-    for (std::size_t f = 0; f < fields.size(); ++f) {
-      const std::string& word = fields[f];
-      const auto column = static_cast<std::size_t>(field_column[f]);
-      if (column == Column::kind) {
+    std::size_t c = 0;
+    out.add(Vec<D>{}, Kind::fluid);
+    for_each_file_column(out, [&]<class T>(const char* name, std::vector<T>& field) {
+      const int f = field_of[c++];
+      if (f < 0) return;  // an optional column the file leaves out: the field's default
+      const std::string& word = fields[static_cast<std::size_t>(f)];
+      if constexpr (std::is_same_v<T, Kind>) {
         const std::string k = lower(word);
-        if (k == "fluid" || k == "0") particle_kind = Kind::fluid;
-        else if (k == "wall" || k == "1") particle_kind = Kind::wall;
-        else if (k == "dummy" || k == "2") particle_kind = Kind::dummy;
+        if (k == "fluid" || k == "0") field.back() = Kind::fluid;
+        else if (k == "wall" || k == "1") field.back() = Kind::wall;
+        else if (k == "dummy" || k == "2") field.back() = Kind::dummy;
         else if (k == "ghost" || k == "3") fail("kind '" + word + "': ghosts (inactive particles) cannot start a scene; leave the row out");
         else fail("kind '" + word + "' is not fluid, wall or dummy (or 0, 1, 2)");
-        continue;
-      }
-      if (column == Column::group) {
+      } else if constexpr (std::is_same_v<T, int>) {
         long g = 0;
         const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), g);
         if (ec != std::errc() || end != word.data() + word.size() || g < std::numeric_limits<int>::min() ||
             g > std::numeric_limits<int>::max())
-          fail("group '" + word + "' is not a whole number");
-        particle_group = static_cast<int>(g);
-        continue;
+          fail(std::string(name) + " '" + word + "' is not a whole number");
+        field.back() = static_cast<int>(g);
+      } else {
+        char* end = nullptr;
+        const double number = std::strtod(word.c_str(), &end);
+        if (word.empty() || end != word.c_str() + word.size() || !std::isfinite(number))
+          fail(std::string("column '") + name + "': '" + word + "' is not a finite number");
+        field.back() = number;
       }
-      char* end = nullptr;
-      const double number = std::strtod(word.c_str(), &end);
-      if (word.empty() || end != word.c_str() + word.size() || !std::isfinite(number))
-        fail(std::string("column '") + names[column] + "': '" + word + "' is not a finite number");
-      value[column] = number;
-    }
-    if constexpr (D == 2)
-      out.add({value[Column::x], value[Column::y]}, particle_kind, particle_group, {value[Column::u], value[Column::v]});
-    else
-      out.add({value[Column::x], value[Column::y], value[Column::z]}, particle_kind, particle_group,
-              {value[Column::u], value[Column::v], value[Column::w]});
-    out.p.back() = value[Column::p];
+    });
     lines.push_back(line_number);
   }
   if (in.bad()) fail("read error" + system_reason());
@@ -767,15 +810,19 @@ void write_particles_csv(const fs::path& path, const BasicParticles<D>& particle
                          const std::vector<std::string>& comments) {
   write_atomically(path, [&](std::ofstream& out) {
     for (const std::string& line : comments) out << "# " << line << '\n';
-    out << (D == 2 ? "x,y,kind,u,v,p,group\n" : "x,y,z,kind,u,v,w,p,group\n");
-    const auto pos = particles.positions();
-    const auto vel = particles.velocities();
+    const std::vector<std::string> names = file_columns(particles);
+    for (std::size_t c = 0; c < names.size(); ++c) out << (c ? "," : "") << names[c];
+    out << '\n';
     for (std::size_t i = 0; i < particles.size(); ++i) {
       if (particles.kind[i] == Kind::ghost) continue;
-      for (std::size_t a = 0; a < D; ++a) out << (*pos[a])[i] << ',';
-      out << to_string(particles.kind[i]);
-      for (std::size_t a = 0; a < D; ++a) out << ',' << (*vel[a])[i];
-      out << ',' << particles.p[i] << ',' << particles.group[i] << '\n';
+      bool first = true;
+      for_each_file_column(particles, [&]<class T>(const char*, const std::vector<T>& field) {
+        if (!first) out << ',';
+        first = false;
+        if constexpr (std::is_same_v<T, Kind>) out << to_string(field[i]);
+        else out << field[i];
+      });
+      out << '\n';
     }
   });
 }
@@ -969,33 +1016,48 @@ BasicParticles<D> read_vtp(const fs::path& path, double* time) {
       }
       at = xml.find("<DataArray", at) + 1;
     }
-    fail("no point array '" + name + "' (frames of write_vtp have velocity, pressure, kind and group)");
+    fail("no point array '" + name + "' (frames of write_vtp have velocity and every field of the particles' list)");
     return std::string();
   };
-  const std::vector<double> xyz = data.values(points, 3 * n), uvw = data.values(named("velocity", "3"), 3 * n),
-                            p = data.values(named("pressure", "1"), n), kind = data.values(named("kind", "1"), n),
-                            group = data.values(named("group", "1"), n);
+  const std::vector<double> xyz = data.values(points, 3 * n), uvw = data.values(named("velocity", "3"), 3 * n);
+  // Every other field of the particles' list by its frame name, but id: a read numbers the particles afresh.
   BasicParticles<D> out;
+  auto for_each_column = [&out](auto&& f) {
+    out.for_each_field([&](const char* name, auto& field) {
+      if (!is_vector_component(out, field) && std::string_view(name) != "id") f(name, field);
+    });
+  };
+  std::vector<std::vector<double>> columns;
+  for_each_column([&](const char* name, const auto&) { columns.push_back(data.values(named(frame_name(name), "1"), n)); });
   out.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double values[] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], uvw[3 * i], uvw[3 * i + 1], uvw[3 * i + 2],
-                             p[i]};
-    for (double v : values)
-      if (!std::isfinite(v)) fail("point " + std::to_string(i) + " has a value that is not finite");
+    const std::string point = "point " + std::to_string(i);
+    for (std::size_t a = 0; a < 3; ++a)
+      if (!std::isfinite(xyz[3 * i + a]) || !std::isfinite(uvw[3 * i + a]))
+        fail(point + " has a position or velocity that is not finite");
     if (D == 2 && (xyz[3 * i + 2] != 0.0 || uvw[3 * i + 2] != 0.0))
-      fail("point " + std::to_string(i) + " has z = " + number_text(xyz[3 * i + 2]) + " or w = " +
-           number_text(uvw[3 * i + 2]) + ": a 3-D frame; this scene is 2-D");
-    if (kind[i] != 0 && kind[i] != 1 && kind[i] != 2)
-      fail("point " + std::to_string(i) + " has kind " + number_text(kind[i]) + ", not fluid (0), wall (1) or dummy (2)");
-    if (group[i] != std::floor(group[i]) || std::abs(group[i]) > std::numeric_limits<int>::max())
-      fail("point " + std::to_string(i) + " has group " + number_text(group[i]) + ", not a whole number");
+      fail(point + " has z = " + number_text(xyz[3 * i + 2]) + " or w = " + number_text(uvw[3 * i + 2]) +
+           ": a 3-D frame; this scene is 2-D");
     Vec<D> r, vel;
     for (std::size_t a = 0; a < D; ++a) {
       r[a] = xyz[3 * i + a];
       vel[a] = uvw[3 * i + a];
     }
-    out.add(r, static_cast<Kind>(static_cast<int>(kind[i])), static_cast<int>(group[i]), vel);
-    out.p.back() = p[i];
+    out.add(r, Kind::fluid, 0, vel);
+    std::size_t c = 0;
+    for_each_column([&]<class T>(const char* name, std::vector<T>& field) {
+      const double v = columns[c++][i];
+      const std::string what = point + " has " + frame_name(name) + " " + number_text(v);
+      if constexpr (std::is_same_v<T, double>) {
+        if (!std::isfinite(v)) fail(what + ", not a finite number");
+      } else if constexpr (std::is_same_v<T, Kind>) {
+        if (v != 0 && v != 1 && v != 2) fail(what + ", not fluid (0), wall (1) or dummy (2)");
+      } else if (v != std::floor(v) || std::abs(v) > std::numeric_limits<int>::max()) {
+        fail(what + ", not a whole number");
+      }
+      if constexpr (std::is_same_v<T, double>) field.back() = v;
+      else field.back() = static_cast<T>(static_cast<int>(v));
+    });
   }
   if (time != nullptr) {
     *time = std::numeric_limits<double>::quiet_NaN();

@@ -64,7 +64,8 @@ void write_csv(const std::filesystem::path& path, const std::vector<std::string>
 
 void write_json(const std::filesystem::path& path, const nlohmann::json& value);  ///< indented, as a whole file
 /// Every field of the config from its schema (for_each_parameter), each key ending in its unit as the summaries'
-/// naming rule has it ("l0_m", "radius_density_l0", "nu_m2_per_s", "gamma"): what an app's summary records.
+/// naming rule has it ("l0_m", "radius_density_l0", "nu_m2_per_s", "gamma"): what an app's summary records. The guard's
+/// max_speed, infinite when off, is written "max_speed": "off".
 nlohmann::json config_json(const SimulationConfig& config);
 void write_text(const std::filesystem::path& path, const std::string& text);      ///< the text as a whole file
 

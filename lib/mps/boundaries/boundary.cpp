@@ -74,6 +74,75 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
   }
 }
 
+namespace {
+// MirrorExtension::quadratic at a particle `depth` (< 0) behind the plane, m its mirror image: the fluid within
+// shepard.re of m fits u - U = s (c0 + c . q) by weighted least squares, q the offset from the particle's foot on the
+// plane and s = q . n its depth into the fluid (D + 1 unknowns: s, s^2 and s times each tangential offset span every
+// quadratic that is U on the plane); the fit is then read at the particle, q = depth n. nullopt where the normal
+// equations are singular to round-off (too few fluid particles, or all at one depth).
+template <int D>
+std::optional<Vec<D>> quadratic_continuation(const MirrorPlane<D>& wall, const BasicCellGrid<D>& grid,
+                                             const Kernel& shepard, const Vec<D>& mirror, double depth,
+                                             const BasicParticles<D>& p) {
+  constexpr std::size_t n = D + 1;
+  const auto vel = p.velocities();
+  const double scale = 1.0 / shepard.re;  // offsets in units of the radius keep the normal equations O(1)
+  std::array<std::array<double, n>, n> m{};
+  std::array<Vec<D>, n> b{};  // right-hand side, one column per velocity component
+  // basis(q) = (s, s q_0, ..., s q_{D-1}), q in units of the radius
+  const auto basis = [&](const Vec<D>& q) {
+    const double s = dot<D>(q, wall.normal);
+    std::array<double, n> phi{};
+    phi[0] = s;
+    for (std::size_t a = 0; a < D; ++a) phi[a + 1] = s * q[a];
+    return phi;
+  };
+  grid.for_each_near(mirror, shepard.re, [&](int j, const Vec<D>& d) {
+    const auto jj = static_cast<std::size_t>(j);
+    if (p.kind[jj] != Kind::fluid) return;
+    const double w = shepard.w(norm<D>(d));
+    Vec<D> q;  // from the foot, which lies depth n from the mirror image towards the wall
+    for (std::size_t a = 0; a < D; ++a) q[a] = (d[a] - depth * wall.normal[a]) * scale;
+    const auto phi = basis(q);
+    for (std::size_t r = 0; r < n; ++r) {
+      for (std::size_t c = 0; c < n; ++c) m[r][c] += w * phi[r] * phi[c];
+      for (std::size_t a = 0; a < D; ++a) b[r][a] += w * phi[r] * ((*vel[a])[jj] - wall.velocity[a]);
+    }
+  });
+  // Gaussian elimination with partial pivoting; a pivot below round-off of the largest diagonal means singular.
+  double largest = 0.0;
+  for (std::size_t r = 0; r < n; ++r) largest = std::max(largest, m[r][r]);
+  if (!(largest > 0.0)) return std::nullopt;
+  for (std::size_t k = 0; k < n; ++k) {
+    std::size_t pivot = k;
+    for (std::size_t r = k + 1; r < n; ++r)
+      if (std::abs(m[r][k]) > std::abs(m[pivot][k])) pivot = r;
+    if (!(std::abs(m[pivot][k]) > 1e-10 * largest)) return std::nullopt;
+    std::swap(m[k], m[pivot]);
+    std::swap(b[k], b[pivot]);
+    for (std::size_t r = k + 1; r < n; ++r) {
+      const double f = m[r][k] / m[k][k];
+      for (std::size_t c = k; c < n; ++c) m[r][c] -= f * m[k][c];
+      for (std::size_t a = 0; a < D; ++a) b[r][a] -= f * b[k][a];
+    }
+  }
+  std::array<Vec<D>, n> coef{};
+  for (std::size_t k = n; k-- > 0;) {
+    Vec<D> x = b[k];
+    for (std::size_t c = k + 1; c < n; ++c)
+      for (std::size_t a = 0; a < D; ++a) x[a] -= m[k][c] * coef[c][a];
+    for (std::size_t a = 0; a < D; ++a) coef[k][a] = x[a] / m[k][k];
+  }
+  Vec<D> at;  // the particle, from its foot
+  for (std::size_t a = 0; a < D; ++a) at[a] = depth * wall.normal[a] * scale;
+  const auto phi = basis(at);
+  Vec<D> u = wall.velocity;
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t a = 0; a < D; ++a) u[a] += phi[k] * coef[k][a];
+  return u;
+}
+}  // namespace
+
 template <int D>
 void MirrorPlane<D>::validate() const {
   for (std::size_t a = 0; a < D; ++a)
@@ -102,6 +171,12 @@ void apply_mirror_velocity(const MirrorPlane<D>& wall, const BasicCellGrid<D>& g
     const double depth = dot<D>(offset, wall.normal);  // < 0 behind the wall
     Vec<D> mirror, sum{};
     for (std::size_t a = 0; a < D; ++a) mirror[a] = r[a] - 2.0 * depth * wall.normal[a];
+    if (wall.extension == MirrorExtension::quadratic) {
+      if (const auto u = quadratic_continuation<D>(wall, grid, shepard, mirror, depth, p)) {
+        for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = (*u)[a];
+        continue;
+      }
+    }
     double sw = 0.0;
     grid.for_each_near(mirror, shepard.re, [&](int j, const Vec<D>& d) {
       const auto jj = static_cast<std::size_t>(j);

@@ -43,19 +43,32 @@ struct MirrorWall {
 /// a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
 void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
 
+/// How a MirrorPlane continues the fluid's velocity to its wall and dummy particles.
+enum class MirrorExtension {
+  /// 2 U - u(m), u(m) the Shepard average of the fluid around the mirror image m (Lan, Zhao & Wan 2022): the odd extension.
+  /// It flips the velocity's curvature across the wall, and the average is one-sided beside the wall.
+  odd,
+  /// The quadratic equal to U on the plane, least-squares fitted to the fluid around m, at the particle: the smooth
+  /// continuation, exact for every quadratic field that is U on the wall. Why: docs/method.md (the square duct).
+  quadratic,
+};
+
 /// A flat no-slip wall in D dimensions by mirror velocities: MirrorWall's plane case (a line in 2-D, a plane in 3-D),
-/// for every dimension. Every wall and dummy particle of `group` takes 2 U - u(m), u(m) the fluid velocity at its
-/// mirror image m across the plane.
+/// for every dimension. Every wall and dummy particle of `group` takes the fluid's velocity continued across the plane
+/// (`extension`): by default 2 U - u(m), u(m) the fluid velocity at its mirror image m across the plane.
 template <int D>
 struct MirrorPlane {
   Vec<D> point{};     ///< a point of the plane [m]
   Vec<D> normal{};    ///< unit normal pointing into the fluid
   Vec<D> velocity{};  ///< the wall's velocity U (tangential: a sliding wall) [m/s]
   int group = 0;      ///< the wall and dummy particles it applies to
+  MirrorExtension extension = MirrorExtension::odd;  ///< how the fluid's velocity is continued behind the plane
   void validate() const;  ///< throws std::invalid_argument unless finite with a unit normal
 };
 
-/// u(m) as apply_mirror_velocity's (the Shepard average of the fluid within `radius` of m).
+/// u(m) as apply_mirror_velocity's (the Shepard average of the fluid within `radius` of m). With
+/// MirrorExtension::quadratic the fit takes the fluid within `radius` of m, with the same weights; where those
+/// particles do not determine it (fewer than D + 1 independent ones), the particle takes the odd extension.
 template <int D>
 void apply_mirror_velocity(const MirrorPlane<D>& wall, const BasicCellGrid<D>& grid, double radius,
                            BasicParticles<D>& particles);

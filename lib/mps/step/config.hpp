@@ -101,7 +101,7 @@ void for_each_parameter(F&& f) {
   f(radius("radius_surface", &C::radius_surface, "free-surface detection kernel radius"));
   f(radius("radius_gradient", &C::radius_gradient, "gradient and divergence kernel radius"));
   f(radius("radius_laplacian", &C::radius_laplacian, "Laplacian (PPE, viscosity) kernel radius"));
-  f(Parameter<Weight>{"weight", &C::weight, "", "'bounded' (Shakibaeinia & Jin) or 'classic' (re/r - 1)"});
+  f(Parameter<Weight>{"weight", &C::weight, "", "'bounded' (Lan, Zhao & Wan 2022) or 'classic' (re/r - 1)"});
   f(Parameter<double>{"rho", &C::rho, "kg/m^3", "density", 0, inf, true});
   f(Parameter<double>{"nu", &C::nu, "m^2/s", "kinematic viscosity", 0, inf});
   f(Parameter<double>{"fx", &C::fx, "m/s^2", "body force per unit mass, x"});

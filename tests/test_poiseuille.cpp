@@ -224,10 +224,10 @@ TEST(OutflowBuffer, BufferFluidLeavesAlongTheNormalAtTheVelocityUpstreamLevelWit
   const double l0 = 0.1;
   mps::Particles p;
   mps::fill_rectangle(p, {0.0, 0.0, 2.0, 1.0}, l0, mps::Kind::fluid, 0);
-  const mps::OutflowBuffer buffer{2.0, 0.0, 1.0, 0.0, 0.5};
+  const mps::OutflowBuffer buffer{{2.0, 0.0}, {1.0, 0.0}, 0.5};
   std::vector<char> in_buffer(p.size(), 0);
   for (std::size_t i = 0; i < p.size(); ++i) {
-    in_buffer[i] = buffer.contains(p.x[i], p.y[i]);
+    in_buffer[i] = buffer.contains({p.x[i], p.y[i]});
     p.u[i] = in_buffer[i] ? -5.0 : 1.0 + 2.0 * p.y[i];
     p.v[i] = in_buffer[i] ? 7.0 : 0.3;
   }
@@ -251,7 +251,7 @@ TEST(OutflowBuffer, BufferFluidLeavesAlongTheNormalAtTheVelocityUpstreamLevelWit
     }
   }
   EXPECT_EQ(checked, 5 * 6);  // five buffer columns, rows 0.25 .. 0.75
-  EXPECT_THROW(mps::OutflowBuffer({2.0, 0.0, 1.0, 1.0, 0.5}).validate(), std::invalid_argument);
+  EXPECT_THROW(mps::OutflowBuffer({{2.0, 0.0}, {1.0, 1.0}, 0.5}).validate(), std::invalid_argument);
 }
 
 TEST(InletChannel, DevelopedPeakAndFlowRateMatchTheParabolaAndMassIsConserved) {

@@ -573,7 +573,7 @@ TEST(StepComponents, AComponentAddedAfterOneThatMustFollowItIsRefusedNamingBoth)
   tank::Params p;
   auto c = tank::make_config(p);
   c.hydrostatic_split = false;
-  const mps::OutflowBuffer buffer{0.9 * p.width, 0.0, 1.0, 0.0, 5 * c.l0};
+  const mps::OutflowBuffer buffer{{0.9 * p.width, 0.0}, {1.0, 0.0}, 5 * c.l0};
   mps::Simulation wrong(tank::make_particles(p), tank::make_domain(p), c);
   wrong.add<mps::OpenOutlet>(buffer);
   try {
@@ -582,7 +582,7 @@ TEST(StepComponents, AComponentAddedAfterOneThatMustFollowItIsRefusedNamingBoth)
   } catch (const std::invalid_argument& e) {
     const std::string msg = e.what();
     EXPECT_NE(msg.find("HydrostaticSplit"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("must be added before mps::OpenOutlet"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("mps::BasicHydrostaticSplit<2> must be added before mps::BasicOpenOutlet<2>"), std::string::npos) << msg;
   }
   mps::Simulation right(tank::make_particles(p), tank::make_domain(p), c);
   right.add<mps::HydrostaticSplit>(0.0, c.fy);

@@ -200,7 +200,7 @@ std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Pa
   else
     sim.add<mps::SurfaceRegion>([outlet_zone](double x, double) { return x < 0.0 || x > outlet_zone; });
   // The walls run 5 l0 past the outlet line, so that the buffer's last particles keep their wall support.
-  if (buffer) sim.add<mps::OpenOutlet>(mps::OutflowBuffer{L, 0.0, 1.0, 0.0, p.outlet_buffer_l0 * l0});
+  if (buffer) sim.add<mps::OpenOutlet>(mps::OutflowBuffer{{L, 0.0}, {1.0, 0.0}, p.outlet_buffer_l0 * l0});
   const double top_speed = p.mode == Mode::couette ? p.U() : 0.0;
   sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1});
   sim.add<mps::MirrorNoSlip>(mps::MirrorWall{0.0, p.D, 0.0, -1.0, top_speed, 0.0, 2});

@@ -15,22 +15,25 @@
 namespace mps {
 
 namespace {
-// The Shepard average (bounded weight) of the velocity of the fluid particles within `radius` of (x, y) that
-// `takes(j)` accepts; nullopt if none is in reach. Mirror walls and the outflow buffer both sample the fluid so.
-template <class Takes>
-std::optional<std::array<double, 2>> fluid_velocity_near(const CellGrid& grid, const Kernel& shepard, double x,
-                                                         double y, const Particles& p, Takes takes) {
-  double sw = 0.0, su = 0.0, sv = 0.0;
-  grid.for_each_near(x, y, shepard.re, [&](int j, double dx, double dy) {
+// The Shepard average (bounded weight) of the velocity of the fluid particles within `radius` of r that `takes(j)`
+// accepts; nullopt if none is in reach. Mirror walls and the outflow buffer both sample the fluid so.
+template <int D, class Takes>
+std::optional<Vec<D>> fluid_velocity_near(const BasicCellGrid<D>& grid, const Kernel& shepard, const Vec<D>& r,
+                                          const BasicParticles<D>& p, Takes takes) {
+  const auto vel = p.velocities();
+  double sw = 0.0;
+  Vec<D> su{};
+  grid.for_each_near(r, shepard.re, [&](int j, const Vec<D>& d) {
     const auto jj = static_cast<std::size_t>(j);
     if (p.kind[jj] != Kind::fluid || !takes(jj)) return;
-    const double w = shepard.w(std::hypot(dx, dy));
+    const double w = shepard.w(norm<D>(d));
     sw += w;
-    su += w * p.u[jj];
-    sv += w * p.v[jj];
+    for (std::size_t a = 0; a < D; ++a) su[a] += w * (*vel[a])[jj];
   });
   if (!(sw > 0.0)) return std::nullopt;
-  return std::array<double, 2>{su / sw, sv / sw};
+  Vec<D> out;
+  for (std::size_t a = 0; a < D; ++a) out[a] = su[a] / sw;
+  return out;
 }
 }  // namespace
 
@@ -67,7 +70,7 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
     }
     const double mx = p.x[i] - 2.0 * depth * nx, my = p.y[i] - 2.0 * depth * ny;
     const auto U = wall.velocity_at(p.x[i] - depth * nx, p.y[i] - depth * ny);  // at the foot on the wall
-    const auto m = fluid_velocity_near(grid, shepard, mx, my, p, [](std::size_t) { return true; });
+    const auto m = fluid_velocity_near<2>(grid, shepard, {mx, my}, p, [](std::size_t) { return true; });
     const double um = m ? (*m)[0] : U[0], vm = m ? (*m)[1] : U[1];
     p.u[i] = 2.0 * U[0] - um;
     p.v[i] = 2.0 * U[1] - vm;
@@ -195,35 +198,51 @@ template struct MirrorPlane<3>;
 template void apply_mirror_velocity(const MirrorPlane<2>&, const BasicCellGrid<2>&, double, BasicParticles<2>&);
 template void apply_mirror_velocity(const MirrorPlane<3>&, const BasicCellGrid<3>&, double, BasicParticles<3>&);
 
-void OutflowBuffer::validate() const {
-  if (!std::isfinite(px) || !std::isfinite(py)) throw std::invalid_argument("outflow buffer: point must be finite");
-  if (!(std::abs(std::hypot(nx, ny) - 1.0) < 1e-9))
-    throw std::invalid_argument("outflow buffer: the normal (nx, ny) must have unit length");
+template <int D>
+void BasicOutflowBuffer<D>::validate() const {
+  double length2 = 0.0;
+  for (std::size_t a = 0; a < D; ++a) {
+    if (!std::isfinite(point[a])) throw std::invalid_argument("outflow buffer: point must be finite");
+    length2 += normal[a] * normal[a];
+  }
+  if (!(std::abs(std::sqrt(length2) - 1.0) < 1e-9))
+    throw std::invalid_argument("outflow buffer: the normal must have unit length");
   if (!(thickness > 0.0) || !std::isfinite(thickness))
     throw std::invalid_argument("outflow buffer: thickness must be positive");
 }
 
-void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, double radius,
-                            std::span<const char> in_buffer, Particles& p) {
+template <int D>
+void apply_outflow_velocity(const BasicOutflowBuffer<D>& buffer, const BasicCellGrid<D>& grid, double radius,
+                            std::span<const char> in_buffer, BasicParticles<D>& p) {
   buffer.validate();
   if (!(radius > 0.0) || radius > grid.cell_size() * (1.0 + 1e-12))
     throw std::invalid_argument("apply_outflow_velocity: radius must be in (0, the grid's cell size]");
   if (in_buffer.size() != p.size()) throw std::invalid_argument("apply_outflow_velocity: one flag per particle");
   const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0};
+  const auto vel = p.velocities();
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   // Writes go to buffer particles, reads come from fluid outside it only: no dependence between particles.
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     if (p.kind[i] != Kind::fluid || !in_buffer[i]) continue;
-    const double back = buffer.depth(p.x[i], p.y[i]) + radius;
-    const double mx = p.x[i] - back * buffer.nx, my = p.y[i] - back * buffer.ny;
-    const auto m = fluid_velocity_near(grid, shepard, mx, my, p, [&](std::size_t j) { return !in_buffer[j]; });
-    const double un = m ? (*m)[0] * buffer.nx + (*m)[1] * buffer.ny : p.u[i] * buffer.nx + p.v[i] * buffer.ny;
-    p.u[i] = un * buffer.nx;
-    p.v[i] = un * buffer.ny;
+    const Vec<D> r = p.position(i);
+    const double back = buffer.depth(r) + radius;
+    Vec<D> upstream;
+    for (std::size_t a = 0; a < D; ++a) upstream[a] = r[a] - back * buffer.normal[a];
+    const auto m = fluid_velocity_near<D>(grid, shepard, upstream, p, [&](std::size_t j) { return !in_buffer[j]; });
+    double un = 0.0;
+    for (std::size_t a = 0; a < D; ++a) un += (m ? (*m)[a] : (*vel[a])[i]) * buffer.normal[a];
+    for (std::size_t a = 0; a < D; ++a) (*vel[a])[i] = un * buffer.normal[a];
   }
 }
+
+template struct BasicOutflowBuffer<2>;
+template struct BasicOutflowBuffer<3>;
+template void apply_outflow_velocity(const BasicOutflowBuffer<2>&, const BasicCellGrid<2>&, double,
+                                     std::span<const char>, BasicParticles<2>&);
+template void apply_outflow_velocity(const BasicOutflowBuffer<3>&, const BasicCellGrid<3>&, double,
+                                     std::span<const char>, BasicParticles<3>&);
 
 RigidPath steady_path(double omega, double vx, double vy) {
   if (!std::isfinite(omega) || !std::isfinite(vx) || !std::isfinite(vy))
@@ -347,8 +366,9 @@ void RigidMotion3::operator()(Particles3& p, double time) const {
   }
 }
 
-PushingPlate::PushingPlate(const Particles& initial, int plate_group, double speed, double l0, double outlet_x,
-                           int fluid_group)
+template <int D>
+BasicPushingPlate<D>::BasicPushingPlate(const BasicParticles<D>& initial, int plate_group, double speed, double l0,
+                                        double outlet_x, int fluid_group)
     : fluid_group_(fluid_group), speed_(speed), l0_(l0), outlet_x_(outlet_x) {
   if (!(speed > 0.0) || !std::isfinite(speed)) throw std::invalid_argument("pushing plate: speed must be positive");
   if (!(l0 > 0.0) || !std::isfinite(l0)) throw std::invalid_argument("pushing plate: spacing l0 must be positive");
@@ -368,8 +388,16 @@ PushingPlate::PushingPlate(const Particles& initial, int plate_group, double spe
   parking_x_ = rearmost - l0;
 }
 
-void PushingPlate::operator()(Particles& p, double time, std::size_t owned) {
+template <int D>
+void BasicPushingPlate<D>::operator()(BasicParticles<D>& p, double time, std::size_t owned) {
   owned = std::min(owned, p.size());
+  const auto r = p.positions();
+  const auto vel = p.velocities();
+  // The plate's velocity (speed along x) on particle i, and a particle's velocity and pressure cleared.
+  auto set_velocity = [&](std::size_t i, double u) {
+    (*vel[0])[i] = u;
+    for (std::size_t a = 1; a < D; ++a) (*vel[a])[i] = 0.0;
+  };
   // The plate has stepped back floor(U t / l0) times; each step back leaves a gap of one column.
   const int steps_back = static_cast<int>(std::floor(speed_ * time / l0_));
   const double advance = speed_ * time - steps_back * l0_;
@@ -378,8 +406,7 @@ void PushingPlate::operator()(Particles& p, double time, std::size_t owned) {
     const auto id = static_cast<std::size_t>(p.id[i]);
     if (id >= start_x_.size() || std::isnan(start_x_[id])) continue;
     p.x[i] = start_x_[id] + advance;
-    p.u[i] = speed_;
-    p.v[i] = 0.0;
+    set_velocity(i, speed_);
     if (p.kind[i] == Kind::wall && i < owned) plate_walls.push_back(i);
   }
   const int new_columns = steps_back - columns_;
@@ -403,12 +430,12 @@ void PushingPlate::operator()(Particles& p, double time, std::size_t owned) {
     std::partial_sort(ghosts.begin(), ghosts.begin() + static_cast<std::ptrdiff_t>(needed), ghosts.end(), by_id);
     std::size_t next = 0;
     for (int c = 1; c <= new_columns; ++c)
-      for (std::size_t w : plate_walls) {
+      for (std::size_t w : plate_walls) {  // a column at the plate's wall particles' heights (y, and z in 3-D)
         const std::size_t g = ghosts[next++];
         p.x[g] = p.x[w] + c * l0_;
-        p.y[g] = p.y[w];
-        p.u[g] = speed_;
-        p.v[g] = p.p[g] = 0.0;
+        for (std::size_t a = 1; a < D; ++a) (*r[a])[g] = (*r[a])[w];
+        set_velocity(g, speed_);
+        p.p[g] = 0.0;
         p.kind[g] = Kind::fluid;
         p.group[g] = fluid_group_;
       }
@@ -419,9 +446,13 @@ void PushingPlate::operator()(Particles& p, double time, std::size_t owned) {
     if (p.kind[i] == Kind::fluid && p.x[i] > outlet_x_) {
       p.kind[i] = Kind::ghost;
       p.x[i] = parking_x_;
-      p.u[i] = p.v[i] = p.p[i] = 0.0;
+      set_velocity(i, 0.0);
+      p.p[i] = 0.0;
       removed_ += i < owned;
     }
 }
+
+template class BasicPushingPlate<2>;
+template class BasicPushingPlate<3>;
 
 }  // namespace mps

@@ -77,24 +77,35 @@ void apply_mirror_velocity(const MirrorPlane<D>& wall, const BasicCellGrid<D>& g
 /// beyond it, is held at gauge pressure 0, and its fluid leaves at the velocity of the fluid just upstream, along the
 /// outflow direction, unmoved by the pressure gradient and the viscous term. Why not free-surface particles at
 /// P = 0: docs/step.md.
-struct OutflowBuffer {
-  /// @{ a point of the outlet line, where fluid leaves
-  double px = 0, py = 0;  /// @}
-  /// @{ unit normal of the line, pointing out of the fluid (the outflow direction)
-  double nx = 1, ny = 0;  /// @}
-  double thickness = 0;   ///< [m] how far upstream of the line the buffer reaches; at least the largest kernel radius
+template <int D>
+struct BasicOutflowBuffer {
+  Vec<D> point{};  ///< a point of the outlet line (a plane in 3-D), where fluid leaves [m]
+  /// unit normal of the outlet, pointing out of the fluid (the outflow direction); +x by default
+  Vec<D> normal = [] {
+    Vec<D> x{};
+    x[0] = 1.0;
+    return x;
+  }();
+  double thickness = 0;   ///< [m] how far upstream of the outlet the buffer reaches; at least the largest kernel radius
   void validate() const;  ///< throws std::invalid_argument unless the normal has unit length and thickness > 0
-  /// Signed distance past the buffer's upstream edge: > 0 inside the buffer (or beyond the outlet line).
-  [[nodiscard]] double depth(double x, double y) const { return (x - px) * nx + (y - py) * ny + thickness; }
-  [[nodiscard]] bool contains(double x, double y) const { return depth(x, y) > 0.0; }  ///< depth(x, y) > 0
+  /// Signed distance past the buffer's upstream edge: > 0 inside the buffer (or beyond the outlet).
+  [[nodiscard]] double depth(const Vec<D>& r) const {
+    double s = 0.0;
+    for (std::size_t a = 0; a < D; ++a) s += (r[a] - point[a]) * normal[a];
+    return s + thickness;
+  }
+  [[nodiscard]] bool contains(const Vec<D>& r) const { return depth(r) > 0.0; }  ///< depth(r) > 0
 };
+using OutflowBuffer = BasicOutflowBuffer<2>;   ///< 2-D
+using OutflowBuffer3 = BasicOutflowBuffer<3>;  ///< 3-D
 
 /// Sets the velocity of every fluid particle i with in_buffer[i] != 0: the Shepard average (bounded weight) of
 /// the fluid outside the buffer within `radius` of the point `radius` upstream of the buffer's edge, level with
 /// i, its component along the outflow normal only; a particle with no such fluid in reach keeps its velocity's
 /// normal component. `grid` must have been binned with `particles`.
-void apply_outflow_velocity(const OutflowBuffer& buffer, const CellGrid& grid, double radius,
-                            std::span<const char> in_buffer, Particles& particles);
+template <int D>
+void apply_outflow_velocity(const BasicOutflowBuffer<D>& buffer, const BasicCellGrid<D>& grid, double radius,
+                            std::span<const char> in_buffer, BasicParticles<D>& particles);
 
 /// Where a rigid body is at time t, relative to t = 0: rotated by `angle` (counter-clockwise) about its centre,
 /// then shifted by (dx, dy); and how fast: omega = d angle/dt, (vx, vy) = d(dx, dy)/dt.
@@ -181,15 +192,18 @@ class RigidMotion3 {
 /// later steps, kept beside the plate so that a partition by position keeps both on one process.
 /// With the outlet open, the fluid next to it is free surface (P = 0).
 /// Call it from a BoundaryMotion component (after the predictor, with the new time).
-class PushingPlate {
+/// In 3-D the channel's cross-section is the plate's (y, z) layout: a column is one particle per plate wall particle.
+template <int D>
+class BasicPushingPlate {
  public:
   /// The plate is the wall and dummy particles of `plate_group` in `initial`; fluid it adds joins `fluid_group`.
-  PushingPlate(const Particles& initial, int plate_group, double speed, double l0, double outlet_x, int fluid_group = 0);
+  BasicPushingPlate(const BasicParticles<D>& initial, int plate_group, double speed, double l0, double outlet_x,
+                    int fluid_group = 0);
   /// Moves the plate, adds the columns due and removes the outflow. Particles [0, owned) are this process's own, the
   /// rest halo copies of other processes' (a distributed step): copies are moved alike, but only owned ghosts fill a
   /// column, and only owned particles are counted. Throws SimulationError if the ghost pool runs dry (the scene must
   /// start with more ghosts) or if this process owns some of the plate's wall particles but not all.
-  void operator()(Particles& particles, double time, std::size_t owned = static_cast<std::size_t>(-1));
+  void operator()(BasicParticles<D>& particles, double time, std::size_t owned = static_cast<std::size_t>(-1));
   /// Fluid columns added so far: the plate's steps back, the same on every process.
   [[nodiscard]] int columns_added() const { return columns_; }
   /// Fluid particles turned to ghosts so far: this process's own only, so the sum over processes is the total.
@@ -205,5 +219,9 @@ class PushingPlate {
   int columns_ = 0;
   long removed_ = 0;
 };
+using PushingPlate = BasicPushingPlate<2>;   ///< 2-D
+using PushingPlate3 = BasicPushingPlate<3>;  ///< 3-D
+extern template class BasicPushingPlate<2>;
+extern template class BasicPushingPlate<3>;
 
 }  // namespace mps

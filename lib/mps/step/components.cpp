@@ -26,33 +26,42 @@ void MirrorNoSlip::before_projection(StepContext& c) {
     }
 }
 
-OpenOutlet::OpenOutlet(const OutflowBuffer& buffer) : buffer_(buffer) { buffer_.validate(); }
+template <int D>
+BasicOpenOutlet<D>::BasicOpenOutlet(const BasicOutflowBuffer<D>& buffer) : buffer_(buffer) {
+  buffer_.validate();
+}
 
-void OpenOutlet::before_predictor(StepContext& c) {
-  Particles& p = c.particles;
+template <int D>
+void BasicOpenOutlet<D>::before_predictor(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
   in_buffer_.assign(p.size(), 0);
   for (std::size_t i = 0; i < p.size(); ++i)
-    in_buffer_[i] = p.kind[i] != Kind::ghost && buffer_.contains(p.x[i], p.y[i]);
+    in_buffer_[i] = p.kind[i] != Kind::ghost && buffer_.contains(p.position(i));
   apply_outflow_velocity(buffer_, c.sim.grid(), c.sim.gradient_kernel().re, in_buffer_, p);
   for (std::size_t i = 0; i < p.size(); ++i)
     if (in_buffer_[i]) c.fields.prescribed[i] = 1;
 }
 
-double OpenOutlet::reach(const Simulation& sim) const { return buffer_.thickness + 2.0 * sim.gradient_kernel().re; }
+template <int D>
+double BasicOpenOutlet<D>::reach(const BasicSimulation<D>& sim) const {
+  return buffer_.thickness + 2.0 * sim.gradient_kernel().re;
+}
 
-bool OpenOutlet::runs_after(const StepComponent& other) const {
-  return dynamic_cast<const HydrostaticSplit*>(&other) != nullptr;
+template <int D>
+bool BasicOpenOutlet<D>::runs_after(const BasicStepComponent<D>& other) const {
+  return dynamic_cast<const BasicHydrostaticSplit<D>*>(&other) != nullptr;
 }
 
 // Buffer fluid that crossed the outlet may have become a ghost (and a pushing plate may recycle it): left flagged, it
 // was held at P = 0 and read as a carrier. Decided after the predictor's exchange, so that halo copies decide from
 // their owners' r* and kinds as their owners do; copies appended after before_predictor (of particles that were
 // ghosts at the step's start) were in no buffer.
-void OpenOutlet::before_source(StepContext& c) {
-  const Particles& p = c.particles;
+template <int D>
+void BasicOpenOutlet<D>::before_source(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
   in_buffer_.resize(p.size(), 0);
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !buffer_.contains(p.x[i], p.y[i]))) {
+    if (in_buffer_[i] && (p.kind[i] == Kind::ghost || !buffer_.contains(p.position(i)))) {
       in_buffer_[i] = 0;
       c.fields.prescribed[i] = 0;
     }
@@ -60,8 +69,9 @@ void OpenOutlet::before_source(StepContext& c) {
 
 // Held at P = 0 like a free surface, but no surface: the fluid beside it has full kernels, so its number density
 // stays in the source.
-void OpenOutlet::before_assembly(StepContext& c) {
-  StepFields& f = c.fields;
+template <int D>
+void BasicOpenOutlet<D>::before_assembly(StepContext& c) {
+  BasicStepFields<D>& f = c.fields;
   if (f.held.empty()) f.held = f.surface;
   for (std::size_t i = 0; i < in_buffer_.size(); ++i)
     if (in_buffer_[i]) {
@@ -70,7 +80,8 @@ void OpenOutlet::before_assembly(StepContext& c) {
     }
 }
 
-void OpenOutlet::after_pressure(StepContext& c) {
+template <int D>
+void BasicOpenOutlet<D>::after_pressure(StepContext& c) {
   for (std::size_t i = 0; i < in_buffer_.size(); ++i)
     if (in_buffer_[i]) {
       c.particles.p[i] = 0.0;
@@ -252,6 +263,8 @@ void BasicParticleShifting<D>::shift_positions(StepContext& c) {
   shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p, normal);
 }
 
+template class BasicOpenOutlet<2>;
+template class BasicOpenOutlet<3>;
 template class BasicMirrorPlaneNoSlip<2>;
 template class BasicMirrorPlaneNoSlip<3>;
 template class BasicSurfaceRegion<2>;

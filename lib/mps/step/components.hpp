@@ -14,7 +14,7 @@
 namespace mps {
 
 // Components that work in D = 2 and 3 are class templates BasicX<D>, with X the 2-D one and X3 the 3-D one;
-// MirrorNoSlip and OpenOutlet are 2-D.
+// MirrorNoSlip (circles and lines of MirrorWall) is 2-D.
 
 /// Moves walls: called after the predictor with the particles and the new time (RigidMotion, PushingPlate, ...).
 template <int D>
@@ -71,24 +71,28 @@ using MirrorPlaneNoSlip3 = BasicMirrorPlaneNoSlip<3>;  ///< 3-D
 
 /// An open outlet through an outflow buffer (see OutflowBuffer): its particles are held at P = 0, and its fluid
 /// leaves at the upstream fluid's velocity, unmoved by viscosity, the pressure gradient and shifting.
-class OpenOutlet : public StepComponent {
+template <int D>
+class BasicOpenOutlet : public BasicStepComponent<D> {
  public:
-  explicit OpenOutlet(const OutflowBuffer& buffer);  ///< throws std::invalid_argument for a bad buffer
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicOpenOutlet(const BasicOutflowBuffer<D>& buffer);  ///< throws std::invalid_argument for a bad buffer
   void before_predictor(StepContext& c) override;
   void before_source(StepContext& c) override;
   void before_assembly(StepContext& c) override;
   void after_pressure(StepContext& c) override;
   /// The buffer's thickness plus twice the gradient kernel's radius: a buffer particle's velocity is sampled that far
   /// upstream (apply_outflow_velocity).
-  [[nodiscard]] double reach(const Simulation& sim) const override;
+  [[nodiscard]] double reach(const BasicSimulation<D>& sim) const override;
   /// After a HydrostaticSplit: the buffer is held at P = 0 through the split's pressure offset.
-  [[nodiscard]] bool runs_after(const StepComponent& other) const override;
-  [[nodiscard]] const OutflowBuffer& buffer() const { return buffer_; }  ///< the buffer it applies
+  [[nodiscard]] bool runs_after(const BasicStepComponent<D>& other) const override;
+  [[nodiscard]] const BasicOutflowBuffer<D>& buffer() const { return buffer_; }  ///< the buffer it applies
 
  private:
-  OutflowBuffer buffer_;
+  BasicOutflowBuffer<D> buffer_;
   std::vector<char> in_buffer_;  // this step's buffer particles, by position at its start
 };
+using OpenOutlet = BasicOpenOutlet<2>;   ///< 2-D
+using OpenOutlet3 = BasicOpenOutlet<3>;  ///< 3-D
 
 /// Where a free surface may exist: outside it no particle is flagged free surface, since in a confined liquid a low
 /// n* is a void for the source term to close, not a surface to hold at P = 0.
@@ -245,6 +249,8 @@ class BasicParticleShifting : public BasicStepComponent<D> {
 using ParticleShifting = BasicParticleShifting<2>;   ///< 2-D
 using ParticleShifting3 = BasicParticleShifting<3>;  ///< 3-D
 
+extern template class BasicOpenOutlet<2>;
+extern template class BasicOpenOutlet<3>;
 extern template class BasicMirrorPlaneNoSlip<2>;
 extern template class BasicMirrorPlaneNoSlip<3>;
 extern template class BasicSurfaceRegion<2>;

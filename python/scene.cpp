@@ -256,21 +256,20 @@ void def_fields(py::class_<mps::BasicParticles<D>>& c) {
         },
         field_doc(name));
   });
-  const std::string shape = "(N, " + std::to_string(D) + ")";
-  c.def_property(
-      "positions", [](const P& p) { return rows_of<D>(p.positions(), p.size()); },
-      [](P& p, py::handle values) {
-        auto columns = columns_of<D>(values, "positions", static_cast<py::ssize_t>(p.size()));
-        for (std::size_t d = 0; d < D; ++d) *p.positions()[d] = std::move(columns[d]);
-      },
-      ("positions as an array of shape " + shape + " [m] (a copy; assigning one sets them all)").c_str());
-  c.def_property(
-      "velocities", [](const P& p) { return rows_of<D>(p.velocities(), p.size()); },
-      [](P& p, py::handle values) {
-        auto columns = columns_of<D>(values, "velocities", static_cast<py::ssize_t>(p.size()));
-        for (std::size_t d = 0; d < D; ++d) *p.velocities()[d] = std::move(columns[d]);
-      },
-      ("velocities as an array of shape " + shape + " [m/s] (a copy; assigning one sets them all)").c_str());
+  // positions and velocities as (N, D) arrays; `of` gives a particles' D component vectors.
+  auto def_rows = [&c](const char* name, auto of, const char* unit) {
+    c.def_property(
+        name, [of](const P& p) { return rows_of<D>(of(p), p.size()); },
+        [of, name](P& p, py::handle values) {
+          auto columns = columns_of<D>(values, name, static_cast<py::ssize_t>(p.size()));
+          for (std::size_t d = 0; d < D; ++d) *of(p)[d] = std::move(columns[d]);
+        },
+        (std::string(name) + " as an array of shape (N, " + std::to_string(D) + ") [" + unit +
+         "] (a copy; assigning one sets them all)")
+            .c_str());
+  };
+  def_rows("positions", [](auto& p) { return p.positions(); }, "m");
+  def_rows("velocities", [](auto& p) { return p.velocities(); }, "m/s");
   c.def("__len__", &P::size);
   c.def("count", [](const P& p, py::handle kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
         "How many particles are of this kind.");

@@ -118,6 +118,9 @@ def special_inputs(build, tmp):
         ]
         cases = [(["--out", "/dev/full"], "not a directory"), (["--out", "/dev/full/x"], "not a directory"),
                  (["--out", ""], "empty"), (["--out", str(tmp / "a_file")], "not a directory")]
+        # Every app takes --dim; those whose scenes are 2-D refuse 3 saying so, and take 2.
+        cases += [(["--dim", "3", "--out", str(tmp / "d3")], None if app == "hydrostatic" else "this app is 2-D only"),
+                  (["--dim", "2", "--out", str(tmp / "d2")], None)]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]
@@ -136,7 +139,7 @@ def special_inputs(build, tmp):
                                 f"{proc.stderr[-300:]!r}")
         if not Path("/dev/full").is_char_device():
             failures.append(f"{app} replaced /dev/full")
-    print(f"special paths and damaged config files: {count} cases")
+    print(f"special paths, --dim and damaged config files: {count} cases")
     return failures
 
 

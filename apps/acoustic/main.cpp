@@ -89,6 +89,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "the acoustic module is 2-D");
   app.add_option("--case", o.case_name, "free | hard | mur | two-pulse | flow")->capture_default_str()->group("Scene");
   app.add_option("--size", o.size, "side of the square box [m]")->capture_default_str()->check(positive_up_to(1e5))
       ->group("Scene");

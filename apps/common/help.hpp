@@ -96,6 +96,17 @@ class GroupedHelp : public CLI::Formatter {
   }
 };
 
+// --dim in an app whose scenes are 2-D only: 2 is taken, 3 is refused with `why` (what is 2-D, and where 3-D is), so
+// that a user asking for 3-D learns what exists instead of meeting "argument not expected".
+inline void add_two_d_only_option(CLI::App& app, const std::string& why) {
+  app.add_option("--dim")
+      ->description("the dimension: 2 only (" + why + ")")
+      ->default_str("2")
+      ->check(CLI::Validator(
+          [why](std::string& value) { return value == "2" ? std::string() : "this app is 2-D only: " + why; }, "2"))
+      ->group("Scene");
+}
+
 // What every app offers first: grouped --help, --version and --config, in the group "General".
 inline void add_general_options(CLI::App& app) {
   app.formatter(std::make_shared<GroupedHelp>());

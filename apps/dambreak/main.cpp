@@ -64,6 +64,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "the 3-D dam break is not built yet; the library steps 3-D scenes (mps::Simulation3), as hydrostatic --dim 3 does");
   app.add_option("--particles", o.particles_file,
                  "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
                  "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "

@@ -35,6 +35,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "the elastic solid is 2-D");
   app.add_option("--scene", o.scene_name, "plate: dam break on a plate 0.08 m high, 0.012 m thick; gate: water 0.14 m "
                  "deep held by a rubber gate 0.079 m long, 0.005 m thick")
       ->capture_default_str()->check(CLI::IsMember({"plate", "gate"}))->group("Scene");

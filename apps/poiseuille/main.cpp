@@ -70,6 +70,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "a 3-D channel is built from the library: PushingPlate3, OpenOutlet3, MirrorPlaneNoSlip3");
   app.add_option("--mode", o.mode, "inlet | body-force | couette")->capture_default_str()->group("Scene");
   app.add_option("--re", o.p.re, "Reynolds number U D / nu (U: mean velocity, or the wall speed for couette)")
       ->capture_default_str()->check(positive_up_to(1e6))->group("Scene");

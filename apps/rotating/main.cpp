@@ -233,6 +233,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "the circular mirror walls are 2-D");
   app.add_option("--scene", o.scene, "couette | channel")->capture_default_str()->group("Scene");
   app.add_option("--model", o.model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
                  "compares them)")->capture_default_str()->group("Scene");

@@ -51,6 +51,7 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
+  add_two_d_only_option(app, "the elastic solid is 2-D");
   app.add_option("--scene", o.scene_name, "plate: Gray, Monaghan & Swift's clamped plate (L = 0.2 m, H = 0.02 m) set "
                  "swinging by its first mode; csm3: Turek & Hron's flag on a cylinder bending under gravity")
       ->capture_default_str()->check(CLI::IsMember({"plate", "csm3"}))->group("Scene");

@@ -720,9 +720,9 @@ BasicParticles<D> read_particles_csv(const fs::path& path) {
   // components and kind are required.
   BasicParticles<D> out;
   const std::vector<std::string> names = file_columns(out);
-  std::string required, optional;
-  for (std::size_t c = 0; c < names.size(); ++c)
-    ((c <= D) ? required : optional) += std::string(((c <= D) ? required : optional).empty() ? "" : ", ") + names[c];
+  std::string required = names[0], optional = names[D + 1];  // the position and kind; the rest
+  for (std::size_t c = 1; c <= D; ++c) required += ", " + names[c];
+  for (std::size_t c = D + 2; c < names.size(); ++c) optional += ", " + names[c];
   const std::string valid = "the columns are " + required + " (required) and " + optional + " (optional)";
   std::vector<int> field_column;  // the column each field of a row holds
   std::vector<int> field_of(names.size(), -1);

@@ -1,6 +1,7 @@
 // What the apps print (apps/common/console.hpp, help.hpp): progress lines paced by a clock the test sets, the start
 // table's names and units from the summary keys' suffixes, and --help's groups, defaults, units and ranges.
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -189,7 +190,8 @@ struct ConfigRun {
 };
 
 ConfigRun read_config(const std::string& text) {
-  const std::string path = testing::TempDir() + "sparsemps_config.toml";
+  // One file per process: ctest runs the ConfigFile tests side by side, and a shared name let one read another's file.
+  const std::string path = testing::TempDir() + "sparsemps_config_" + std::to_string(getpid()) + ".toml";
   {
     std::FILE* f = std::fopen(path.c_str(), "wb");
     std::fwrite(text.data(), 1, text.size(), f);

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include <signal.h>
@@ -26,8 +27,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A folder per process: ctest runs these tests side by side, and several use the same file names.
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / "sparsemps_test_io";
+  const fs::path dir = fs::temp_directory_path() / ("sparsemps_test_io_" + std::to_string(getpid()));
   fs::create_directories(dir);
   return dir / name;
 }

@@ -43,6 +43,7 @@ mps::SimulationConfig make_config(const Params& p) {
   c.dt_max = p.dt;
   c.solver = p.solver;
   c.dt_option = "--dt";
+  mps::set_pressure_treatment(c, p.pressure_treatment);
   return c;
 }
 

@@ -73,7 +73,8 @@ def test_guard_stop_raises_simulation_error_and_keeps_the_state():
     p.u = np.ones(len(p))
     sim = sparsemps.Simulation(p, (-1, 1, -1, 1), l0=0.01, dt_max=1e-3, max_speed=0.5, reorder_every=0)
     with pytest.raises(sparsemps.SimulationError,
-                       match=r"step 1 \(t = 0.001 s, dt = 0.001 s, dt limit dt_max\): particle 0 moves at 1 m/s, "
+                       match=r"step 1 \(t = 0.001 s, dt = 0.001 s, dt limit dt_max, pressure treatment none, gradient "
+                             r"min-reference\): particle 0 moves at 1 m/s, "
                              r"above max_speed 0.5 m/s \(reduce dt_max\)"):
         sim.step()
     assert sim.steps == 0 and sim.time == 0.0

@@ -26,10 +26,14 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight, int dim) {
             << "]; choose a radius in that range (the usual ones are 2.1 to 4.1)";
     throw std::invalid_argument(message.str());
   }
-  Kernel k{weight, radius_over_l0 * l0, 0.0, 0.0, 0, dim};
+  Kernel k;
+  k.weight = weight;
+  k.re = radius_over_l0 * l0;
+  k.dim = dim;
+  k.l0 = l0;
   const int n = static_cast<int>(std::ceil(radius_over_l0));
   const int nz = dim == 3 ? n : 0;
-  double sum_w = 0.0, sum_wr2 = 0.0;
+  double sum_w = 0.0, sum_wr2 = 0.0, sum_rate = 0.0, sum_higher_order = 0.0;
   for (int c = -nz; c <= nz; ++c)
     for (int j = -n; j <= n; ++j)
       for (int i = -n; i <= n; ++i) {
@@ -39,9 +43,13 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight, int dim) {
         k.lattice_neighbors += w > 0.0;
         sum_w += w;
         sum_wr2 += w * r * r;
+        sum_rate -= k.dw(r) * r;
+        sum_higher_order += k.higher_order_weight(r) * r * r;
       }
   k.n0 = sum_w;
   k.lambda = sum_wr2 / sum_w;
+  k.n_rate = sum_rate;
+  k.n_higher_order = sum_higher_order;
   return k;
 }
 

@@ -326,6 +326,26 @@ void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span
   }
 }
 
+template <int D>
+void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out) {
+  const Index n = count(s);
+  for (std::size_t a = 0; a < D; ++a) check_size(u[a].size(), s.particles.size(), "velocity");
+  check_size(out.size(), s.particles.size(), "out");
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double sum = 0.0;
+    for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double) {
+      const double r = std::sqrt(r2);
+      if (!(r > 0.0)) return;  // coincident particles: the pair's distance has no direction to change along
+      double approach = (u[0][j] - u[0][i]) * d[0];
+      for (std::size_t a = 1; a < D; ++a) approach += (u[a][j] - u[a][i]) * d[a];
+      sum += s.kernel.dw(r) * approach / r;
+    });
+    out[i] = sum;
+  }
+}
+
 namespace {
 
 // The Laplacian of K fields in one pass over the pairs: each pair's distance and weight serve them all.
@@ -337,13 +357,15 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
     check_size(out[f].size(), s.particles.size(), "out");
   }
   const Index n = count(s);
-  const double scale = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
+  const double scale = s.kernel.laplacian_scale(D);
+  const bool higher_order = s.kernel.higher_order_laplacian;
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     std::array<double, K> sum{};
-    for_each_pair(s, i, [&](std::size_t j, const Vec<D>&, double, double w) {
-      for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * w;
+    for_each_pair(s, i, [&](std::size_t j, const Vec<D>&, double r2, double w) {
+      const double weight = higher_order ? s.kernel.higher_order_weight(std::sqrt(r2)) : w;
+      for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * weight;
     });
     for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];
   }
@@ -363,8 +385,11 @@ void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Comp
 
 template <int D>
 CsrMatrix laplacian_matrix(const BasicStencil<D>& s) {
-  const double scale = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
-  return pair_matrix(s, true, [scale](const Vec<D>&, double, double w) { return scale * w; });
+  const double scale = s.kernel.laplacian_scale(D);
+  const Kernel& k = s.kernel;
+  return pair_matrix(s, true, [scale, &k](const Vec<D>&, double r2, double w) {
+    return scale * (k.higher_order_laplacian ? k.higher_order_weight(std::sqrt(r2)) : w);
+  });
 }
 
 GradientMatrices gradient_matrices(const Stencil& s) {
@@ -484,6 +509,7 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   template void conservative_gradient_terms<D>(const BasicStencil<D>&, std::span<const double>, std::span<const char>,  \
                                             std::span<const char>, std::span<const char>, const Components<D>&);     \
   template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);                    \
+  template void number_density_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);           \
   template void laplacian(const BasicStencil<D>&, std::span<const double>, std::span<double>);                       \
   template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&);                  \
   template CsrMatrix laplacian_matrix(const BasicStencil<D>&);                                                       \

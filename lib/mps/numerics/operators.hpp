@@ -108,7 +108,14 @@ inline void divergence(const Stencil& s, std::span<const double> u, std::span<co
   divergence<2>(s, {u, v}, out);
 }
 
-/// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij
+/// Dn/Dt = sum w'(r_ij) (r_ij . u_ij)/r_ij, r_ij = r_j - r_i, u_ij = u_j - u_i: the exact rate of change of the number
+/// density when the particles move with u (Khayyer & Gotoh 2009's higher-order source). -(d/kernel.n_rate) Dn/Dt is a
+/// divergence of u, exact for linear fields on the perfect lattice and zero for any rigid motion.
+template <int D = 2>
+void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out);
+
+/// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij; with kernel.higher_order_laplacian, (2d/n_higher_order) sum
+/// (phi_j - phi_i) f(r_ij) (Kernel::higher_order_weight)
 template <int D = 2>
 void laplacian(const BasicStencil<D>& s, std::span<const double> phi, std::span<double> out);
 /// Every component of a vector field in one pass over the pairs (the viscous term): the same numbers as a call

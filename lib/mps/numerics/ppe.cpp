@@ -130,7 +130,7 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     throw std::invalid_argument(
         "assemble_ppe: free-surface flags, source and Dirichlet values must have one entry per particle");
   if (!(shift >= 0.0) || !std::isfinite(shift)) throw std::invalid_argument("assemble_ppe: shift must be >= 0");
-  const double c = 2.0 * D / (s.kernel.lambda * s.kernel.n0);
+  const double c = s.kernel.laplacian_scale(D);
 
   // Who enters a Laplacian sum: fluid particles (free-surface ones as Dirichlet P = 0) and wet walls. A dry
   // wall (a wall flagged free surface: above the water line) is a zero-flux boundary like a dummy, not a
@@ -160,7 +160,7 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     for (int jj : s.neighbors.of(i)) {
       const auto j = static_cast<std::size_t>(jj);
       if (!in_sum(j)) continue;
-      const double w = s.kernel.w(std::sqrt(norm2<D>(displacement(ri, at(j)))));
+      const double w = s.kernel.laplacian_weight(std::sqrt(norm2<D>(displacement(ri, at(j)))));
       if (w <= 0.0) continue;
       diag += w;
       each(j, w);

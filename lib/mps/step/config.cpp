@@ -28,6 +28,46 @@ bool in_range(double v, double min, double max, bool min_open, bool max_open) {
   return (min_open ? v > min : v >= min) && (max_open ? v < max : v <= max);
 }
 
+std::string pressure_treatment(const SimulationConfig& config) {
+  std::string names;
+  auto add = [&](bool on, const char* name) {
+    if (!on) return;
+    if (!names.empty()) names += '+';
+    names += name;
+  };
+  add(config.higher_order_source, "hs");
+  add(config.higher_order_laplacian, "hl");
+  add(config.error_compensating_source, "ecs");
+  add(config.pressure_gradient == GradientVariant::corrected, "gc");
+  return names.empty() ? "none" : names;
+}
+
+void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
+  const std::string valid = "; valid: hs, hl, ecs and gc joined by '+' (e.g. hs+hl+ecs), or none";
+  bool hs = false, hl = false, ecs = false, gc = false;
+  if (names != "none") {
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t end = names.find('+', start);
+      const std::string_view name = names.substr(start, end == std::string_view::npos ? end : end - start);
+      bool* flag = name == "hs" ? &hs : name == "hl" ? &hl : name == "ecs" ? &ecs : name == "gc" ? &gc : nullptr;
+      if (!flag)
+        throw std::invalid_argument("pressure treatment: unknown name '" + std::string(name) + "' in '" +
+                                    std::string(names) + "'" + valid);
+      if (*flag)
+        throw std::invalid_argument("pressure treatment: '" + std::string(name) + "' given twice in '" +
+                                    std::string(names) + "'" + valid);
+      *flag = true;
+      if (end == std::string_view::npos) break;
+      start = end + 1;
+    }
+  }
+  config.higher_order_source = hs;
+  config.higher_order_laplacian = hl;
+  config.error_compensating_source = ecs;
+  if (gc) config.pressure_gradient = GradientVariant::corrected;
+}
+
 void SimulationConfig::validate() const {
   for_each_parameter([this]<class T>(const Parameter<T>& p) {
     if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {

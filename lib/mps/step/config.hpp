@@ -5,6 +5,7 @@
 /// (for_each_parameter), so a new field is written here and nowhere else.
 #include <limits>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 #include "mps/core/kernel.hpp"
@@ -36,6 +37,15 @@ struct SimulationConfig {
   /// Density source against each wall particle's own t = 0 number density and the fluid's t = 0 mean, instead of
   /// the lattice n0 (component InitialReferenceDensity): for packings other than the square lattice.
   bool initial_reference_density = false;
+  /// @{ Khayyer & Gotoh's treatments of the projection (docs/pressure.md), each normalised on the perfect lattice.
+  /// The source's divergence term is -(d/n_rate) Dn/Dt at r*, u* (the number density's exact rate of change, on
+  /// the density kernel) instead of the divergence of u* ("hs", Khayyer & Gotoh 2009).
+  bool higher_order_source = false;
+  /// The PPE's Laplacian weighs pairs by w'' + (d - 3) w'/r (Kernel::higher_order_weight) ("hl", 2010, 2012).
+  bool higher_order_laplacian = false;
+  /// The source gains -(rho/dt^2)(|e| delta + |delta| e), e = (n - n0)/n0 and delta = dt (Dn/Dt)/n0 at the step's
+  /// start: a number-density error that is also growing is pushed back ("ecs", Khayyer & Gotoh 2011).
+  bool error_compensating_source = false;  /// @}
   GradientVariant pressure_gradient = GradientVariant::min_reference;  ///< the pressure gradient's form
   /// Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
   /// destabilises a liquid at rest under gravity).
@@ -121,6 +131,12 @@ void for_each_parameter(F&& f) {
   f(Parameter<std::string>{"viscosity_solver", &C::viscosity_solver, "", "solver spec of the implicit viscosity"});
   f(Parameter<bool>{"initial_reference_density", &C::initial_reference_density, "",
                     "source against each particle's t = 0 number density instead of the lattice n0"});
+  f(Parameter<bool>{"higher_order_source", &C::higher_order_source, "",
+                    "source's divergence from the number density's rate of change (Khayyer & Gotoh 2009)"});
+  f(Parameter<bool>{"higher_order_laplacian", &C::higher_order_laplacian, "",
+                    "PPE Laplacian weighted by w'' + (d - 3) w'/r (Khayyer & Gotoh 2010)"});
+  f(Parameter<bool>{"error_compensating_source", &C::error_compensating_source, "",
+                    "source term against a growing number-density error (Khayyer & Gotoh 2011)"});
   f(Parameter<GradientVariant>{"pressure_gradient", &C::pressure_gradient, "",
                                "plain, min-reference, corrected, corrected-min-reference or conservative"});
   f(Parameter<bool>{"min_reference_tilt", &C::min_reference_tilt, "", "min-reference of P - rho f.r instead of P"});
@@ -139,6 +155,15 @@ void for_each_parameter(F&& f) {
   f(Parameter<std::string>{"solver", &C::solver, "", "pressure solver spec (default 'auto')"});
   f(Parameter<bool>{"warm_start", &C::warm_start, "", "start each solve from the previous pressure"});
 }
+
+/// The treatments of the projection as names joined by '+': "hs" (higher_order_source), "hl" (higher_order_laplacian),
+/// "ecs" (error_compensating_source) and "gc" (pressure_gradient corrected, Khayyer & Gotoh's gradient correction), in
+/// that order; "none" when no treatment is on.
+std::string pressure_treatment(const SimulationConfig& config);
+/// Sets the three treatments' flags from such names, in any order ("none": all off); "gc" also sets the pressure
+/// gradient to corrected, and without it the gradient is left as it is. Throws std::invalid_argument naming an unknown
+/// or repeated name and the valid ones.
+void set_pressure_treatment(SimulationConfig& config, std::string_view names);
 
 /// A number range as a reader writes it: "positive", ">= 0", "in (1, 10]", "finite"; "" when anything goes.
 std::string range_text(double min, double max, bool min_open, bool max_open);

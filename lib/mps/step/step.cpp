@@ -111,6 +111,13 @@ const char* to_string(Stage stage) {
   return "unknown stage";
 }
 
+namespace {
+Kernel pressure_kernel_of(Kernel laplacian, bool higher_order) {
+  laplacian.higher_order_laplacian = higher_order;
+  return laplacian;
+}
+}  // namespace
+
 template <int D>
 BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, SimulationConfig config)
     : BasicSimulation(std::move(particles), domain, config, make_solver(config.solver)) {}
@@ -139,6 +146,7 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
       k_surface_(make_kernel(config_.radius_surface, config_.l0, config_.weight, D)),
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight, D)),
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight, D)),
+      k_pressure_(pressure_kernel_of(k_laplacian_, config_.higher_order_laplacian)),
       grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
                                             config_.radius_laplacian})) {
   if (D == 2 && config_.fz != 0.0)
@@ -284,6 +292,7 @@ void BasicSimulation<D>::run_stage(Stage stage) {
       break;
     case Stage::neighbors:
       find_neighbors_now();
+      error_compensation();
       run(&StepComponent::before_predictor);
       phase = &times_.neighbors;
       break;
@@ -394,6 +403,7 @@ void BasicSimulation<D>::choose_time_step() {
   info_.dt = f.dt;
   f.balanced = {};
   f.n_source.clear();
+  f.ecs.clear();
   f.held.clear();
   f.held_value.clear();
   f.pressure_offset.clear();
@@ -408,8 +418,32 @@ void BasicSimulation<D>::find_neighbors_now() {
     p.permute(grid_.cell_order());
   }
   grid_.bin(p);
-  grid_.neighbors(p, k_laplacian_.re, near_star_);  // viscosity only (neighbors_now())
+  // The viscosity's list; the error-compensating source reads the density kernel's neighbours at r^n too.
+  const double radius = config_.error_compensating_source ? std::max(k_laplacian_.re, k_density_.re) : k_laplacian_.re;
+  grid_.neighbors(p, radius, near_star_);
   fields_.prescribed.assign(p.size(), 0);
+}
+
+// The error-compensating source (Khayyer & Gotoh 2011) from the state at the step's start: e = (n - n0)/n0 and
+// delta = dt (Dn/Dt)/n0, the fractional change of n this step would make. -(rho/dt^2)(|e| delta + |delta| e) is
+// large only where n is both off and moving further off (or back fast), so a liquid at rest gets none of it.
+template <int D>
+void BasicSimulation<D>::error_compensation() {
+  if (!config_.error_compensating_source) return;
+  const Particles& p = particles_;
+  StepFields& f = fields_;
+  const BasicStencil<D> stencil{p, domain_, near_star_, k_density_};
+  mps::number_density<D>(stencil, f.n_start);
+  f.ecs.assign(p.size(), 0.0);
+  ConstComponents<D> u;
+  const auto vel = p.velocities();
+  for (std::size_t a = 0; a < D; ++a) u[a] = *vel[a];
+  number_density_rate<D>(stencil, u, f.ecs);
+  const double n0 = k_density_.n0, scale = config_.rho / (f.dt * f.dt);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double e = (f.n_start[i] - n0) / n0, delta = f.dt * f.ecs[i] / n0;
+    f.ecs[i] = -scale * (std::abs(e) * delta + std::abs(delta) * e);
+  }
 }
 
 // Walls and dummies carry their (prescribed or mirrored) velocity into the viscous sum: the no-slip condition.
@@ -539,7 +573,13 @@ void BasicSimulation<D>::number_density_and_divergence() {
   ConstComponents<D> u;
   const auto vel = p.velocities();
   for (std::size_t a = 0; a < D; ++a) u[a] = *vel[a];
-  divergence<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, u, fields_.div);
+  if (!config_.higher_order_source) {
+    divergence<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, u, fields_.div);
+    return;
+  }
+  number_density_rate<D>({p, domain_, neighbors_at_star(k_density_), k_density_}, u, fields_.div);
+  const double scale = -static_cast<double>(D) / k_density_.n_rate;
+  for (double& d : fields_.div) d *= scale;
 }
 
 template <int D>
@@ -559,9 +599,11 @@ void BasicSimulation<D>::compute_source() {
   const auto n = static_cast<Index>(p.size());
   mixed_source(f.n_source.empty() ? f.n_star : f.n_source, k_density_.n0, f.div, config_.rho, f.dt, config_.gamma,
                f.source);
+  for (std::size_t i = 0; i < f.ecs.size(); ++i) f.source[i] += f.ecs[i];
   if (std::find(f.surface.begin(), f.surface.end(), 1) == f.surface.end()) return;
   // Where the source kernel reaches a free-surface particle its number density deficit is geometry, not
-  // expansion, and would ask for suction growing as 1/dt^2: there the divergence term alone drives the PPE.
+  // expansion, and would ask for suction growing as 1/dt^2: there the divergence term alone drives the PPE (the
+  // error-compensating term, which reads the same deficit, is dropped too).
   const NeighborList& reach = neighbors_at_star(k_density_);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
@@ -582,7 +624,7 @@ void BasicSimulation<D>::assemble() {
   const StepFields& f = fields_;
   const double screening = config_.sound_speed * f.dt;  // the compressibility's reach
   const PpeCounts counts =
-      exchange_->assemble({particles_, domain_, neighbors_at_star(k_laplacian_), k_laplacian_},
+      exchange_->assemble({particles_, domain_, neighbors_at_star(k_pressure_), k_pressure_},
                           f.held.empty() ? f.surface : f.held, f.source, f.held_value,
                           screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
   info_.unknowns = counts.unknowns;
@@ -684,9 +726,12 @@ template <int D>
 void BasicSimulation<D>::check_guard() const {
   const Particles& p = particles_;
   const std::string advice = dt_advice();
+  // The projection's settings are named too: which one a blow-up happened under is the first thing to know.
   auto fail = [&](const std::string& what) {
     throw SimulationError("step " + std::to_string(info_.step) + " (t = " + fmt(info_.time) + " s, dt = " +
-                          fmt(info_.dt) + " s, dt limit " + info_.dt_limit + "): " + what + advice);
+                          fmt(info_.dt) + " s, dt limit " + info_.dt_limit + ", pressure treatment " +
+                          pressure_treatment(config_) + ", gradient " + std::string(to_string(config_.pressure_gradient)) +
+                          "): " + what + advice);
   };
   // A fluid particle moves by exactly dt |u^{n+1}| in a step, so the displacement bound is a speed bound.
   const double max_move = config_.max_displacement * config_.l0;

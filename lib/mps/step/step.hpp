@@ -59,7 +59,9 @@ struct BasicStepFields {
   std::vector<double> n_star;    ///< number density at r* (density kernel)
   std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
   std::vector<double> n_source;  ///< the density the source reads in place of n_star (empty: n_star)
-  std::vector<double> div;       ///< div u*
+  std::vector<double> div;       ///< div u* (with higher_order_source: -(d/n_rate) Dn/Dt at r*, u*)
+  std::vector<double> n_start;   ///< scratch: number density at r^n (error_compensating_source)
+  std::vector<double> ecs;       ///< the error-compensating source term, from r^n, u^n (empty: off)
   std::vector<char> surface;     ///< free-surface particles
   std::vector<double> source;    ///< right-hand side of lap P = source
   std::vector<char> held;        ///< particles held at a given pressure in the PPE (empty: the free surface)
@@ -211,6 +213,8 @@ class BasicSimulation {
   [[nodiscard]] const Kernel& gradient_kernel() const { return k_gradient_; }
   [[nodiscard]] const Kernel& laplacian_kernel() const { return k_laplacian_; }
   /// @}
+  /// The PPE's Laplacian: the Laplacian kernel, with the higher-order weight when config().higher_order_laplacian.
+  [[nodiscard]] const Kernel& pressure_kernel() const { return k_pressure_; }
   [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  ///< n* of the last step
   [[nodiscard]] const StepFields& fields() const { return fields_; }  ///< the fields of the last (or open) step
   /// The last step's PPE (matrix, rhs, maps); on ranks this process's part, as assembled locally.
@@ -243,6 +247,7 @@ class BasicSimulation {
   void begin_exchange();
   void choose_time_step();
   void find_neighbors_now();
+  void error_compensation();
   void predict();
   void explicit_viscous_predictor();
   void implicit_viscous_predictor();
@@ -265,7 +270,7 @@ class BasicSimulation {
   Domain domain_;
   SimulationConfig config_;
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
-  Kernel k_density_, k_surface_, k_gradient_, k_laplacian_;
+  Kernel k_density_, k_surface_, k_gradient_, k_laplacian_, k_pressure_;
   CellGrid grid_;
   std::vector<std::unique_ptr<StepComponent>> components_;
   PhaseTimes times_;

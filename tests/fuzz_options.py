@@ -34,8 +34,9 @@ OPTIONS = {
                  "--tolerance", "--agreement", "--symmetry", "--shifting", "--scene", "--model", "--walls"],
     "acoustic": ["--case", "--size", "--l0", "--cfl", "--b", "--amplitude", "--c0", "--rho0", "--u0", "--frequency",
                  "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
-    "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames", "--front-tolerance",
-                 "--shifting", "--gradient", "--collision", "--restitution",
+    "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--end-time", "--frames",
+                 "--front-speed-tolerance", "--front-shape-tolerance", "--tank-length", "--sensor-height",
+                 "--pressure-treatment", "--shifting", "--gradient", "--collision", "--restitution",
                  "--solver", "--data", "--particles"],
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
@@ -45,7 +46,7 @@ OPTIONS = {
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",
           "0.01,0.02", "0.02,0.01", "eigen-cg:precond=ic,", "cholmod", "both", "fixed", "plain", "hard", "seed",
-          "csm3", "linear", "0.002", "gate", "conservative", "true", "false"]
+          "csm3", "linear", "0.002", "gate", "conservative", "true", "false", "hs+hl", "hs+hs", "none"]
 NULL_ALLOWED = {"frequency_hz"}  # acoustic: null when the case repeats no pulse
 # A small environment, keeping the sanitizers' options (make test-sanitize turns leak detection off).
 ENV = {"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin",

@@ -43,6 +43,9 @@ struct Params {
   double shifting = 0.5;
   // The pressure gradient of the corrector (mps::GradientVariant).
   mps::GradientVariant gradient = mps::GradientVariant::min_reference;
+  // Khayyer & Gotoh's treatments of the projection (mps::set_pressure_treatment: hs, hl, ecs, gc joined by '+'). The
+  // higher-order source cut the wall pressure's step-to-step noise 2.6-fold at H/25 and H/50 (docs/pressure.md).
+  std::string pressure_treatment = "hs";
   double end_time = 0.3;       // [s]
   double g = 9.81;
   std::string solver = "auto";
@@ -50,10 +53,13 @@ struct Params {
   // Level probes, as distances from the downstream wall in H; pressure probes, as heights on it in H.
   std::vector<double> level_probes;
   std::vector<double> pressure_probes;
-  double pressure_patch = 2.0;  // the pressure probe averages over a disc of this radius, in l0, on the wall line
+  double pressure_patch = 2.0;  // the pressure probe reaches this far from the wall line, in l0
+  // The pressure probe's height on the wall, in H: a sensor of that size, the same at every spacing (Zhou et al.'s
+  // 90 mm sensor on a 0.6 m column is 0.15 H). 0: a disc of radius pressure_patch, which shrinks with the spacing.
+  double sensor_height = 0.15;
 };
 
-// The column's geometry with the coarse spacing (20 particles across a for the classic column, H/25 for the seed's).
+// The column's geometry with its default spacing (40 particles across a for the classic column, H/25 for the seed's).
 Params defaults(Column c);
 // Sets p's column and what comes with it (tank, probes, end time) to column c's, keeping the numerics.
 void take_column_geometry(Params& p, Column c);
@@ -81,8 +87,9 @@ double surge_front(const mps::Particles& particles, double l0);
 // Height of the water column at x: the largest y + l0/2 of fluid particles within l0 of the line x, with a fluid
 // neighbour within 2.1 l0; 0 if none.
 double water_level(const mps::Particles& particles, double x, double l0);
-// Mean pressure of the wall and fluid particles within `radius` of (x, y) (the probe's patch); 0 if none.
-double patch_pressure(const mps::Particles& particles, double x, double y, double radius);
+// Mean pressure of the wall and fluid particles within `reach` of the wall line x and within half_height of y along it
+// (a sensor), or with half_height 0 within the disc of radius `reach` about (x, y) (the probe's patch); 0 if none.
+double patch_pressure(const mps::Particles& particles, double x, double y, double reach, double half_height = 0.0);
 
 // A scene from a particle file's particles (docs/particle-files.md). The spacing is dx, or if dx is 0 the particles'
 // median nearest-neighbour distance to 12 significant digits (so a lattice made at 0.01 m gives 0.01). Particles equal
@@ -146,12 +153,34 @@ Table read_table(const std::string& path);
 // front interpolated linearly in time; points beyond the run's end are left out. NaN if no point was compared.
 double max_front_error(const std::vector<Sample>& samples, const Params& p, const Table& data, double t_max);
 
+// The front's developed speed: a line x/a = speed T + intercept fitted by least squares to the points (T, x/a) with T
+// in [t0, t1]. NaN with fewer than two such points.
+struct FrontLine {
+  double speed = 0, intercept = 0;
+  int points = 0;
+};
+FrontLine fit_front_line(const std::vector<double>& T, const std::vector<double>& x_over_a, double t0, double t1);
+// The run's front delayed by a time offset dT (the run at T - dT against the experiment at T) that brings it closest
+// to an experiment's points with T <= t_max: dT searched in steps of 0.001 over [-0.5, 1], the largest relative error
+// left at it. A lead that is a pure time origin leaves a small error at one dT (docs/dambreak.md). NaN if no point.
+struct FrontOffset {
+  double dT = 0, error = 0;
+};
+FrontOffset fit_front_offset(const std::vector<Sample>& samples, const Params& p, const Table& data, double t_max);
+
 // A wall-pressure signal, time ascending, in Buchner's units (t sqrt(g/H), p/(rho g H)). The impact's arrival is the first time the
 // signal reaches `threshold`; its first peak the largest value of the signal smoothed over `smooth` (a centred moving
 // average, in t sqrt(g/H)) within `window` after arrival; its noise the RMS of the signal less its smoothed self over
 // the signal's range, after arrival. Arrival and peak are NaN if the signal never reaches the threshold.
+//
+// The second impact (the run-up's fall onto the first wave, t sqrt(g/H) ~ 5.5-6.5 in Buchner's record): its arrival the
+// first time from t = 5 on that the smoothed signal exceeds the plateau (its mean over [3.5, 5]) by 0.1, its peak the
+// largest smoothed value within 1 after that. NaN where the signal does not reach so far or never rises.
+// noise_rms is that RMS itself, in rho g H: the range grows with the spikes it is meant to judge, so two methods'
+// signals compare by it.
 struct Impact {
-  double arrival = 0, peak = 0, noise = 0;
+  double arrival = 0, peak = 0, noise = 0, noise_rms = 0;
+  double plateau = 0, second_arrival = 0, second_peak = 0;
 };
 Impact impact(const std::vector<double>& time, const std::vector<double>& pressure, double threshold = 0.25,
               double window = 0.5, double smooth = 0.1);

@@ -68,13 +68,13 @@ DAMBREAK_ASYMMETRY = 0.9         # the app's --asymmetry
 def dambreak_scene(l0=DAMBREAK_DX):
     """Particles, domain and config as apps/dambreak/column.cpp makes them (make_particles, make_domain, make_config)."""
     a, g = 0.146, 9.81
-    h, length, height = 2 * a, 4 * a, 3 * a  # as dambreak::defaults computes them, to the last bit
+    h, length, height = 2 * a, 8 * a, 3 * a  # as dambreak::defaults computes them, to the last bit
     particles = sparsemps.Particles().fill_rectangle((0, 0, a, h), l0).add_rectangle_walls((0, 0, length, height), l0)
     margin = 6 * l0
     domain = sparsemps.Domain(-margin, length + margin, -margin, height + 0.5 * h + margin)
     config = dict(l0=l0, rho=1000.0, nu=1e-6, fy=-g, gamma=0.01, cfl=0.2, dt_max=0.2 * l0 / math.sqrt(2 * g * h),
-                  pressure_gradient="min-reference", shifting=0.5, shift_along_free_surface=True, solver="auto",
-                  warm_start=True, dt_option="--cfl")
+                  pressure_gradient="min-reference", higher_order_source=True, shifting=0.5,
+                  shift_along_free_surface=True, solver="auto", warm_start=True, dt_option="--cfl")
     return particles, domain, config
 
 

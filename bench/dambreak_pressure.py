@@ -2,9 +2,11 @@
 """The free-surface pressure treatments on the seed column (docs/pressure.md): for each treatment of the projection
 (mps::set_pressure_treatment) and spacing, the wall pressure at 0.2 H against Buchner (arrival, first peak, noise as a
 fraction of the range and as an RMS in rho g H, plateau, second impact) and at every wall probe. Writes
-bench/results/dambreak_pressure.csv and a chart of the 0.2 H signal of each treatment against the experiment.
+bench/results/dambreak_treatments.csv and a chart of the 0.2 H signal of each treatment against the experiment.
 
   bench/dambreak_pressure.py BUILD_DIR [--spacings 25,50] [--treatments none,hs,...] [--runs DIR] [--jobs 2]
+                             [--name dambreak_treatments]
+  bench/dambreak_pressure.py BUILD_DIR --spacings 25,50,100 --treatments none,hs --name dambreak_pressure_spacings
 
 One thread per run, two runs at a time: H/25 takes about 15 s a run, H/50 about 3 min, H/100 about 25 min. A run whose
 summary is already in --runs is read, not rerun (delete the folder to rerun it).
@@ -35,7 +37,7 @@ def run(exe, out, treatment, across, extra):
     return json.loads(summary.read_text())
 
 
-def plot(rows, runs, results, spacings, treatments):
+def plot(runs, chart, spacings, treatments):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -62,7 +64,7 @@ def plot(rows, runs, results, spacings, treatments):
         ax.legend(fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("t sqrt(g/H)")
     fig.tight_layout()
-    fig.savefig(results / "dambreak_pressure.png", dpi=110)
+    fig.savefig(chart, dpi=110)
 
 
 def main():
@@ -73,6 +75,7 @@ def main():
     ap.add_argument("--spacings", default="25,50")
     ap.add_argument("--treatments", default=",".join(TREATMENTS))
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--name", default="dambreak_treatments", help="the CSV's and the chart's name in --results")
     ap.add_argument("--extra", default="", help="more dambreak options for every run, e.g. '--sensor-height 0.15'")
     args = ap.parse_args()
     results, runs = Path(args.results), Path(args.runs)
@@ -94,7 +97,7 @@ def main():
             for name in FIGURES:
                 row[name] = probe.get(KEYS[name], "")
             rows.append(row)
-    with (results / "dambreak_pressure.csv").open("w", newline="") as f:
+    with (results / f"{args.name}.csv").open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
@@ -102,7 +105,7 @@ def main():
         if row["probe_H"] == 0.2:
             print(" ".join(f"{row[k]:.3f}" if isinstance(row[k], float) else str(row[k])
                            for k in ["treatment", "spacing", "status", *FIGURES]))
-    plot(rows, runs, results, spacings, ["none", "hs"] if "hs" in treatments else treatments[:2])
+    plot(runs, results / f"{args.name}.png", spacings, ["none", "hs"] if "hs" in treatments else treatments[:2])
 
 
 if __name__ == "__main__":

@@ -28,7 +28,8 @@ ACCURATE = 0.25
 
 def run(exe, treatment, collision, cfl, gamma):
     with tempfile.TemporaryDirectory() as out:
-        subprocess.run([str(exe), "--gamma", str(gamma), "--cfl", str(cfl), "--collision", str(collision),
+        subprocess.run([str(exe), "--dx", repr(0.146 / 20), "--gamma", str(gamma), "--cfl", str(cfl),
+                        "--collision", str(collision),
                         "--pressure-treatment", treatment, "--frames", "0", "--out", out], capture_output=True,
                        env=dict(os.environ, OMP_NUM_THREADS="1"))
         s = json.loads((Path(out) / "summary.json").read_text())

@@ -46,9 +46,11 @@ CASES = {
     "screw_1e5": ("rotating", "screw channel (moving boundary), 256 across",
                   "--scene channel --model moving --across 256 --times 0.00018 --frames 0", 50, False),
     "dambreak_1e4": ("dambreak", "classic dam break, dx 2 mm",
-                     "--column classic --dx 0.002 --end-time 0.043 --frames 0", 250, True),
+                     "--column classic --tank-length 4 --pressure-treatment none --dx 0.002 --end-time 0.043 "
+                     "--frames 0", 250, True),
     "dambreak_1e5": ("dambreak", "classic dam break, dx 0.65 mm",
-                     "--column classic --dx 0.00065 --end-time 0.0445 --frames 0", 800, False),
+                     "--column classic --tank-length 4 --pressure-treatment none --dx 0.00065 --end-time 0.0445 "
+                     "--frames 0", 800, False),
 }
 GROUPS = {"small": [n for n, c in CASES.items() if c[4]], "large": [n for n, c in CASES.items() if not c[4]],
           "all": list(CASES)}

@@ -33,7 +33,7 @@ SOLVER = "hypre-pcg:tol=1e-10"
 # app: (options, l0 [m], its .pvd, the series compared column by column: file and the factor taking its values to
 # the bound's units, l0 for lengths, U for velocities)
 CASES = {
-    "dambreak": ("--column classic --end-time 0.0610 --frames 2", 0.0073, "dambreak.pvd",
+    "dambreak": ("--column classic --dx 0.0073 --end-time 0.0610 --frames 2", 0.0073, "dambreak.pvd",
                  [("front.csv", 20.0)]),  # x / a, a = 20 l0
     # The inlet channel at 10 across: its plate, ghost pool and outflow buffer; the profile at the station summed over
     # the ranks (u / U, averaged over the last 0.5 D/U).

@@ -41,7 +41,7 @@ OPTIONS = {
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
     "fsi": ["--scene", "--dx", "--modulus", "--poisson", "--density", "--cfl", "--relaxation", "--solid-cfl",
-            "--end-time", "--frames", "--solver", "--pressure-gradient", "--wet-walls"],
+            "--end-time", "--frames", "--solver", "--pressure-gradient", "--pressure-treatment", "--wet-walls"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",

@@ -7,6 +7,7 @@
 
 #include "checks.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/step/config.hpp"
 
 inline void add_list_solvers_flag(CLI::App& app) {
   app.add_flag_callback(
@@ -34,6 +35,26 @@ inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {
   return app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the particle "
                         "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
       ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+}
+
+// --pressure-treatment: Khayyer & Gotoh's treatments of the projection by name (mps::set_pressure_treatment), a bad
+// name refused with the library's message.
+inline CLI::Option* add_pressure_treatment_option(CLI::App& app, std::string& names) {
+  return app.add_option("--pressure-treatment", names,
+                        "Khayyer & Gotoh's treatments of the projection, joined by '+': hs (higher-order source), hl "
+                        "(higher-order Laplacian), ecs (error-compensating source), gc (corrected gradient); or none "
+                        "(docs/pressure.md)")
+      ->capture_default_str()
+      ->check([](const std::string& given) {
+        mps::SimulationConfig c;
+        try {
+          mps::set_pressure_treatment(c, given);
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      })
+      ->group("Numerics");
 }
 
 inline CLI::Option* add_solver_options(CLI::App& app, std::string& spec) {

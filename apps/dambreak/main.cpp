@@ -97,19 +97,7 @@ void add_options(CLI::App& app, Options& o) {
                  "(the corrective matrix) | corrected-min-reference")
       ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}))
       ->group("Numerics");
-  app.add_option("--pressure-treatment", o.p.pressure_treatment,
-                 "Khayyer & Gotoh's treatments of the projection, joined by '+': hs (higher-order source), hl "
-                 "(higher-order Laplacian), ecs (error-compensating source), gc (corrected gradient); or none "
-                 "(docs/pressure.md)")
-      ->capture_default_str()->check([](const std::string& names) {
-        mps::SimulationConfig c;
-        try {
-          mps::set_pressure_treatment(c, names);
-        } catch (const std::invalid_argument& e) {
-          return std::string(e.what());
-        }
-        return std::string();
-      })->group("Numerics");
+  add_pressure_treatment_option(app, o.p.pressure_treatment);
   app.add_option("--cfl", o.p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10))
       ->group("Numerics");
   app.add_option("--collision", o.p.collision, "close pairs collide: two particles nearer than this that approach each "
@@ -312,7 +300,7 @@ bool check_front(const dambreak::Scene& scene, const Experiments& e, const Front
   const dambreak::FrontLine run = dambreak::fit_front_line(T, x, kFrontFitFrom, std::min(kFrontFitTo, end));
   checks = {{"front_speed_fitted_over_t_sqrt_2g_over_a", {kFrontFitFrom, kFrontFitTo}},
             {"front_speed_tolerance", tolerance.speed}, {"front_shape_tolerance", tolerance.shape}};
-  put(checks, "front_speed_a_per_unit_T", run.speed);
+  put(checks, "front_speed_over_sqrt_2g_a", run.speed);
   bool pass = end >= kFrontFitTo - 1e-9;
   // A figure the run is too short for is printed as such, not as NaN.
   auto number = [](double v) {
@@ -344,11 +332,11 @@ bool check_front(const dambreak::Scene& scene, const Experiments& e, const Front
     const double raw = dambreak::max_front_error(samples, p, *table, std::min(kFrontFitTo, end));
     const dambreak::FrontOffset offset = dambreak::fit_front_offset(samples, p, *table, std::min(kFrontFitTo, end));
     const std::string k = key;
-    put(checks, k + "_front_speed_a_per_unit_T", line.speed);
+    put(checks, k + "_front_speed_over_sqrt_2g_a", line.speed);
     put(checks, k + "_front_speed_error", speed_error);
     put(checks, k + "_front_max_error", raw);
     put(checks, k + "_front_offset_t_sqrt_2g_over_a", offset.dT);
-    put(checks, k + "_front_max_error_after_offset", offset.error);
+    put(checks, k + "_front_offset_max_error", offset.error);
     const bool speed_ok = !speed_checked || speed_error <= tolerance.speed;
     const bool shape_ok = !shape_checked || offset.error <= tolerance.shape;
     pass = pass && speed_ok && shape_ok;

@@ -18,6 +18,7 @@
 #include "run_json.hpp"
 #include "scene.hpp"
 #include "solve_log.hpp"
+#include "solver_cli.hpp"
 
 namespace fs = std::filesystem;
 
@@ -64,6 +65,7 @@ void add_options(CLI::App& app, Options& o) {
                  "exactly the fluid's push back (still water does not stay at rest with it); min-reference: the "
                  "body's load is -V grad P, corrected (default: plate conservative, gate min-reference; docs/fsi.md)")
       ->check(CLI::IsMember({"min-reference", "conservative"}))->group("Numerics");
+  add_pressure_treatment_option(app, o.p.pressure_treatment);
   app.add_option("--solver", o.p.solver, "pressure solver spec")->capture_default_str()->group("Solver");
   app.add_option("--end-time", o.end_time, "simulated time (default: plate 0.3, gate 0.4) [s]")
       ->check(positive_up_to(100))->group("Run");
@@ -79,6 +81,11 @@ fsi::Params make_params(const Options& o) {
   const fsi::Params base = fsi::defaults(fsi::case_from_name(o.scene_name));
   p.scene = base.scene;
   p.pressure_gradient = o.gradient.empty() ? base.pressure_gradient : mps::gradient_variant_from_name(o.gradient);
+  mps::SimulationConfig treatment;
+  mps::set_pressure_treatment(treatment, p.pressure_treatment);
+  if (treatment.pressure_gradient == mps::GradientVariant::corrected)
+    throw std::invalid_argument("--pressure-treatment " + p.pressure_treatment + ": gc is a gradient, and the fsi app's "
+                                "gradient is --pressure-gradient's (conservative or min-reference); leave gc out");
   p.l0 = o.dx > 0 ? o.dx : base.l0;
   p.youngs_modulus = o.modulus > 0 ? o.modulus : base.youngs_modulus;
   p.poisson_ratio = o.poisson > 0 ? o.poisson : base.poisson_ratio;
@@ -181,7 +188,8 @@ int main(int argc, char** argv) {
         {"body_height_m", scene.body_height}, {"rigid", p.rigid}, {"modulus_pa", p.youngs_modulus},
         {"poisson", p.poisson_ratio}, {"density_kg_per_m3", p.density}, {"solid_cfl", p.solid_cfl},
         {"relaxation", p.relaxation}, {"wet_walls", p.wet_walls},
-        {"pressure_gradient", mps::to_string(p.pressure_gradient)}, {"cfl", p.cfl},
+        {"pressure_gradient", mps::to_string(p.pressure_gradient)},
+        {"pressure_treatment", mps::pressure_treatment(sim.config())}, {"cfl", p.cfl},
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()},
         {"simulation_config", mps::config_json(sim.config())},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"}};
@@ -192,7 +200,8 @@ int main(int argc, char** argv) {
         params,
         {{"scene", {"water_width_m", "water_height_m", "body_x_m", "body_width_m", "body_height_m", "rigid",
                     "modulus_pa", "poisson", "density_kg_per_m3"}},
-         {"numerics", {"dx_m", "cfl", "solid_cfl", "relaxation", "wet_walls", "pressure_gradient"}},
+         {"numerics", {"dx_m", "cfl", "solid_cfl", "relaxation", "wet_walls", "pressure_gradient",
+                       "pressure_treatment"}},
          {"solver", {"solver"}},
          {"run", {"end_time_s"}}});
     const fs::path dir(o.out);

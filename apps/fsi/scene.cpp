@@ -69,7 +69,7 @@ Params defaults(Case c) {
 
 Scene::Scene(const Params& p) : params_(p) {
   dambreak::Params d = dambreak::defaults(dambreak::Column::classic);
-  d.pressure_treatment = "none";  // docs/fsi.md's studies were measured with the classic source; hs is not yet
+  d.pressure_treatment = p.pressure_treatment;
   d.l0 = p.l0;
   d.end_time = p.end_time;
   d.solver = p.solver;

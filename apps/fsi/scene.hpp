@@ -33,6 +33,9 @@ struct Params {
   // min-reference: the body's load is -V grad P from the corrected gradient, not the reaction of the fluid's push
   // (docs/fsi.md).
   mps::GradientVariant pressure_gradient = mps::GradientVariant::conservative;
+  // Khayyer & Gotoh's treatments (mps::set_pressure_treatment). docs/fsi.md's studies were measured with none; the
+  // dam break's default, hs, is measured on the plate there too.
+  std::string pressure_treatment = "none";
   double cfl = 0.2;              // the fluid's: dt <= cfl l0 / |u|max
   double solid_cfl = 0.3;
   double end_time = 0.3;         // [s]

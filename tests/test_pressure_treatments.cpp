@@ -2,6 +2,7 @@
 // exact rate of change), the higher-order Laplacian, the error-compensating source, and their names.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -9,6 +10,7 @@
 #include "hydrostatic_bound.hpp"
 #include "mps/boundaries/geometry.hpp"
 #include "mps/numerics/operators.hpp"
+#include "mps/step/components.hpp"
 #include "mps/step/config.hpp"
 #include "mps/step/step.hpp"
 #include "tank.hpp"
@@ -262,17 +264,18 @@ TEST(PressureTreatments, NamesRoundTripAndUnknownOrRepeatedNamesAreRefused) {
   EXPECT_TRUE(c.higher_order_source && c.error_compensating_source && !c.higher_order_laplacian);
   EXPECT_EQ(mps::pressure_treatment(c), "hs+ecs");
   EXPECT_EQ(c.pressure_gradient, mps::GradientVariant::min_reference);  // no "gc": the gradient is left alone
-  mps::set_pressure_treatment(c, "hs+hl+ecs+gc");
+  mps::set_pressure_treatment(c, "gc+cfs+hs+hl+ecs");
+  EXPECT_TRUE(c.continuous_free_surface);
   EXPECT_EQ(c.pressure_gradient, mps::GradientVariant::corrected);
-  EXPECT_EQ(mps::pressure_treatment(c), "hs+hl+ecs+gc");
+  EXPECT_EQ(mps::pressure_treatment(c), "hs+hl+ecs+cfs+gc");
   mps::set_pressure_treatment(c, "none");
-  EXPECT_EQ(mps::pressure_treatment(c), "gc");  // "none" turns the three flags off; the gradient is the config's own
+  EXPECT_EQ(mps::pressure_treatment(c), "gc");  // "none" turns the four flags off; the gradient is the config's own
   for (const char* bad : {"hs+hx", "hs+hs", "", "hs+", "HS"}) {
     try {
       mps::set_pressure_treatment(c, bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
     } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("valid: hs, hl, ecs and gc"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("valid: hs, hl, ecs, cfs and gc"), std::string::npos) << e.what();
     }
   }
 }
@@ -294,6 +297,117 @@ TEST(PressureTreatments, HydrostaticTankHoldsItsPressureWithEveryTreatment) {
   EXPECT_LT(r.max_displacement_l0, 0.2);
   EXPECT_TRUE(t.sim().config().higher_order_laplacian && t.sim().pressure_kernel().higher_order_laplacian);
   EXPECT_FALSE(t.sim().laplacian_kernel().higher_order_laplacian);  // the viscosity keeps the MPS Laplacian
+}
+
+// The continuous free surface's empty support enters the PPE as one more neighbour at a given value: the diagonal
+// gains c w, the right-hand side c w v, and nothing else changes, so the matrix stays symmetric; a group it reaches is
+// anchored like one that touches a held particle.
+TEST(PressureTreatments, OpenSupportAddsToTheDiagonalAndTheRightHandSideOnly) {
+  Cloud c;
+  const mps::Kernel k = mps::make_kernel(4.1, c.l0);
+  const auto list = mps::find_neighbors(c.p, c.d, k.re);
+  const std::size_t n = c.p.size();
+  std::vector<char> surface(n, 0);
+  std::vector<double> source(n), weight(n, 0.0), value(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    source[i] = std::sin(3.0 * c.p.x[i]) + c.p.y[i];
+    if (c.p.kind[i] == mps::Kind::fluid && c.p.y[i] > 0.85) surface[i] = 1;  // anchors both systems
+    if (c.p.kind[i] == mps::Kind::fluid && c.p.y[i] > 0.5) {
+      weight[i] = 0.1 + c.p.y[i];
+      value[i] = 100.0 * c.p.x[i] - 7.0;
+    }
+  }
+  const mps::PpeSystem plain = mps::assemble_ppe<2>({c.p, c.d, list, k}, surface, source);
+  const mps::PpeSystem open = mps::assemble_ppe<2>({c.p, c.d, list, k}, surface, source, {}, 0.0,
+                                                   mps::ClosedGroups::gauge, {weight, value});
+  ASSERT_EQ(open.matrix.row_ptr, plain.matrix.row_ptr);
+  ASSERT_EQ(open.matrix.col, plain.matrix.col);
+  const double scale = k.laplacian_scale(2);
+  int opened = 0;
+  for (int r = 0; r < open.matrix.rows; ++r) {
+    const auto i = static_cast<std::size_t>(open.particle[static_cast<std::size_t>(r)]);
+    opened += weight[i] > 0.0;
+    for (int q = open.matrix.row_ptr[static_cast<std::size_t>(r)]; q < open.matrix.row_ptr[static_cast<std::size_t>(r) + 1]; ++q) {
+      const auto qq = static_cast<std::size_t>(q);
+      const double added = open.matrix.col[qq] == r ? scale * weight[i] : 0.0;
+      EXPECT_NEAR(open.matrix.val[qq], plain.matrix.val[qq] + added, 1e-12 * std::abs(plain.matrix.val[qq]) + 1e-12);
+    }
+    const double rhs_added = scale * weight[i] * value[i];
+    EXPECT_NEAR(open.rhs[static_cast<std::size_t>(r)], plain.rhs[static_cast<std::size_t>(r)] + rhs_added,
+                1e-12 * (std::abs(plain.rhs[static_cast<std::size_t>(r)]) + std::abs(rhs_added)));
+    if (weight[i] > 0.0) {
+      EXPECT_TRUE(open.anchored[static_cast<std::size_t>(r)]);
+    }
+  }
+  EXPECT_GT(opened, 20);
+
+  // Without held particles the open support alone anchors the block: no gauge, a solution of the given values.
+  const std::vector<char> none(n, 0);
+  const mps::PpeSystem alone = mps::assemble_ppe<2>({c.p, c.d, list, k}, none, source, {}, 0.0,
+                                                    mps::ClosedGroups::gauge, {weight, value});
+  EXPECT_TRUE(alone.floating.empty());
+}
+
+// With every fluid particle an unknown and the empty support held through the surface's value, a liquid at rest in a
+// walled tank keeps its hydrostatic pressure (the classic held surface's exactness, contact lines included), and no
+// fluid particle is left out of the PPE.
+TEST(PressureTreatments, ContinuousFreeSurfaceKeepsTheHydrostaticTankExact) {
+  tank::Params p;
+  p.gamma = 0.01;
+  p.end_time = 0.3;
+  p.pressure_treatment = "hs+cfs";
+  tank::Tank t(p);
+  while (!t.done()) t.step();
+  const tank::Result r = t.result();
+  const double bound = tank_bound::solve_error_bound(t.sim(), 1e-8);
+  for (const tank::Band& band : r.bands)
+    EXPECT_LT(std::abs(band.mean_pressure - band.exact_pressure), bound) << "band at y = " << band.y_center;
+  EXPECT_LT(r.max_displacement_l0, 1e-4);
+  const mps::PpeSystem& ppe = t.sim().last_ppe();
+  const mps::Particles& q = t.sim().particles();
+  int surface = 0;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    if (q.kind[i] == mps::Kind::fluid) {
+      EXPECT_GE(ppe.unknown[i], 0) << "fluid particle " << i << " is not an unknown";
+      surface += t.sim().fields().surface[i];
+    }
+  EXPECT_GT(surface, 10);  // the surface test still flags the top row
+  EXPECT_EQ(mps::pressure_treatment(t.sim().config()), "hs+cfs");
+}
+
+// Where no surface particle is in reach, the continuous free surface puts the surface where a flat cut of the lattice
+// leaves as much of the support empty: below a flat top of a lattice block each row's empty weight, summed over its
+// actual neighbours, must give its true depth plus half a spacing, for both weights and the higher-order Laplacian.
+TEST(PressureTreatments, SurfaceDistanceFromTheEmptyWeightIsTheDepthBelowAFlatTop) {
+  for (mps::Weight weight : {mps::Weight::bounded, mps::Weight::classic})
+    for (bool higher_order : {false, true}) {
+      const double l0 = 0.1;
+      mps::Kernel k = mps::make_kernel(4.1, l0, weight);
+      k.higher_order_laplacian = higher_order;
+      mps::Particles p;
+      mps::fill_rectangle(p, {0, 0, 3, 1.5}, l0, mps::Kind::fluid);
+      const mps::Domain d{-1, 4, -1, 3};
+      const auto list = mps::find_neighbors(p, d, k.re);
+      double top = 0.0;
+      for (double y : p.y) top = std::max(top, y);
+      std::vector<double> table;
+      int checked = 0;
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        if (std::abs(p.x[i] - 1.55) > 1e-9 || p.y[i] < 0.75) continue;  // far from the sides and the bottom
+        double present = 0.0;
+        for (int jj : list.of(i)) {
+          const auto j = static_cast<std::size_t>(jj);
+          present += k.laplacian_weight(std::hypot(p.x[j] - p.x[i], p.y[j] - p.y[i]));
+        }
+        const double empty = k.laplacian_weight_sum() - present;
+        if (empty <= 1e-12 * k.laplacian_weight_sum()) continue;
+        const double depth = top + 0.5 * l0 - p.y[i];
+        EXPECT_NEAR(mps::ContinuousFreeSurface::surface_distance(k, empty, table), depth, 1e-9 * l0)
+            << "row at depth " << depth << ", weight " << static_cast<int>(weight) << ", higher order " << higher_order;
+        ++checked;
+      }
+      EXPECT_EQ(checked, 4);  // the rows whose 4.1 l0 support reaches past the top
+    }
 }
 
 }  // namespace

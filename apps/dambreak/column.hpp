@@ -43,7 +43,7 @@ struct Params {
   double shifting = 0.5;
   // The pressure gradient of the corrector (mps::GradientVariant).
   mps::GradientVariant gradient = mps::GradientVariant::min_reference;
-  // Khayyer & Gotoh's treatments of the projection (mps::set_pressure_treatment: hs, hl, ecs, gc joined by '+'). The
+  // Khayyer & Gotoh's treatments of the projection (mps::set_pressure_treatment: hs, hl, ecs, cfs, gc joined by '+'). The
   // higher-order source cut the wall pressure's step-to-step noise 2.6-fold at H/25 and H/50 (docs/pressure.md).
   std::string pressure_treatment = "hs";
   double end_time = 0.3;       // [s]

@@ -20,7 +20,7 @@ struct Params {
   double band = 4.0;          // height of the averaging bands, in l0
   std::string solver = "auto";
   double g = 9.81;
-  std::string pressure_treatment = "none";  // mps::set_pressure_treatment's names (hs, hl, ecs, gc)
+  std::string pressure_treatment = "none";  // mps::set_pressure_treatment's names (hs, hl, ecs, cfs, gc)
 };
 
 struct Band {

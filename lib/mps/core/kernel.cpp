@@ -33,7 +33,7 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight, int dim) {
   k.l0 = l0;
   const int n = static_cast<int>(std::ceil(radius_over_l0));
   const int nz = dim == 3 ? n : 0;
-  double sum_w = 0.0, sum_wr2 = 0.0, sum_rate = 0.0, sum_higher_order = 0.0;
+  double sum_w = 0.0, sum_wr2 = 0.0, sum_rate = 0.0, sum_higher_order = 0.0, sum_higher_order_weight = 0.0;
   for (int c = -nz; c <= nz; ++c)
     for (int j = -n; j <= n; ++j)
       for (int i = -n; i <= n; ++i) {
@@ -45,11 +45,13 @@ Kernel make_kernel(double radius_over_l0, double l0, Weight weight, int dim) {
         sum_wr2 += w * r * r;
         sum_rate -= k.dw(r) * r;
         sum_higher_order += k.higher_order_weight(r) * r * r;
+        sum_higher_order_weight += k.higher_order_weight(r);
       }
   k.n0 = sum_w;
   k.lambda = sum_wr2 / sum_w;
   k.n_rate = sum_rate;
   k.n_higher_order = sum_higher_order;
+  k.n_higher_order_weight = sum_higher_order_weight;
   return k;
 }
 

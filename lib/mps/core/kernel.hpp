@@ -26,6 +26,8 @@ struct Kernel {
   double n_rate = 0;
   /// Sum of f(r) r^2 on that lattice, f the higher-order Laplacian's weight: normalises that Laplacian.
   double n_higher_order = 0;
+  /// Sum of f(r) on that lattice: the higher-order Laplacian's weight over a full support.
+  double n_higher_order_weight = 0;
   /// The Laplacian (PPE, laplacian operators) weighs pairs by higher_order_weight instead of w (Khayyer & Gotoh's
   /// higher-order Laplacian, normalised on the lattice: docs/pressure.md).
   bool higher_order_laplacian = false;
@@ -59,6 +61,8 @@ struct Kernel {
   }
   /// The weight the Laplacian gives the pair at distance r.
   [[nodiscard]] double laplacian_weight(double r) const { return higher_order_laplacian ? higher_order_weight(r) : w(r); }
+  /// The sum of laplacian_weight over a full support on the perfect lattice (n0 for the MPS Laplacian).
+  [[nodiscard]] double laplacian_weight_sum() const { return higher_order_laplacian ? n_higher_order_weight : n0; }
   /// The factor of a d-dimensional Laplacian's sum: 2d/(lambda n0), or 2d/n_higher_order for the higher-order weight.
   /// Either makes the Laplacian exact for quadratics on the perfect lattice.
   [[nodiscard]] double laplacian_scale(int d) const {

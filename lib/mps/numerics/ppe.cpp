@@ -115,20 +115,22 @@ void detect_free_surface(const BasicParticles<D>& particles, std::span<const dou
 
 template <int D>
 PpeSystem assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet, double shift, ClosedGroups closed) {
+                       std::span<const double> dirichlet, double shift, ClosedGroups closed, OpenSupport open) {
   PpeSystem sys;
-  assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed);
+  assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed, open);
   return sys;
 }
 
 template <int D>
 void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
-                  PpeSystem& sys, std::span<const double> dirichlet, double shift, ClosedGroups closed) {
+                  PpeSystem& sys, std::span<const double> dirichlet, double shift, ClosedGroups closed,
+                  OpenSupport open) {
   const BasicParticles<D>& p = s.particles;
   const std::size_t n = p.size();
-  if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n))
+  if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n) ||
+      (!open.weight.empty() && (open.weight.size() != n || open.value.size() != n)))
     throw std::invalid_argument(
-        "assemble_ppe: free-surface flags, source and Dirichlet values must have one entry per particle");
+        "assemble_ppe: free-surface flags, source, Dirichlet values and open weights must have one entry per particle");
   if (!(shift >= 0.0) || !std::isfinite(shift)) throw std::invalid_argument("assemble_ppe: shift must be >= 0");
   const double c = s.kernel.laplacian_scale(D);
 
@@ -233,8 +235,13 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
       a.val[k++] = -c * w;
     });
     if (!placed) diag_slot = k++;
+    const double empty = open.weight.empty() ? 0.0 : open.weight[i];
+    if (empty > 0.0) {
+      anchored[static_cast<std::size_t>(r)] = 1;
+      known += empty * open.value[i];
+    }
     a.col[diag_slot] = static_cast<int>(r);
-    a.val[diag_slot] = c * diag + shift;
+    a.val[diag_slot] = c * (diag + empty) + shift;
     sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
 
@@ -326,9 +333,9 @@ void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::spa
   template void detect_free_surface(const BasicParticles<D>&, std::span<const double>, double, double,                \
                                     const NeighborList*, int, double, std::vector<char>&);                            \
   template PpeSystem assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>,             \
-                                  std::span<const double>, double, ClosedGroups);                                     \
+                                  std::span<const double>, double, ClosedGroups, OpenSupport);                         \
   template void assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>, PpeSystem&,      \
-                             std::span<const double>, double, ClosedGroups);                                          \
+                             std::span<const double>, double, ClosedGroups, OpenSupport);                              \
   template std::vector<double> PpeSystem::gather(const BasicParticles<D>&, std::span<const double>) const;            \
   template void PpeSystem::gather(const BasicParticles<D>&, std::vector<double>&, std::span<const double>) const;     \
   template void PpeSystem::scatter(std::span<const double>, BasicParticles<D>&, bool, std::span<const double>) const; \

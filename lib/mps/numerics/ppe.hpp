@@ -81,6 +81,14 @@ struct PpeSystem {
                std::span<const double> offset = {}) const;
 };
 
+/// The empty part of each unknown's support (the continuous free surface, ContinuousFreeSurface): its Laplacian
+/// weight, taken as neighbours at `value` (per particle; empty: none). It adds to the diagonal and the right-hand side
+/// only, so the matrix stays symmetric.
+struct OpenSupport {
+  std::span<const double> weight;  ///< sum of the Laplacian weight the unknown's support lacks
+  std::span<const double> value;   ///< the unknown's value there (P = 0, less any offset)
+};
+
 /// What assemble_ppe does with a closed group (one no free surface anchors).
 enum class ClosedGroups {
   gauge,  ///< the zero-mean gauge of the file's notes: the system is nonsingular
@@ -94,15 +102,16 @@ enum class ClosedGroups {
 /// `shift` (>= 0) is added to every diagonal entry, A = -lap + shift I: a compressibility term (see
 /// SimulationConfig::sound_speed). With shift > 0 no group is singular and none gets the gauge.
 /// `closed`: whether closed groups get the gauge (the default) or are left singular.
+/// `open`: the empty part of each unknown's support (none by default).
 template <int D = 2>
 PpeSystem assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                        std::span<const double> source, std::span<const double> dirichlet = {}, double shift = 0.0,
-                       ClosedGroups closed = ClosedGroups::gauge);
+                       ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {});
 /// Same, refilling `out` in place (reusing its memory across time steps).
 template <int D = 2>
 void assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface, std::span<const double> source,
                   PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0,
-                  ClosedGroups closed = ClosedGroups::gauge);
+                  ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {});
 
 /// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
 /// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.

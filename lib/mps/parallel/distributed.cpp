@@ -742,10 +742,10 @@ void gauge_closed_groups(DistributedPpe& d, int closed_groups, MPI_Comm comm) {
 template <int D>
 void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
-                              DistributedPpe& d) {
+                              DistributedPpe& d, OpenSupport open) {
   const std::size_t n = s.particles.size();
   if (n != halo.owned() + halo.copies() || free_surface.size() != n || source.size() != n ||
-      (!dirichlet.empty() && dirichlet.size() != n))
+      (!dirichlet.empty() && dirichlet.size() != n) || (!open.weight.empty() && (open.weight.size() != n || open.value.size() != n)))
     throw std::invalid_argument("assemble_distributed_ppe: particles, free-surface flags, source and Dirichlet values "
                                 "must have one entry per particle, owned and halo (" +
                                 std::to_string(halo.owned()) + " + " + std::to_string(halo.copies()) + ")");
@@ -759,7 +759,12 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
   halo.refresh(surface);
   std::vector<double> held(dirichlet.begin(), dirichlet.end());
   if (!held.empty()) halo.refresh(held);
-  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave);
+  std::vector<double> open_weight(open.weight.begin(), open.weight.end()), open_value(open.value.begin(), open.value.end());
+  if (!open_weight.empty()) {
+    halo.refresh(open_weight);
+    halo.refresh(open_value);
+  }
+  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave, {open_weight, open_value});
   const PpeSystem& sys = d.local;
   const std::size_t m = sys.size();
   std::size_t rows = 0;  // owned particles come first, so their unknowns are the first rows
@@ -818,7 +823,8 @@ SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe,
   template DistributedPpe assemble_distributed_ppe(BasicHalo<D>&, const BasicStencil<D>&, std::span<const char>,     \
                                                    std::span<const double>, std::span<const double>, double);         \
   template void assemble_distributed_ppe(BasicHalo<D>&, const BasicStencil<D>&, std::span<const char>,               \
-                                         std::span<const double>, std::span<const double>, double, DistributedPpe&);  \
+                                         std::span<const double>, std::span<const double>, double, DistributedPpe&,   \
+                                         OpenSupport);                                                                \
   template SolveReport solve_distributed_ppe(BasicHalo<D>&, const DistributedPpe&, LinearSolver&, BasicParticles<D>&, \
                                              bool, std::span<const double>);
 MPS_DISTRIBUTED_FOR(2)

@@ -188,11 +188,12 @@ DistributedPpe assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D
                                         std::span<const double> source, std::span<const double> dirichlet = {},
                                         double shift = 0.0);
 /// The same into `into`, whose vectors keep their memory from one step to the next (a step's PPE at 1e6 particles is
-/// about a gigabyte that would otherwise come back from the kernel as fresh pages each step).
+/// about a gigabyte that would otherwise come back from the kernel as fresh pages each step); `open` as assemble_ppe's
+/// (the halo's entries refreshed likewise).
 template <int D>
 void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
-                              DistributedPpe& into);
+                              DistributedPpe& into, OpenSupport open = {});
 
 /// Solves the distributed PPE with `solver` (made with SolverContext::mpi_comm = the halo's communicator: hypre-pcg,
 /// hypre-amg or auto), warm-started from the particles' pressures, and writes the pressures as PpeSystem::scatter

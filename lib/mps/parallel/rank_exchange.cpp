@@ -133,8 +133,8 @@ void BasicRankExchange<D>::share_flags(std::span<char> flags) { refresh(flags); 
 template <int D>
 PpeCounts BasicRankExchange<D>::assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
                                          std::span<const double> source, std::span<const double> held_value,
-                                         double shift) {
-  assemble_distributed_ppe(*halo_, laplacian, held, source, held_value, shift, ppe_);
+                                         double shift, OpenSupport open) {
+  assemble_distributed_ppe(*halo_, laplacian, held, source, held_value, shift, ppe_, open);
   return {static_cast<std::size_t>(ppe_.global_rows), ppe_.closed.size()};
 }
 

@@ -263,6 +263,103 @@ void BasicParticleShifting<D>::shift_positions(StepContext& c) {
   shift_particles<D>(stencil, diffusion, 0.2 * l0, movable_, p, normal);
 }
 
+template <int D>
+bool BasicContinuousFreeSurface<D>::runs_after(const BasicStepComponent<D>& other) const {
+  return dynamic_cast<const BasicHydrostaticSplit<D>*>(&other) != nullptr;
+}
+
+template <int D>
+void BasicContinuousFreeSurface<D>::before_assembly(StepContext& c) {
+  const BasicParticles<D>& p = c.particles;
+  BasicStepFields<D>& f = c.fields;
+  const Kernel& k = c.sim.pressure_kernel();
+  const NeighborList& list = c.sim.neighbors_at_star(k);
+  const BasicDomain<D>& domain = c.sim.domain();
+  const double full = k.laplacian_weight_sum();
+  const double rho = c.sim.config().rho;
+  if (f.held.empty()) f.held = f.surface;
+  const auto n = static_cast<std::ptrdiff_t>(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == Kind::fluid && f.surface[i]) f.held[i] = 0;
+  f.open_weight.assign(p.size(), 0.0);
+  f.open_value.assign(p.size(), 0.0);
+  // Its own pressure as the gradient's reference pinned a surface particle whose pressure is now solved: a zigzag grew
+  // along the surface row (docs/pressure.md).
+  f.surface_own_reference = false;
+  if (cut_weight_.empty()) (void)surface_distance(k, 0.0, cut_weight_);  // filled before the threads read it
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (std::ptrdiff_t ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    if (!(p.kind[i] == Kind::fluid || (p.kind[i] == Kind::wall && !f.held[i]))) continue;
+    const Vec<D> ri = p.position(i);
+    double present = 0.0;
+    Vec<D> moment{};
+    // The nearest free-surface particle (the particle itself if it is one): the surface lies half a spacing beyond it.
+    std::size_t nearest = p.kind[i] == Kind::fluid && f.surface[i] ? i : p.size();
+    double nearest_r2 = 0.0;
+    for (int jj : list.of(i)) {
+      const auto j = static_cast<std::size_t>(jj);
+      if (p.kind[j] == Kind::ghost) continue;
+      const Vec<D> r = domain.displacement(ri, p.position(j));
+      const double r2 = norm2<D>(r);
+      if (nearest != i && p.kind[j] == Kind::fluid && f.surface[j] &&
+          (nearest == p.size() || r2 < nearest_r2 || (r2 == nearest_r2 && p.id[j] < p.id[nearest]))) {
+        nearest = j;
+        nearest_r2 = r2;
+      }
+      const double w = k.laplacian_weight(std::sqrt(r2));
+      if (w <= 0.0) continue;
+      present += w;
+      for (std::size_t a = 0; a < D; ++a) moment[a] += w * r[a];
+    }
+    const double empty = full - present;
+    if (empty <= 0.0) continue;
+    // The lattice's first moment vanishes, so the empty part's centroid is minus the present part's over its weight.
+    Vec<D> centroid;
+    for (std::size_t a = 0; a < D; ++a) centroid[a] = -moment[a] / empty;
+    if (nearest < p.size()) {
+      // P linear from the particle through the surface's value s away to the ghost |c| away: the pair's
+      // w (P_i - P_ghost) is w (|c|/s) (P_i - P_surface) (Gibou et al. 2002).
+      const double ghost = norm<D>(centroid), s = std::sqrt(nearest_r2) + 0.5 * k.l0;
+      f.open_weight[i] = empty * std::max(1.0, ghost / s);
+      if (!f.held_value.empty()) f.open_value[i] = f.held_value[nearest];
+    } else {  // no surface particle in reach: the surface where a flat cut of the lattice leaves as much empty
+      const double ghost = norm<D>(centroid), s = std::max(surface_distance(k, empty, cut_weight_), 0.1 * k.l0);
+      f.open_weight[i] = empty * std::max(1.0, ghost / s);
+      if (!f.pressure_offset.empty() && ghost > 0.0) {
+        Vec<D> at_surface;
+        for (std::size_t a = 0; a < D; ++a) at_surface[a] = centroid[a] * (s / ghost);
+        f.open_value[i] = -(f.pressure_offset[i] + rho * dot<D>(f.balanced, at_surface));
+      }
+    }
+  }
+}
+
+template <int D>
+double BasicContinuousFreeSurface<D>::surface_distance(const Kernel& k, double empty, std::vector<double>& table) {
+  const int reach = static_cast<int>(std::ceil(k.re / k.l0));
+  if (table.empty()) {  // table[m]: the weight of the lattice points at least m - reach + 1 rows above the particle
+    table.assign(static_cast<std::size_t>(2 * reach + 1), 0.0);
+    const int nz = D == 3 ? reach : 0;
+    for (int c = -nz; c <= nz; ++c)
+      for (int j = -reach; j <= reach; ++j)
+        for (int i = -reach; i <= reach; ++i) {
+          if (i == 0 && j == 0 && c == 0) continue;
+          const double w = k.laplacian_weight(k.l0 * std::sqrt(double(i) * i + double(j) * j + double(c) * c));
+          for (int m = 0; m <= 2 * reach; ++m)
+            if (j >= m - reach + 1) table[static_cast<std::size_t>(m)] += w;
+        }
+  }
+  // table[m] belongs to a cut at (m - reach + 1/2) l0 and falls with m; between cuts the distance is interpolated.
+  if (empty >= table.front()) return (0.5 - reach) * k.l0;
+  for (std::size_t m = 1; m < table.size(); ++m)
+    if (empty >= table[m]) {
+      const double t = (table[m - 1] - empty) / (table[m - 1] - table[m]);
+      return (static_cast<double>(m) - 1.0 + t - reach + 0.5) * k.l0;
+    }
+  return (reach + 0.5) * k.l0;
+}
+
 template class BasicOpenOutlet<2>;
 template class BasicOpenOutlet<3>;
 template class BasicMirrorPlaneNoSlip<2>;
@@ -283,5 +380,7 @@ template class BasicInitialReferenceDensity<2>;
 template class BasicInitialReferenceDensity<3>;
 template class BasicParticleShifting<2>;
 template class BasicParticleShifting<3>;
+template class BasicContinuousFreeSurface<2>;
+template class BasicContinuousFreeSurface<3>;
 
 }  // namespace mps

@@ -249,6 +249,33 @@ class BasicParticleShifting : public BasicStepComponent<D> {
 using ParticleShifting = BasicParticleShifting<2>;   ///< 2-D
 using ParticleShifting3 = BasicParticleShifting<3>;  ///< 3-D
 
+/// SimulationConfig::continuous_free_surface: every fluid particle is an unknown of the PPE, none is held at P = 0.
+/// The part of an unknown's Laplacian support that no particle fills (Kernel::laplacian_weight_sum less what its
+/// neighbours give) is one ghost neighbour at that part's centroid, its pressure extrapolated through the surface's
+/// value half a spacing beyond the nearest free-surface particle (the ghost fluid method's Dirichlet condition,
+/// Gibou et al. 2002): the value a held surface would have, so a liquid at rest stays exact. With no surface particle
+/// in reach, the surface lies where a flat cut of the lattice leaves the same empty weight, along the centroid. A
+/// surface particle's pressure goes to that value with its support, smoothly, instead of flipping between held and
+/// solved as the surface test decides; the matrix stays symmetric. The flags still drop the density term next to the
+/// surface and steer shifting. docs/pressure.md.
+template <int D>
+class BasicContinuousFreeSurface : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  void before_assembly(StepContext& c) override;
+  /// After a HydrostaticSplit: the surface's value is the one the split holds a surface particle at.
+  [[nodiscard]] bool runs_after(const BasicStepComponent<D>& other) const override;
+  /// Where no surface particle is in reach: the distance [m] to a flat surface that leaves `empty` of the kernel's
+  /// Laplacian weight outside it on the perfect lattice (linear between the half-spacings at which the cut passes
+  /// between rows); `table` caches the cuts' weights.
+  [[nodiscard]] static double surface_distance(const Kernel& k, double empty, std::vector<double>& table);
+
+ private:
+  std::vector<double> cut_weight_;  // the empty weight of each cut, for surface_distance
+};
+using ContinuousFreeSurface = BasicContinuousFreeSurface<2>;   ///< 2-D
+using ContinuousFreeSurface3 = BasicContinuousFreeSurface<3>;  ///< 3-D
+
 extern template class BasicOpenOutlet<2>;
 extern template class BasicOpenOutlet<3>;
 extern template class BasicMirrorPlaneNoSlip<2>;
@@ -269,5 +296,7 @@ extern template class BasicInitialReferenceDensity<2>;
 extern template class BasicInitialReferenceDensity<3>;
 extern template class BasicParticleShifting<2>;
 extern template class BasicParticleShifting<3>;
+extern template class BasicContinuousFreeSurface<2>;
+extern template class BasicContinuousFreeSurface<3>;
 
 }  // namespace mps

@@ -38,19 +38,25 @@ std::string pressure_treatment(const SimulationConfig& config) {
   add(config.higher_order_source, "hs");
   add(config.higher_order_laplacian, "hl");
   add(config.error_compensating_source, "ecs");
+  add(config.continuous_free_surface, "cfs");
   add(config.pressure_gradient == GradientVariant::corrected, "gc");
   return names.empty() ? "none" : names;
 }
 
 void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
-  const std::string valid = "; valid: hs, hl, ecs and gc joined by '+' (e.g. hs+hl+ecs), or none";
-  bool hs = false, hl = false, ecs = false, gc = false;
+  const std::string valid = "; valid: hs, hl, ecs, cfs and gc joined by '+' (e.g. hs+hl+ecs), or none";
+  bool hs = false, hl = false, ecs = false, cfs = false, gc = false;
   if (names != "none") {
     std::size_t start = 0;
     while (true) {
       const std::size_t end = names.find('+', start);
       const std::string_view name = names.substr(start, end == std::string_view::npos ? end : end - start);
-      bool* flag = name == "hs" ? &hs : name == "hl" ? &hl : name == "ecs" ? &ecs : name == "gc" ? &gc : nullptr;
+      bool* flag = name == "hs"    ? &hs
+                   : name == "hl"  ? &hl
+                   : name == "ecs" ? &ecs
+                   : name == "cfs" ? &cfs
+                   : name == "gc"  ? &gc
+                                   : nullptr;
       if (!flag)
         throw std::invalid_argument("pressure treatment: unknown name '" + std::string(name) + "' in '" +
                                     std::string(names) + "'" + valid);
@@ -65,6 +71,7 @@ void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
   config.higher_order_source = hs;
   config.higher_order_laplacian = hl;
   config.error_compensating_source = ecs;
+  config.continuous_free_surface = cfs;
   if (gc) config.pressure_gradient = GradientVariant::corrected;
 }
 

@@ -46,6 +46,9 @@ struct SimulationConfig {
   /// The source gains -(rho/dt^2)(|e| delta + |delta| e), e = (n - n0)/n0 and delta = dt (Dn/Dt)/n0 at the step's
   /// start: a number-density error that is also growing is pushed back ("ecs", Khayyer & Gotoh 2011).
   bool error_compensating_source = false;  /// @}
+  /// Every fluid particle an unknown of the PPE, the empty part of its support at P = 0 (component
+  /// ContinuousFreeSurface, "cfs"; docs/pressure.md) instead of free-surface particles held at P = 0.
+  bool continuous_free_surface = false;
   GradientVariant pressure_gradient = GradientVariant::min_reference;  ///< the pressure gradient's form
   /// Min-reference variants take the minimum of P - rho f . r (true) or of P as published (false, which
   /// destabilises a liquid at rest under gravity).
@@ -137,6 +140,8 @@ void for_each_parameter(F&& f) {
                     "PPE Laplacian weighted by w'' + (d - 3) w'/r (Khayyer & Gotoh 2010)"});
   f(Parameter<bool>{"error_compensating_source", &C::error_compensating_source, "",
                     "source term against a growing number-density error (Khayyer & Gotoh 2011)"});
+  f(Parameter<bool>{"continuous_free_surface", &C::continuous_free_surface, "",
+                    "every fluid particle an unknown, its support's empty part at P = 0"});
   f(Parameter<GradientVariant>{"pressure_gradient", &C::pressure_gradient, "",
                                "plain, min-reference, corrected, corrected-min-reference or conservative"});
   f(Parameter<bool>{"min_reference_tilt", &C::min_reference_tilt, "", "min-reference of P - rho f.r instead of P"});
@@ -157,10 +162,10 @@ void for_each_parameter(F&& f) {
 }
 
 /// The treatments of the projection as names joined by '+': "hs" (higher_order_source), "hl" (higher_order_laplacian),
-/// "ecs" (error_compensating_source) and "gc" (pressure_gradient corrected, Khayyer & Gotoh's gradient correction), in
-/// that order; "none" when no treatment is on.
+/// "ecs" (error_compensating_source), "cfs" (continuous_free_surface) and "gc" (pressure_gradient corrected, Khayyer &
+/// Gotoh's gradient correction), in that order; "none" when no treatment is on.
 std::string pressure_treatment(const SimulationConfig& config);
-/// Sets the three treatments' flags from such names, in any order ("none": all off); "gc" also sets the pressure
+/// Sets the four treatments' flags from such names, in any order ("none": all off); "gc" also sets the pressure
 /// gradient to corrected, and without it the gradient is left as it is. Throws std::invalid_argument naming an unknown
 /// or repeated name and the valid ones.
 void set_pressure_treatment(SimulationConfig& config, std::string_view names);

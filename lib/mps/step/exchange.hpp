@@ -61,7 +61,8 @@ class BasicExchange {
   virtual void share_flags(std::span<char> flags) = 0;
   /// Assembles the PPE (assemble_ppe's arguments) over the particles this process holds.
   virtual PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
-                             std::span<const double> source, std::span<const double> held_value, double shift) = 0;
+                             std::span<const double> source, std::span<const double> held_value, double shift,
+                             OpenSupport open) = 0;
   /// This process's part of the last PPE (on ranks: its owned and halo unknowns, as assembled locally).
   [[nodiscard]] virtual const PpeSystem& ppe() const = 0;
   /// The unknowns this process owns.
@@ -106,7 +107,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void share_flags(std::span<char>) override {}              ///< no copies
   /// assemble_ppe into the kept system.
   PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held, std::span<const double> source,
-                     std::span<const double> held_value, double shift) override;
+                     std::span<const double> held_value, double shift, OpenSupport open) override;
   [[nodiscard]] const PpeSystem& ppe() const override { return ppe_; }  ///< the whole PPE
   [[nodiscard]] OwnPpeRows own_rows() const override { return {ppe_.rhs, ppe_.particle}; }  ///< every row
   /// Warm start by PpeSystem::gather, the solve, PpeSystem::scatter.

@@ -173,6 +173,7 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
   if (config_.initial_reference_density)
     add<BasicInitialReferenceDensity<D>>(particles_, domain_, grid_, k_density_);
   if (config_.shifting > 0.0) add<BasicParticleShifting<D>>(config_.shifting, config_.shift_along_free_surface);
+  if (config_.continuous_free_surface) add<BasicContinuousFreeSurface<D>>();
   exchange_->check(*this);
   exchange_->distribute(particles_);  // every process validated the whole scene
 }
@@ -406,6 +407,8 @@ void BasicSimulation<D>::choose_time_step() {
   f.ecs.clear();
   f.held.clear();
   f.held_value.clear();
+  f.open_weight.clear();
+  f.open_value.clear();
   f.pressure_offset.clear();
   f.surface_own_reference = false;
 }
@@ -626,7 +629,7 @@ void BasicSimulation<D>::assemble() {
   const PpeCounts counts =
       exchange_->assemble({particles_, domain_, neighbors_at_star(k_pressure_), k_pressure_},
                           f.held.empty() ? f.surface : f.held, f.source, f.held_value,
-                          screening > 0.0 ? 1.0 / (screening * screening) : 0.0);
+                          screening > 0.0 ? 1.0 / (screening * screening) : 0.0, {f.open_weight, f.open_value});
   info_.unknowns = counts.unknowns;
   const std::size_t own = owned_particles();
   info_.free_surface = static_cast<std::size_t>(
@@ -654,10 +657,12 @@ template <int D>
 void BasicSimulation<D>::set_pressure_boundary_values() {
   Particles& p = particles_;
   StepFields& f = fields_;
-  if (!f.held_value.empty())  // a free-surface particle shows the pressure it was held at
+  if (!f.held_value.empty()) {  // a held particle shows the pressure it was held at
+    const std::vector<char>& held = f.held.empty() ? f.surface : f.held;
     for (std::size_t i = 0; i < p.size(); ++i)
-      if (p.kind[i] == Kind::fluid && f.surface[i])
+      if (p.kind[i] == Kind::fluid && held[i])
         p.p[i] = f.held_value[i] + (f.pressure_offset.empty() ? 0.0 : f.pressure_offset[i]);
+  }
   set_dummy_pressure<D>({p, domain_, neighbors_at_star(k_laplacian_), k_laplacian_}, p, f.surface, config_.rho,
                         config_.body_force<D>(), f.carriers);
 }

@@ -66,6 +66,9 @@ struct BasicStepFields {
   std::vector<double> source;    ///< right-hand side of lap P = source
   std::vector<char> held;        ///< particles held at a given pressure in the PPE (empty: the free surface)
   std::vector<double> held_value;       ///< the pressure they are held at (empty: 0)
+  /// @{ The Laplacian weight of each unknown's empty support and the unknown's value there (ContinuousFreeSurface;
+  /// empty: none)
+  std::vector<double> open_weight, open_value;  /// @}
   std::vector<double> pressure_offset;  ///< the PPE solves for P - offset (empty: for P)
   bool surface_own_reference = false;   ///< free-surface particles take their own P as the gradient's reference
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees

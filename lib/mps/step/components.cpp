@@ -317,20 +317,20 @@ void BasicContinuousFreeSurface<D>::before_assembly(StepContext& c) {
     // The lattice's first moment vanishes, so the empty part's centroid is minus the present part's over its weight.
     Vec<D> centroid;
     for (std::size_t a = 0; a < D; ++a) centroid[a] = -moment[a] / empty;
-    if (nearest < p.size()) {
-      // P linear from the particle through the surface's value s away to the ghost |c| away: the pair's
-      // w (P_i - P_ghost) is w (|c|/s) (P_i - P_surface) (Gibou et al. 2002).
-      const double ghost = norm<D>(centroid), s = std::sqrt(nearest_r2) + 0.5 * k.l0;
-      f.open_weight[i] = empty * std::max(1.0, ghost / s);
+    // With no surface particle in reach, the surface lies where a flat cut of the lattice leaves as much empty.
+    const bool near = nearest < p.size();
+    const double ghost = norm<D>(centroid);
+    const double s = near ? std::sqrt(nearest_r2) + 0.5 * k.l0
+                          : std::max(surface_distance(k, empty, cut_weight_), 0.1 * k.l0);
+    // P linear from the particle through the surface's value s away to the ghost |c| away: the pair's
+    // w (P_i - P_ghost) is w (|c|/s) (P_i - P_surface) (Gibou et al. 2002).
+    f.open_weight[i] = empty * std::max(1.0, ghost / s);
+    if (near) {
       if (!f.held_value.empty()) f.open_value[i] = f.held_value[nearest];
-    } else {  // no surface particle in reach: the surface where a flat cut of the lattice leaves as much empty
-      const double ghost = norm<D>(centroid), s = std::max(surface_distance(k, empty, cut_weight_), 0.1 * k.l0);
-      f.open_weight[i] = empty * std::max(1.0, ghost / s);
-      if (!f.pressure_offset.empty() && ghost > 0.0) {
-        Vec<D> at_surface;
-        for (std::size_t a = 0; a < D; ++a) at_surface[a] = centroid[a] * (s / ghost);
-        f.open_value[i] = -(f.pressure_offset[i] + rho * dot<D>(f.balanced, at_surface));
-      }
+    } else if (!f.pressure_offset.empty() && ghost > 0.0) {  // P = 0 less the offset at the surface point
+      Vec<D> at_surface;
+      for (std::size_t a = 0; a < D; ++a) at_surface[a] = centroid[a] * (s / ghost);
+      f.open_value[i] = -(f.pressure_offset[i] + rho * dot<D>(f.balanced, at_surface));
     }
   }
 }

@@ -120,7 +120,8 @@ def special_inputs(build, tmp):
         cases = [(["--out", "/dev/full"], "not a directory"), (["--out", "/dev/full/x"], "not a directory"),
                  (["--out", ""], "empty"), (["--out", str(tmp / "a_file")], "not a directory")]
         # Every app takes --dim; those whose scenes are 2-D refuse 3 saying so, and take 2.
-        cases += [(["--dim", "3", "--out", str(tmp / "d3")], None if app == "hydrostatic" else "this app is 2-D only"),
+        cases += [(["--dim", "3", "--out", str(tmp / "d3")],
+                   None if app in ("hydrostatic", "dambreak") else "this app is 2-D only"),
                   (["--dim", "2", "--out", str(tmp / "d2")], None)]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),

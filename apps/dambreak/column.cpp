@@ -19,10 +19,19 @@ namespace dambreak {
 Column column_from_name(const std::string& name) {
   if (name == "classic") return Column::classic;
   if (name == "seed") return Column::seed;
-  throw std::invalid_argument("unknown column '" + name + "': choose classic or seed");
+  if (name == "spheric2") return Column::spheric2;
+  throw std::invalid_argument("unknown column '" + name + "': choose classic, seed or spheric2 (3-D)");
 }
 
-std::string to_string(Column c) { return c == Column::classic ? "classic" : c == Column::seed ? "seed" : "file"; }
+std::string to_string(Column c) {
+  switch (c) {
+    case Column::classic: return "classic";
+    case Column::seed: return "seed";
+    case Column::spheric2: return "spheric2";
+    case Column::file: break;
+  }
+  return "file";
+}
 
 Params defaults(Column c) {
   Params p;
@@ -151,12 +160,12 @@ mps::Domain make_domain(const Params& p) {
   return {-margin, p.tank_length + margin, -margin, p.tank_height + 0.5 * p.height + margin};
 }
 
-mps::SimulationConfig make_config(const Params& p) {
+mps::SimulationConfig make_config(const Params& p, int dim) {
   mps::SimulationConfig c;
   c.l0 = p.l0;
   c.rho = 1000.0;
   c.nu = 1e-6;
-  c.fy = -p.g;
+  (dim == 2 ? c.fy : c.fz) = -p.g;
   c.gamma = p.gamma;
   c.cfl = p.cfl;
   c.dt_max = c.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // the CFL step at the free-fall speed from H
@@ -365,13 +374,11 @@ Scene::Scene(const Params& p, mps::Particles particles, std::optional<int> comm)
       distributed_(dynamic_cast<const mps::RankExchange*>(&sim_->exchange())),
       initial_fluid_(static_cast<long>(particles.count(mps::Kind::fluid))) {
   const double L = p.tank_length, top = p.tank_height, ceiling = sim_->domain().ymax - 2 * p.l0;
-  if (p.collision > 0.0) sim_->add<mps::ParticleCollision>(p.collision, p.restitution);
-  if (p.asymmetry > 0.0) sim_->add<mps::AsymmetrySurface>(p.asymmetry);
-  if (p.wet_walls) sim_->add<mps::WetWalls>();
   // Spray over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below a wall's top stays in
   // (a particle inside a wall is counted, not hidden).
-  sim_->add<mps::RemoveEscaped>(
-      [=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });
+  add_dam_break_components<2>(*sim_, p, [=](const mps::Vec<2>& r) {
+    return r[1] < ceiling && (r[1] < top || (r[0] > 0.0 && r[0] < L));
+  });
   sample();
 }
 

@@ -17,9 +17,10 @@
 
 namespace dambreak {
 
-// file: a scene from a particle file that is neither built-in column; no experiment applies to it.
-enum class Column { classic, seed, file };
-Column column_from_name(const std::string& name);  // "classic" or "seed"; throws std::invalid_argument otherwise
+// file: a scene from a particle file that is neither built-in column; no experiment applies to it. spheric2: the 3-D
+// dam break hitting a box (box_impact.hpp).
+enum class Column { classic, seed, file, spheric2 };
+Column column_from_name(const std::string& name);  // "classic", "seed" or "spheric2"; throws std::invalid_argument otherwise
 std::string to_string(Column c);
 
 struct Params {
@@ -79,7 +80,18 @@ double coarsest_spacing(const Params& p);
 
 mps::Particles make_particles(const Params& p);
 mps::Domain make_domain(const Params& p);
-mps::SimulationConfig make_config(const Params& p);
+mps::SimulationConfig make_config(const Params& p, int dim = 2);  // gravity along -y in 2-D, -z in 3-D
+
+// What every dam break adds to its simulation: close pairs colliding, the asymmetry surface test and wet walls as p
+// asks, and the removal of fluid that leaves `inside` (spray over a wall's top).
+template <int D>
+void add_dam_break_components(mps::BasicSimulation<D>& sim, const Params& p,
+                              typename mps::BasicRemoveEscaped<D>::Region inside) {
+  if (p.collision > 0.0) sim.template add<mps::BasicParticleCollision<D>>(p.collision, p.restitution);
+  if (p.asymmetry > 0.0) sim.template add<mps::BasicAsymmetrySurface<D>>(p.asymmetry);
+  if (p.wet_walls) sim.template add<mps::BasicWetWalls<D>>();
+  sim.template add<mps::BasicRemoveEscaped<D>>(std::move(inside));
+}
 
 // The leading edge of the water: the largest x of a fluid particle with a fluid neighbour within 2.1 l0 (spray
 // ahead of the front is not the front), plus l0/2, from the upstream wall at x = 0.

@@ -8,8 +8,10 @@
 #include <tuple>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 
+#include "box_impact.hpp"
 #include "checks.hpp"
 #include "column.hpp"
 #include "console.hpp"
@@ -27,7 +29,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-nlohmann::json params_json(const dambreak::Params& p, const mps::Simulation& sim, const std::string& data, int ranks) {
+template <int D>
+nlohmann::json params_json(const dambreak::Params& p, const mps::BasicSimulation<D>& sim, const std::string& data,
+                           int ranks) {
   const auto& c = sim.config();
   std::vector<std::string> physics{"gravity", "viscosity (explicit)", "free surface", "hydrostatic split",
                                    "spray removal"};
@@ -58,12 +62,19 @@ struct FrontTolerances {
   double speed = 0.03, shape = 0.02;
 };
 
+// SPHERIC Test 2's checks (check_box_impact): what the default spacing reaches (docs/dambreak3d.md).
+struct BoxImpactTolerances {
+  double arrival = 0.25, peak = 0.2, height = 0.05;
+};
+
 // The command line.
 struct Options {
   std::string column_name, gradient = "min-reference", out = "runs/dambreak",
               data = default_data_dir("dambreak", DAMBREAK_DATA_DIR);
   double dx = 0, end_time = 0, tank_length = 0;
+  int dim = 2;
   FrontTolerances front;
+  BoxImpactTolerances box;
   int frames = 20;
   std::string particles_file, write_particles;
   std::vector<int> export_ppe;
@@ -72,7 +83,9 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
-  add_two_d_only_option(app, "the 3-D dam break is not built yet; the library steps 3-D scenes (mps::Simulation3), as hydrostatic --dim 3 does");
+  app.add_option("--dim", o.dim, "2: the classic and seed columns and particle files; 3: SPHERIC Test 2, a column hitting "
+                 "a box (--column spheric2, docs/dambreak3d.md)")
+      ->capture_default_str()->check(CLI::IsMember({2, 3}))->group("Scene");
   app.add_option("--particles", o.particles_file,
                  "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
                  "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
@@ -81,15 +94,16 @@ void add_options(CLI::App& app, Options& o) {
   // No default string: a run from --particles then writes no column into config.toml, and its replay is no conflict.
   app.add_option("--column", o.column_name,
                  "classic (the default): a = 0.146 m wide, 2a high, tank 4a wide (surge-front data); seed: 2 m wide, "
-                 "H = 1 m high, tank 5.366 m x 3 m (Buchner's wall pressure); not with --particles")
-      ->check(CLI::IsMember({"classic", "seed"}))->group("Scene");
+                 "H = 1 m high, tank 5.366 m x 3 m (Buchner's wall pressure); spheric2 (3-D, the default with --dim 3): "
+                 "SPHERIC Test 2's 1.228 m x 1 m x 0.55 m column hitting a box; not with --particles")
+      ->check(CLI::IsMember({"classic", "seed", "spheric2"}))->group("Scene");
   app.add_option("--tank-length", o.tank_length, "classic: the tank's length in units of the column's width a "
                  "(default 8: the front never meets the far wall before T = 3.5)")
       ->check(number_in(1.5, 100.0))->group("Scene");
   app.add_option("--data", o.data, "folder of the experimental data (mm_data_1.txt, mm_data_2.txt, ko_data.txt, "
                  "buchner_exp_data.txt)")->capture_default_str()->group("Scene");
-  app.add_option("--dx", o.dx, "particle spacing (default: a/40 for classic, H/25 for seed, the seed's own is 0.02; with "
-                             "--particles, the file's) [m]")
+  app.add_option("--dx", o.dx, "particle spacing (default: a/40 for classic, H/25 for seed, the seed's own is 0.02; "
+                             "0.04 for spheric2; with --particles, the file's) [m]")
       ->check(positive_up_to(1.0))->group("Numerics");
   app.add_option("--gamma", o.p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
@@ -118,7 +132,8 @@ void add_options(CLI::App& app, Options& o) {
   add_shifting_option(app, o.p.shifting);
   add_solver_options(app, o.p.solver);
   add_cold_start_flag(app, o.p.warm_start);
-  app.add_option("--end-time", o.end_time, "simulated time (default: T = 3.5 for classic, t sqrt(g/H) = 7 for seed) [s]")
+  app.add_option("--end-time", o.end_time, "simulated time (default: T = 3.5 for classic, t sqrt(g/H) = 7 for seed, 0.7 s "
+                 "for spheric2, the first impact) [s]")
       ->check(positive_up_to(1e4))->group("Run");
   app.add_option("--front-speed-tolerance", o.front.speed,
                  "classic: pass if the front's developed speed (a line over T in [1.5, 3.5]) is within this relative "
@@ -127,6 +142,13 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--front-shape-tolerance", o.front.shape,
                  "... and, delayed by one fitted time offset, within this relative error of the larger column's series "
                  "(a = 2.25 in) at every point up to T = 3.5")
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--arrival-tolerance", o.box.arrival, "spheric2: pass if P1's impact arrives within this relative "
+                 "error of the experiment's ...")->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--peak-tolerance", o.box.peak, "... its first peak is within this relative error ...")
+      ->capture_default_str()->check(positive_up_to(10))->group("Run");
+  app.add_option("--height-tolerance", o.box.height, "... and the heights at H2 and H4 are within this mean absolute "
+                 "error over the record's 0-6 s the run covers, in units of the column's height")
       ->capture_default_str()->check(positive_up_to(10))->group("Run");
   app.add_option("--out", o.out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
@@ -219,23 +241,26 @@ Experiments read_experiments(const std::string& data) {
   return e;
 }
 
-// Steps to the end, writing frames and a line every tenth of the run; a SimulationError goes to the caller.
-void run(dambreak::Scene& scene, FrameSeries& series, Progress& progress, const AppRanks& ranks) {
-  const mps::Simulation& sim = scene.sim();
-  const dambreak::Params& p = scene.params();
-  double next_report = p.end_time / 10;
+// Steps to the end, writing frames and a line every tenth of the run ending with what `sampled` says of the scene
+// (the front in 2-D, P1 in 3-D); a SimulationError goes to the caller.
+template <class Scene>
+void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
+         const std::function<std::string(const Scene&)>& sampled) {
+  const auto& sim = scene.sim();
+  const double end = scene.params().end_time;
+  double next_report = end / 10;
   while (!scene.done()) {
     scene.step();
     progress.update(sim.time(), sim.last_step().step);
     series.write_if_due(sim.time(), scene.all_particles());
-    if (ranks.root() && sim.time() >= next_report - 1e-12) {
+    if (root && sim.time() >= next_report - 1e-12) {
       const auto& s = sim.last_step();
       progress.clear();
       std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  free surface %zu  %s iterations %d  "
-                  "|u|max %.2f m/s  front %.3f a\n",
+                  "|u|max %.2f m/s  %s\n",
                   s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.free_surface, s.solve.backend.c_str(),
-                  s.solve.iterations, s.max_speed, scene.samples().back().front / p.width);
-      next_report += p.end_time / 10;
+                  s.solve.iterations, s.max_speed, sampled(scene).c_str());
+      next_report += end / 10;
     }
   }
 }
@@ -422,6 +447,225 @@ int report(const fs::path& dir, const dambreak::Scene& scene, const Experiments&
   return pass ? 0 : 2;
 }
 
+// SPHERIC Test 2 (--dim 3): the column hitting a box, its sensors against the experiment's P1, H2 and H4
+// (docs/dambreak3d.md). The impact in the 2-D seed column's units with the column's height 0.55 m: arrival and first
+// peak as dambreak::impact reads Buchner's record.
+struct BoxImpactFigures {
+  dambreak::Impact p1, p1_record;
+  double h2_error = 0, h4_error = 0;  // mean absolute error over 0-6 s, in units of the column's height
+};
+
+// The sampled series, as written to pressure.csv [Pa] and level.csv [m] (also when the guard stopped the run).
+struct BoxImpactSeries {
+  std::vector<double> time;
+  std::vector<std::vector<double>> pressures, heights;
+};
+
+BoxImpactSeries write_box_impact_series(const fs::path& dir, const dambreak::BoxImpact& scene) {
+  const dambreak::BoxImpactSensors& sensors = scene.sensors();
+  BoxImpactSeries out{{}, std::vector<std::vector<double>>(sensors.pressure.size()),
+                      std::vector<std::vector<double>>(sensors.height.size())};
+  for (const auto& s : scene.samples()) {
+    out.time.push_back(s.time);
+    for (std::size_t k = 0; k < out.pressures.size(); ++k) out.pressures[k].push_back(s.pressures[k]);
+    for (std::size_t k = 0; k < out.heights.size(); ++k) out.heights[k].push_back(s.heights[k]);
+  }
+  auto write = [&](const char* file, const std::vector<dambreak::Sensor>& names,
+                   const std::vector<std::vector<double>>& series, const char* unit) {
+    std::vector<std::string> header{"time_s"};
+    std::vector<std::vector<double>> columns{out.time};
+    for (std::size_t k = 0; k < series.size(); ++k) {
+      header.push_back(names[k].name + unit);
+      columns.push_back(series[k]);
+    }
+    mps::write_csv(dir / file, header, columns);
+  };
+  write("pressure.csv", sensors.pressure, out.pressures, "_Pa");
+  write("level.csv", sensors.height, out.heights, "_m");
+  return out;
+}
+
+BoxImpactFigures box_impact_figures(const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
+                                    const BoxImpactSeries& series) {
+  const dambreak::Params& p = scene.params();
+  const double scale = std::sqrt(p.g / p.height), rho_g_h = scene.sim().config().rho * p.g * p.height;
+  auto unitless = [&](const std::vector<double>& t, const std::vector<double>& pa) {
+    std::vector<double> t_hat, p_hat;
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      t_hat.push_back(t[k] * scale);
+      p_hat.push_back(pa[k] / rho_g_h);
+    }
+    return dambreak::impact(t_hat, p_hat);
+  };
+  BoxImpactFigures f{unitless(series.time, series.pressures[0]), unitless(record.time, record.p1), 0, 0};
+  auto gauge = [&](const std::string& name) -> const std::vector<double>& {
+    for (std::size_t k = 0; k < series.heights.size(); ++k)
+      if (scene.sensors().height[k].name == name) return series.heights[k];
+    throw std::runtime_error("the sensor file has no gauge " + name + ", which the experiment's record holds");
+  };
+  f.h2_error = dambreak::mean_absolute_error(series.time, gauge("H2"), record.time, record.h2, 0.0, 6.0) / p.height;
+  f.h4_error = dambreak::mean_absolute_error(series.time, gauge("H4"), record.time, record.h4, 0.0, 6.0) / p.height;
+  return f;
+}
+
+int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
+                      const BoxImpactTolerances& tolerance, const nlohmann::json& params) {
+  const mps::Simulation3& sim = scene.sim();
+  const dambreak::Params& p = scene.params();
+  const BoxImpactSeries series = write_box_impact_series(dir, scene);
+  const std::vector<double>& time = series.time;
+  const std::vector<std::vector<double>>&pressures = series.pressures, &heights = series.heights;
+  const BoxImpactFigures f = box_impact_figures(scene, record, series);
+  const double scale = std::sqrt(p.g / p.height), rho_g_h = sim.config().rho * p.g * p.height;
+  const double arrival_error = std::abs(f.p1.arrival - f.p1_record.arrival) / f.p1_record.arrival;
+  const double peak_error = std::abs(f.p1.peak - f.p1_record.peak) / f.p1_record.peak;
+  nlohmann::json checks{{"arrival_tolerance", tolerance.arrival}, {"peak_tolerance", tolerance.peak},
+                        {"height_tolerance_over_column_height", tolerance.height},
+                        {"pressure_patch_radius_m", scene.patch_radius()}, {"pressure_patch_reach_m", scene.patch_reach()}};
+  put(checks, "p1_arrival_s", f.p1.arrival / scale);
+  put(checks, "p1_arrival_record_s", f.p1_record.arrival / scale);
+  put(checks, "p1_arrival_error", arrival_error);
+  put(checks, "p1_first_peak_pa", f.p1.peak * rho_g_h);
+  put(checks, "p1_first_peak_record_pa", f.p1_record.peak * rho_g_h);
+  put(checks, "p1_first_peak_error", peak_error);
+  put(checks, "p1_noise_rms_pa", f.p1.noise_rms * rho_g_h);
+  put(checks, "p1_noise_rms_record_pa", f.p1_record.noise_rms * rho_g_h);
+  put(checks, "h2_mean_absolute_error_over_column_height", f.h2_error);
+  put(checks, "h4_mean_absolute_error_over_column_height", f.h4_error);
+  // Every sensor's and gauge's figures, for the experiment's records not given here.
+  nlohmann::json sensors = nlohmann::json::array(), gauges = nlohmann::json::array();
+  for (std::size_t k = 0; k < pressures.size(); ++k) {
+    std::vector<double> t_hat, p_hat;
+    for (std::size_t j = 0; j < time.size(); ++j) {
+      t_hat.push_back(time[j] * scale);
+      p_hat.push_back(pressures[k][j] / rho_g_h);
+    }
+    const dambreak::Impact i = dambreak::impact(t_hat, p_hat);
+    nlohmann::json at{{"name", scene.sensors().pressure[k].name}, {"arrived", std::isfinite(i.arrival)},
+                      {"largest_pa", *std::max_element(pressures[k].begin(), pressures[k].end())}};
+    put(at, "arrival_s", i.arrival / scale);
+    put(at, "first_peak_pa", i.peak * rho_g_h);
+    sensors.push_back(at);
+  }
+  for (std::size_t k = 0; k < heights.size(); ++k)
+    gauges.push_back({{"name", scene.sensors().height[k].name},
+                      {"largest_m", *std::max_element(heights[k].begin(), heights[k].end())}});
+  checks["pressure_sensors"] = sensors;
+  checks["height_gauges"] = gauges;
+  const long fluid_left = static_cast<long>(sim.particles().count(mps::Kind::fluid));
+  checks["fluid_removed_as_spray_count"] = scene.removed();
+  checks["fluid_conserved"] = fluid_left + scene.removed() == scene.initial_fluid();
+  checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
+  checks["deepest_past_wall_l0"] = std::max(0.0, scene.deepest_past_wall() / p.l0);
+
+  const bool arrival_ok = arrival_error <= tolerance.arrival, peak_ok = peak_error <= tolerance.peak;
+  const bool heights_ok = f.h2_error <= tolerance.height && f.h4_error <= tolerance.height;
+  const bool walls_ok = scene.most_inside_walls() == 0 && checks["fluid_conserved"].get<bool>();
+  const bool pass = arrival_ok && peak_ok && heights_ok && walls_ok;
+  // A figure the run is too short for is printed as such, not as NaN.
+  auto shown = [](double v, const char* format) {
+    char text[40] = "none";
+    if (std::isfinite(v)) std::snprintf(text, sizeof text, format, v);
+    return std::string(text);
+  };
+  std::printf("\nP1 (the box's face, lowest sensor): arrival %s s (experiment %.4f, %s %% off) %s; first peak %s Pa "
+              "(experiment %.0f, %s %% off) %s\n",
+              shown(f.p1.arrival / scale, "%.4f").c_str(), f.p1_record.arrival / scale,
+              shown(100 * arrival_error, "%.2f").c_str(), arrival_ok ? "PASS" : "FAIL",
+              shown(f.p1.peak * rho_g_h, "%.0f").c_str(), f.p1_record.peak * rho_g_h,
+              shown(100 * peak_error, "%.1f").c_str(), peak_ok ? "PASS" : "FAIL");
+  std::printf("heights over 0-%.2f s (the record's 0-6 s the run covers), mean absolute error: H2 %.2f %%, H4 %.2f %% "
+              "of the column's height %s\n", std::min(6.0, time.back()), 100 * f.h2_error, 100 * f.h4_error,
+              heights_ok ? "PASS" : "FAIL");
+  std::printf("spray removed: %ld particles; fluid conserved: %s; most fluid particles inside a wall or the box at once: "
+              "%ld (deepest %.2f l0) %s\n", scene.removed(), checks["fluid_conserved"].get<bool>() ? "yes" : "NO",
+              scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall() / p.l0), walls_ok ? "PASS" : "FAIL");
+  std::printf("SPHERIC Test 2 (P1 arrival within %.0f %%, first peak within %.0f %%, H2 and H4 within %.0f %%, no fluid "
+              "inside a wall): %s\n", 100 * tolerance.arrival, 100 * tolerance.peak, 100 * tolerance.height,
+              pass ? "PASS" : "FAIL");
+  write_solves(dir, sim);
+  write_summary(dir, {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
+                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", sim.particles().size()}}},
+                      {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
+                      {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
+  std::printf("outputs: frames (ParaView: dambreak.pvd), pressure.csv, level.csv, summary.json in %s\n",
+              dir.string().c_str());
+  return pass ? 0 : 2;
+}
+
+int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks) {
+  if (ranks.distributed())
+    throw std::invalid_argument("the 3-D dam break runs in one process so far: run it without mpirun");
+  if (o.dim != 3) throw std::invalid_argument("--column spheric2 is the 3-D dam break: add --dim 3");
+  if (!o.column_name.empty() && o.column_name != "spheric2")
+    throw std::invalid_argument("--dim 3 runs SPHERIC Test 2 (--column spheric2); the " + o.column_name +
+                                " column is 2-D: leave out --dim 3");
+  // By value, not by count: a replayed config.toml holds every option, the 2-D ones at their defaults.
+  const std::pair<const char*, bool> two_d[] = {{"--particles", !o.particles_file.empty()},
+                                                {"--tank-length", o.tank_length > 0},
+                                                {"--write-particles", !o.write_particles.empty()},
+                                                {"--sensor-height", o.p.sensor_height != dambreak::Params{}.sensor_height}};
+  for (const auto& [name, given] : two_d)
+    if (given) throw std::invalid_argument(std::string(name) + " is the 2-D dam break's; leave it out with --dim 3");
+  const dambreak::Params base = dambreak::box_impact_defaults();
+  dambreak::Params p = o.p;
+  p.column = base.column;
+  p.width = base.width;
+  p.height = base.height;
+  p.tank_length = base.tank_length;
+  p.tank_height = base.tank_height;
+  p.level_probes.clear();
+  p.pressure_probes.clear();
+  p.gradient = mps::gradient_variant_from_name(o.gradient);
+  p.l0 = o.dx > 0 ? o.dx : base.l0;
+  p.end_time = o.end_time > 0 ? o.end_time : base.end_time;
+  const dambreak::BoxImpactSize size;
+  check_run_size((size.tank_length / p.l0 + 10) * (size.tank_width / p.l0 + 10) * (size.tank_height / p.l0 + 5),
+                 dambreak::estimated_steps(p), "raise --dx", "shorten --end-time or raise --dx");
+  const fs::path data(o.data);
+  dambreak::BoxImpact scene(p, dambreak::read_box_impact_sensors((data / "spheric2_sensors.csv").string()));
+  const dambreak::BoxImpactRecord record = dambreak::read_box_impact_record((data / "spheric2_p1_h2_h4.csv").string());
+  const mps::Simulation3& sim = scene.sim();
+  const dambreak::BoxImpactGeometry& g = scene.geometry();
+  nlohmann::json params = params_json(p, sim, o.data, 1);
+  params["dimensions"] = 3;
+  params["tank_m"] = {g.tank.x1 - g.tank.x0, g.tank.y1 - g.tank.y0, g.tank.z1 - g.tank.z0};
+  params["column_m"] = {g.column.x0, g.column.x1, g.column.z1};
+  params["box_m"] = {g.box.x0, g.box.x1, g.box.y0, g.box.y1, g.box.z1};
+  std::cout << parameter_table(
+      "dam break, 3-D, SPHERIC Test 2: " + std::to_string(sim.particles().size()) + " particles (" +
+          std::to_string(scene.initial_fluid()) + " fluid)",
+      params,
+      {{"scene", {"tank_m", "column_m", "box_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
+       {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
+                     "asymmetry", "shifting", "wet_walls"}},
+       {"solver", {"solver", "warm_start"}},
+       {"run", {"end_time_s"}}});
+  const fs::path dir(o.out);
+  clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
+                      "last_good.vtp", "config.toml", "solves.csv", "ppe"});
+  scene.sim().add<BasicSolveLog<3>>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
+                                    "dambreak, SPHERIC Test 2");
+  write_run_config(app, "dambreak", dir);
+  fs::create_directories(dir / "frames");
+  FrameSeries series(dir, "dambreak", o.frames, p.end_time);
+  series.write_if_due(sim);
+  Progress progress(p.end_time, "s");
+  try {
+    run<dambreak::BoxImpact>(scene, series, progress, true, [](const dambreak::BoxImpact& sc) {
+      char text[40];
+      std::snprintf(text, sizeof text, "P1 %.0f Pa", sc.samples().back().pressures[0]);
+      return std::string(text);
+    });
+  } catch (const mps::SimulationError& e) {
+    progress.finish(sim.time(), sim.last_step().step);
+    write_box_impact_series(dir, scene);  // the sensors up to the last good step
+    return report_guard_stop(dir, e, params, sim);
+  }
+  progress.finish(sim.time(), sim.last_step().step);
+  return report_box_impact(dir, scene, record, o.box, params);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -436,6 +680,7 @@ int main(int argc, char** argv) {
   if (const auto status = parse_options(app, ranks, argc, argv)) return *status;
 
   try {
+    if (o.dim == 3 || o.column_name == "spheric2") return run_box_impact(o, app, ranks);
     if (ranks.distributed() && !o.export_ppe.empty())
       throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
     Start start = make_start(o);
@@ -475,7 +720,11 @@ int main(int argc, char** argv) {
     series.write_if_due(sim.time(), scene.all_particles());
     Progress progress(p.end_time, "s");
     try {
-      run(scene, series, progress, ranks);
+      run<dambreak::Scene>(scene, series, progress, ranks.root(), [](const dambreak::Scene& sc) {
+        char text[40];
+        std::snprintf(text, sizeof text, "front %.3f a", sc.samples().back().front / sc.params().width);
+        return std::string(text);
+      });
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time(), sim.last_step().step);
       // The step stops every rank at the same stage (the scene's gathering is the last good state); the scene's own

@@ -1,0 +1,109 @@
+#pragma once
+// SPHERIC Benchmark Test 2, a 3-D dam break hitting a box (Kleefsman, Fekken, Veldman, Iwanowski & Buchner 2005, the
+// MARIN experiment): a tank 3.22 x 1 x 1 m (x along it, y across, z up), a water column 1.228 m long, 1 m wide and
+// 0.55 m high against its x = 3.22 end, a box 0.161 x 0.403 x 0.161 m on the floor in the flow's path. Pressure
+// sensors P1-P4 on the box's face towards the water and P5-P8 on its top, water-height gauges H1-H4: their positions
+// are read from data/dambreak/spheric2_sensors.csv. The scene samples them after every step.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "column.hpp"
+#include "mps/boundaries/geometry.hpp"
+
+namespace dambreak {
+
+// A pressure sensor (on the box: `face` is "front", towards the water, or "top") or a height gauge (z and face unused).
+struct Sensor {
+  std::string name;
+  double x = 0, y = 0, z = 0;
+  std::string face;
+};
+struct BoxImpactSensors {
+  std::vector<Sensor> pressure;  // P1-P8
+  std::vector<Sensor> height;    // H1-H4
+};
+// Reads name,x,y,z,face lines ('#' comments); throws naming the file and the line.
+BoxImpactSensors read_box_impact_sensors(const std::string& path);
+
+// The experiment's lengths [m].
+struct BoxImpactSize {
+  double tank_length = 3.22, tank_width = 1.0, tank_height = 1.0;
+  double column_length = 1.228, column_height = 0.55;
+  double box_x0 = 0.6635, box_x1 = 0.8245, box_y0 = 0.2985, box_y1 = 0.7015, box_height = 0.161;
+};
+
+// The experiment on the lattice of spacing l0: every length the nearest whole number of spacings, the column against
+// the tank's x-high end, the box's face towards the water (x1) and its sides at their nearest lattice lines.
+struct BoxImpactGeometry {
+  mps::Box tank, column, box;
+};
+BoxImpactGeometry box_impact_geometry(double l0, const BoxImpactSize& size = {});
+
+// The dam break's numerics (defaults(Column::classic)'s) with this experiment's column and tank, spacing 0.04 m, to
+// 0.7 s: the first impact on the box and the column's collapse. From about 1 s fluid sinks into the walls through the
+// holes of their square lattice (docs/dambreak3d.md), so a longer run is the user's choice and its check says so.
+Params box_impact_defaults();
+
+mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0);
+
+// The mean pressure of the fluid and wall particles within `reach` of the sensor's face plane and within `radius` of
+// the sensor along it, inside the face (0 if none): the 2-D probe's patch on a face of the box.
+double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, const Sensor& sensor, double reach,
+                         double radius);
+// The water height at (x, y): the largest z + l0/2 of a fluid particle within l0 of the vertical line there with a fluid
+// neighbour within 2.1 l0 (spray is not the surface); 0 if none.
+double water_height(const mps::Particles3& s, double x, double y, double l0);
+
+struct BoxImpactSample {
+  double time;
+  std::vector<double> pressures;  // [Pa] at each pressure sensor
+  std::vector<double> heights;    // [m] at each height gauge
+};
+
+class BoxImpact {
+ public:
+  BoxImpact(const Params& p, BoxImpactSensors sensors);
+  void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
+  [[nodiscard]] bool done() const { return sim_->time() >= params_.end_time - 1e-12; }
+  [[nodiscard]] const mps::Simulation3& sim() const { return *sim_; }
+  [[nodiscard]] mps::Simulation3& sim() { return *sim_; }
+  [[nodiscard]] const mps::Particles3& all_particles() const { return sim_->particles(); }  // as Scene's, for frames
+  [[nodiscard]] const Params& params() const { return params_; }
+  [[nodiscard]] const BoxImpactGeometry& geometry() const { return geometry_; }
+  [[nodiscard]] const BoxImpactSensors& sensors() const { return sensors_; }
+  [[nodiscard]] const std::vector<BoxImpactSample>& samples() const { return samples_; }  // t = 0 and every step
+  [[nodiscard]] long removed() const;  // fluid removed as spray over the walls
+  [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
+  // Fluid particles inside a wall or the box (past its first layer's centres, l0/2 beyond its surface): the most at any
+  // sample; and the deepest any fluid went past a wall's or the box's surface [m] (<= 0: never).
+  [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
+  [[nodiscard]] double deepest_past_wall() const { return deepest_past_wall_; }
+  // The patch over which each sensor's pressure is averaged: its radius along the face and its reach across it [m].
+  [[nodiscard]] double patch_radius() const { return 2.0 * params_.l0; }
+  [[nodiscard]] double patch_reach() const { return 2.0 * params_.l0; }
+
+ private:
+  void sample();
+  Params params_;
+  BoxImpactSensors sensors_;
+  BoxImpactGeometry geometry_;
+  std::unique_ptr<mps::Simulation3> sim_;
+  long initial_fluid_ = 0;
+  long most_inside_walls_ = 0;
+  double deepest_past_wall_ = -1e300;
+  std::vector<BoxImpactSample> samples_;
+};
+
+// The experiment's record (time [s], P1 [Pa], H2 [m], H4 [m]).
+struct BoxImpactRecord {
+  std::vector<double> time, p1, h2, h4;
+};
+BoxImpactRecord read_box_impact_record(const std::string& path);
+
+// The mean absolute difference of a run's series from the record's over the record's times in [t0, t1] that the run
+// covers (the run interpolated linearly); NaN if none.
+double mean_absolute_error(const std::vector<double>& run_time, const std::vector<double>& run, const std::vector<double>& time,
+                           const std::vector<double>& record, double t0, double t1);
+
+}  // namespace dambreak

@@ -1,0 +1,110 @@
+#!/usr/bin/python3
+"""SPHERIC Test 2, the 3-D dam break hitting a box (docs/dambreak3d.md): `dambreak --dim 3` at each spacing, its P1
+arrival and first peak and its H2 and H4 heights against the experiment (Kleefsman et al. 2005), every other sensor and
+gauge reported. Writes bench/results/dambreak3d.csv and dambreak3d.png (P1, H2 and H4 against the record; the other
+sensors and gauges beside them).
+
+  bench/dambreak3d_study.py BUILD_DIR [--spacings 0.05,0.04] [--runs DIR] [--jobs 1] [--end-time 6] [-- extra args]
+
+One thread per run. At 0.04 m (56,000 particles) a run to 6 s takes about half an hour on one core. A run whose summary
+is already in --runs is read, not rerun (delete its folder to rerun it).
+"""
+import argparse
+import csv
+import json
+import os
+import subprocess
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+FIGURES = ["p1_arrival_s", "p1_arrival_record_s", "p1_arrival_error", "p1_first_peak_pa", "p1_first_peak_record_pa",
+           "p1_first_peak_error", "p1_noise_rms_pa", "h2_mean_absolute_error_over_column_height",
+           "h4_mean_absolute_error_over_column_height", "fluid_removed_as_spray_count", "most_fluid_inside_walls_count",
+           "deepest_past_wall_l0"]
+
+
+def run(exe, out, dx, end_time, extra):
+    summary = out / "summary.json"
+    if not summary.exists():
+        out.mkdir(parents=True, exist_ok=True)
+        with (out / "console.txt").open("w") as log:
+            subprocess.run([str(exe), "--dim", "3", "--dx", repr(dx), "--end-time", repr(end_time), "--frames", "0",
+                            "--out", str(out), *extra], stdout=log, stderr=subprocess.STDOUT,
+                           env=dict(os.environ, OMP_NUM_THREADS="1"))
+    return json.loads(summary.read_text())
+
+
+def read_csv(path):
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    return {k: [float(r[k]) for r in rows] for k in rows[0]}
+
+
+def plot(runs, spacings, chart, xmax):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    record = read_csv(ROOT / "data" / "dambreak" / "spheric2_p1_h2_h4.csv")
+    fig, axes = plt.subplots(3, 2, figsize=(12, 10))
+    panels = [("P1_Pa", "P1_Pa", "pressure.csv", "P1 [Pa]"), ("H2_m", "H2_m", "level.csv", "H2 [m]"),
+              ("H4_m", "H4_m", "level.csv", "H4 [m]")]
+    for (column, record_column, name, label), ax in zip(panels, axes[:, 0]):
+        ax.plot(record["time_s"], record[record_column], "k", lw=0.6, label="experiment (Kleefsman et al. 2005)")
+        for dx in spacings:
+            path = runs / f"dx{dx}" / name
+            if path.exists():
+                series = read_csv(path)
+                ax.plot(series["time_s"], series[column], lw=1.0, label=f"dx = {dx} m")
+        ax.set_ylabel(label)
+        ax.set_xlim(0, xmax)
+        ax.legend(fontsize=7)
+    finest = runs / f"dx{spacings[-1]}"
+    others = [("pressure.csv", ["P2_Pa", "P3_Pa", "P4_Pa"], "P2-P4 [Pa] (no data here)"),
+              ("pressure.csv", ["P5_Pa", "P6_Pa", "P7_Pa", "P8_Pa"], "P5-P8, the box's top [Pa] (no data here)"),
+              ("level.csv", ["H1_m", "H3_m"], "H1, H3 [m] (no data here)")]
+    for (name, columns, label), ax in zip(others, axes[:, 1]):
+        if (finest / name).exists():
+            series = read_csv(finest / name)
+            for c in columns:
+                ax.plot(series["time_s"], series[c], lw=0.8, label=f"{c.split('_')[0]}, dx = {spacings[-1]} m")
+        ax.set_ylabel(label)
+        ax.set_xlim(0, xmax)
+        ax.legend(fontsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    fig.suptitle("SPHERIC Test 2: bench/dambreak3d_study.py BUILD_DIR --spacings " + ",".join(map(str, spacings)))
+    fig.tight_layout()
+    fig.savefig(chart, dpi=110)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("build")
+    parser.add_argument("--spacings", default="0.05,0.04")
+    parser.add_argument("--runs", default="runs/dambreak3d_study")
+    parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--end-time", type=float, default=6.0)
+    parser.add_argument("--name", default="dambreak3d")
+    parser.add_argument("extra", nargs="*")
+    a = parser.parse_args()
+    exe = Path(a.build) / "apps" / "dambreak" / "dambreak"
+    runs = Path(a.runs)
+    spacings = [float(s) for s in a.spacings.split(",")]
+    with ThreadPoolExecutor(a.jobs) as pool:
+        summaries = list(pool.map(lambda dx: run(exe, runs / f"dx{dx}", dx, a.end_time, a.extra), spacings))
+    results = ROOT / "bench" / "results"
+    with (results / f"{a.name}.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["dx_m", "fluid", "particles", "steps", "time_s", *FIGURES, "wall_s"])
+        for dx, s in zip(spacings, summaries):
+            checks = s.get("checks", {})
+            w.writerow([dx, s["particles"]["fluid"], s["particles"]["total"], s["steps"], s["time_s"],
+                        *[checks.get(k, "") for k in FIGURES], s.get("timings", {}).get("total_s", "")])
+            print(dx, s["status"], {k: checks.get(k) for k in FIGURES})
+    plot(runs, spacings, results / f"{a.name}.png", min(6.0, a.end_time + 0.5))
+    print("wrote", results / f"{a.name}.csv", "and", results / f"{a.name}.png")
+
+
+if __name__ == "__main__":
+    main()

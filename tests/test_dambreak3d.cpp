@@ -121,7 +121,7 @@ TEST(DamBreak3d, MeanAbsoluteErrorInterpolatesTheRun) {
   EXPECT_TRUE(std::isnan(dambreak::mean_absolute_error(run_t, run, t, rec, 4.0, 6.0)));
 }
 
-// The column at 0.05 m (11 layers high; about 29,000 particles) to 0.5 s with the dam break's defaults: the water
+// The column at 0.05 m (11 layers high; 35,472 particles) to 0.5 s with the dam break's defaults: the water
 // reaches the box's face (P1's arrival, read as the app reads it) within 30 % of when the experiment's did (measured
 // 0.491 s against 0.394: this coarse column falls slower than the experiment's, docs/dambreak3d.md), wets H2 before
 // it, and the column at H4 falls as the record's (mean absolute error over 0-0.5 s 3.5 % of the column's height, bound

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "box_impact.hpp"
 #include "mps/boundaries/geometry.hpp"
 #include "mps/io/io.hpp"
 
@@ -34,6 +35,7 @@ std::string to_string(Column c) {
 }
 
 Params defaults(Column c) {
+  if (c == Column::spheric2) return box_impact_defaults();
   Params p;
   p.column = c;
   if (c == Column::classic) {

@@ -60,7 +60,8 @@ struct Params {
   double sensor_height = 0.15;
 };
 
-// The column's geometry with its default spacing (40 particles across a for the classic column, H/25 for the seed's).
+// The column's geometry with its default spacing (40 particles across a for the classic column, H/25 for the seed's;
+// spheric2's is box_impact_defaults()).
 Params defaults(Column c);
 // Sets p's column and what comes with it (tank, probes, end time) to column c's, keeping the numerics.
 void take_column_geometry(Params& p, Column c);

@@ -485,19 +485,25 @@ BoxImpactSeries write_box_impact_series(const fs::path& dir, const dambreak::Box
   return out;
 }
 
+// A pressure series [s, Pa] read as dambreak::impact reads Buchner's, in units of the column's height:
+// t sqrt(g/H) and p / (rho g H).
+dambreak::Impact impact_in_column_units(const dambreak::BoxImpact& scene, const std::vector<double>& time,
+                                       const std::vector<double>& pressure) {
+  const dambreak::Params& p = scene.params();
+  const double scale = std::sqrt(p.g / p.height), rho_g_h = scene.sim().config().rho * p.g * p.height;
+  std::vector<double> t_hat, p_hat;
+  for (std::size_t k = 0; k < time.size(); ++k) {
+    t_hat.push_back(time[k] * scale);
+    p_hat.push_back(pressure[k] / rho_g_h);
+  }
+  return dambreak::impact(t_hat, p_hat);
+}
+
 BoxImpactFigures box_impact_figures(const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
                                     const BoxImpactSeries& series) {
   const dambreak::Params& p = scene.params();
-  const double scale = std::sqrt(p.g / p.height), rho_g_h = scene.sim().config().rho * p.g * p.height;
-  auto unitless = [&](const std::vector<double>& t, const std::vector<double>& pa) {
-    std::vector<double> t_hat, p_hat;
-    for (std::size_t k = 0; k < t.size(); ++k) {
-      t_hat.push_back(t[k] * scale);
-      p_hat.push_back(pa[k] / rho_g_h);
-    }
-    return dambreak::impact(t_hat, p_hat);
-  };
-  BoxImpactFigures f{unitless(series.time, series.pressures[0]), unitless(record.time, record.p1), 0, 0};
+  BoxImpactFigures f{impact_in_column_units(scene, series.time, series.pressures[0]),
+                     impact_in_column_units(scene, record.time, record.p1), 0, 0};
   auto gauge = [&](const std::string& name) -> const std::vector<double>& {
     for (std::size_t k = 0; k < series.heights.size(); ++k)
       if (scene.sensors().height[k].name == name) return series.heights[k];
@@ -535,12 +541,7 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   // Every sensor's and gauge's figures, for the experiment's records not given here.
   nlohmann::json sensors = nlohmann::json::array(), gauges = nlohmann::json::array();
   for (std::size_t k = 0; k < pressures.size(); ++k) {
-    std::vector<double> t_hat, p_hat;
-    for (std::size_t j = 0; j < time.size(); ++j) {
-      t_hat.push_back(time[j] * scale);
-      p_hat.push_back(pressures[k][j] / rho_g_h);
-    }
-    const dambreak::Impact i = dambreak::impact(t_hat, p_hat);
+    const dambreak::Impact i = impact_in_column_units(scene, time, pressures[k]);
     nlohmann::json at{{"name", scene.sensors().pressure[k].name}, {"arrived", std::isfinite(i.arrival)},
                       {"largest_pa", *std::max_element(pressures[k].begin(), pressures[k].end())}};
     put(at, "arrival_s", i.arrival / scale);

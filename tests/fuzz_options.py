@@ -121,8 +121,10 @@ def special_inputs(build, tmp):
                  (["--out", ""], "empty"), (["--out", str(tmp / "a_file")], "not a directory")]
         # Every app takes --dim; those whose scenes are 2-D refuse 3 saying so, and take 2.
         cases += [(["--dim", "3", "--out", str(tmp / "d3")],
-                   None if app in ("hydrostatic", "dambreak") else "this app is 2-D only"),
+                   None if app in ("hydrostatic", "dambreak", "rotating") else "this app is 2-D only"),
                   (["--dim", "2", "--out", str(tmp / "d2")], None)]
+        if app == "rotating":  # the screw channel is 2-D only
+            cases += [(["--dim", "3", "--scene", "channel", "--out", str(tmp / "d3c")], "the channel is 2-D only")]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]

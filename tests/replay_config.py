@@ -32,10 +32,12 @@ CASES = {
     "fsi": "--scene gate --end-time 0.01 --frames 2",
     # SPHERIC Test 2, the 3-D dam break, at its coarsest spacing
     "dambreak-3d": "--dim 3 --dx 0.1 --end-time 0.02 --frames 2 --wet-walls --collision 0.7",
+    # Taylor-Couette in 3-D, the annulus extruded along z
+    "rotating-3d": "--scene couette --dim 3 --across 6 --times 0.02 --frames 2 --walls mirror",
     # a scene from a particle file (written first by --write-particles): config.toml records the file's path
     "dambreak-particles": "--particles {tmp}/classic.csv --end-time 0.02 --frames 2 --gamma 0.05",
 }
-APP = {"dambreak-particles": "dambreak", "dambreak-3d": "dambreak"}  # a case's app, where the case is not named after it
+APP = {"dambreak-particles": "dambreak", "dambreak-3d": "dambreak", "rotating-3d": "rotating"}  # a case's app, where the case is not named after it
 FLAGS = {"poiseuille": "cold-start=true", "rotating": "lattice-reference=true", "dambreak": "wet-walls=true",
          "dambreak-3d": "wet-walls=true",
          "acoustic": "no-maps=true", "dambreak-particles": 'particles="{tmp}/classic.csv"'}

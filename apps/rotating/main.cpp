@@ -29,15 +29,16 @@ using Line = rotating::LineSampler::Line;
 
 namespace {
 
-nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim, const std::vector<double>& times,
-                           double average) {
+template <int D>
+nlohmann::json params_json(const rotating::Params& p, const mps::BasicSimulation<D>& sim,
+                           const std::vector<double>& times, double average) {
   const auto& c = sim.config();
   const bool couette = p.scene == rotating::Scene::couette;
-  const mps::Particles& s = sim.particles();
+  const mps::BasicParticles<D>& s = sim.particles();
   nlohmann::json physics = {"viscosity (explicit)", "wall + 4 dummy layers", "rigid wall motion", "closed-domain PPE gauge",
                             "no gravity"};
   if (p.shifting > 0) physics.push_back("particle shifting");
-  return {{"scene", rotating::to_string(p.scene)}, {"model", couette ? "moving" : rotating::to_string(p.model)},
+  nlohmann::json params = {{"scene", rotating::to_string(p.scene)}, {"dim", D}, {"model", couette ? "moving" : rotating::to_string(p.model)},
           {"inner_radius_m", p.R1}, {"outer_radius_m", p.R2}, {"span_rad", couette ? 2 * std::numbers::pi : p.span},
           {"omega_rad_per_s", p.omega}, {"sense", couette ? "inner cylinder counter-clockwise" : "channel clockwise"},
           {"rho_kg_per_m3", p.rho}, {"nu_m2_per_s", p.nu}, {"re", p.reynolds()}, {"velocity_scale_m_per_s", p.U()},
@@ -51,6 +52,11 @@ nlohmann::json params_json(const rotating::Params& p, const mps::Simulation& sim
           {"initial_guess", c.warm_start ? "previous pressure" : "zero"},
           {"walls", p.mirror ? "mirror velocities on the circles" : "plain (wall velocity)"},
           {"physics_on", physics}};
+  if constexpr (D == 3) {
+    params["period_layers_z"] = rotating::period_layers(p);
+    params["period_z_m"] = rotating::period_layers(p) * p.l0();
+  }
+  return params;
 }
 
 struct Curves {
@@ -66,7 +72,8 @@ struct RunResult {
 
 // After a run: each curve as CSV (one column per sample time, beside the axis), the checks of the last sample and
 // the summary ("completed" until main has made the checks, which need every model's run); returns the summary.
-nlohmann::json write_results(const rotating::Params& p, const mps::Simulation& sim, const fs::path& dir,
+template <int D>
+nlohmann::json write_results(const rotating::Params& p, const mps::BasicSimulation<D>& sim, const fs::path& dir,
                              const std::vector<Curves>& at, const nlohmann::json& params, long escaped_max,
                              std::size_t fluid0) {
   const bool couette = p.scene == rotating::Scene::couette;
@@ -101,6 +108,7 @@ nlohmann::json write_results(const rotating::Params& p, const mps::Simulation& s
   const bool count_kept = sim.particles().count(mps::Kind::fluid) == fluid0;
   if (couette) {
     checks = {{"max_abs_error_over_omega_R1", rotating::couette_max_error(last.couette) / p.U()}};
+    if constexpr (D == 3) checks["max_axial_speed_over_omega_R1"] = rotating::max_axial_speed(sim) / p.U();
   } else {
     const double prange = rotating::range(last.barrel, 0.4);
     // Over |phi| <= 0.4 rad unless named full span; arc 2's velocities are in omega R2.
@@ -121,18 +129,24 @@ nlohmann::json write_results(const rotating::Params& p, const mps::Simulation& s
 }
 
 // One simulation to the last of `times`, sampling each curve over the last `average` fraction of each time.
+template <int D>
 RunResult run(const rotating::Params& p, const std::vector<double>& times, double average, int frames,
               const fs::path& dir, const std::set<int>& export_ppe) {
   const bool couette = p.scene == rotating::Scene::couette;
-  mps::Simulation sim = rotating::make_simulation(p);
-  sim.add<SolveLog>(dir, export_ppe, couette ? "rotating, Taylor-Couette" : "rotating, screw channel");
+  mps::BasicSimulation<D> sim = [&] {
+    if constexpr (D == 2) return rotating::make_simulation(p);
+    else return rotating::make_simulation3(p);
+  }();
+  sim.template add<BasicSolveLog<D>>(dir, export_ppe,
+                                     couette ? (D == 3 ? "rotating, Taylor-Couette in 3-D" : "rotating, Taylor-Couette")
+                                             : "rotating, screw channel");
   const nlohmann::json params = params_json(p, sim, times, average);
   std::cout << parameter_table(
       "rotating, " + rotating::to_string(p.scene) + (couette ? "" : " (" + params["model"].get<std::string>() + ")") +
           ": " + std::to_string(sim.particles().size()) + " particles (" +
           std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
       params,
-      {{"scene", {"inner_radius_m", "outer_radius_m", "span_rad", "omega_rad_per_s", "nu_m2_per_s", "rho_kg_per_m3",
+      {{"scene", {"dim", "inner_radius_m", "outer_radius_m", "span_rad", "omega_rad_per_s", "nu_m2_per_s", "rho_kg_per_m3",
                   "re", "walls"}},
        {"numerics", {"across", "dx_m", "gamma", "gradient", "cfl", "viscous_number", "dt_factor", "shifting",
                      "reference_number_density"}},
@@ -145,8 +159,12 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   auto write_frame = [&](int k) {
     char name[40];
     std::snprintf(name, sizeof name, "frames/frame_%04d.vtp", k);
-    rotating::relative_velocity(p, sim.particles(), ur, vr);
-    mps::write_vtp(dir / name, sim.particles(), sim.time(), {.vectors = {{"relative_velocity", {ur, vr}}}});
+    if constexpr (D == 2) {
+      rotating::relative_velocity(p, sim.particles(), ur, vr);
+      mps::write_vtp(dir / name, sim.particles(), sim.time(), {.vectors = {{"relative_velocity", {ur, vr}}}});
+    } else {
+      mps::write_vtp(dir / name, sim.particles(), sim.time());  // couette: the lab frame is the frame of reference
+    }
     series.add(sim.time(), dir / name);
   };
   const std::size_t fluid0 = sim.particles().count(mps::Kind::fluid);
@@ -233,7 +251,8 @@ struct Options {
 
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
-  add_two_d_only_option(app, "the circular mirror walls are 2-D");
+  app.add_option("--dim", o.p.dim, "2 | 3 (3: couette only, the annulus extruded along z, periodic in z)")
+      ->capture_default_str()->check(CLI::IsMember({2, 3}))->group("Scene");
   app.add_option("--scene", o.scene, "couette | channel")->capture_default_str()->group("Scene");
   app.add_option("--model", o.model, "channel: moving | fixed | both (both runs each into OUT/moving, OUT/fixed and "
                  "compares them)")->capture_default_str()->group("Scene");
@@ -247,7 +266,7 @@ void add_options(CLI::App& app, Options& o) {
                  "and dummy particles at the wall velocity, seed 000's static particles)")->capture_default_str()
       ->group("Scene");
   app.add_option("--across", o.p.across, "particles across the gap R2 - R1 (0: the scene's default, channel 49 = seed "
-                 "000's 3,626 fluid particles, couette 20)")->capture_default_str()->check(whole_in(0, 100000))
+                 "000's 3,626 fluid particles, couette 20, in 3-D 10)")->capture_default_str()->check(whole_in(0, 100000))
       ->group("Numerics");
   app.add_option("--gamma", o.p.gamma, "mixed source weight in [0,1] (1: number density only)")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
@@ -288,9 +307,12 @@ bool judge(const std::vector<std::pair<std::string, RunResult>>& runs, const Opt
   std::printf("\n");
   if (couette) {
     const double e = checks["max_abs_error_over_omega_R1"];
-    pass = pass && e <= o.tolerance;
-    std::printf("check: couette at t = %.3g s, %g across: max |u_theta - exact| = %.3f %% of omega R1 (limit %.1f %%), "
-                "fluid escaped %ld: %s\n", times.back(), o.p.across, 100 * e, 100 * o.tolerance,
+    // 3-D: the fluid's velocity along the axis, which the exact flow does not have, within the same limit
+    const double w = checks.value("max_axial_speed_over_omega_R1", 0.0);
+    pass = pass && e <= o.tolerance && w <= o.tolerance;
+    std::printf("check: couette%s at t = %.3g s, %g across: max |u_theta - exact| = %.3f %% of omega R1%s (limit %.1f %%), "
+                "fluid escaped %ld: %s\n", o.p.dim == 3 ? " in 3-D" : "", times.back(), o.p.across, 100 * e,
+                o.p.dim == 3 ? (", max |u_z| = " + std::to_string(100 * w) + " %").c_str() : "", 100 * o.tolerance,
                 checks["max_escaped_fluid_particles"].get<long>(), pass ? "PASS" : "FAIL");
   } else {
     nlohmann::json compare;
@@ -346,12 +368,12 @@ int main(int argc, char** argv) {
     if (o.walls != "mirror" && o.walls != "plain") throw std::invalid_argument("--walls must be mirror or plain, got '" + o.walls + "'");
     p.mirror = o.walls == "mirror";
     const bool couette = p.scene == rotating::Scene::couette;
-    if (p.across == 0) p.across = couette ? 20 : 49;
+    if (p.across == 0) p.across = couette ? (p.dim == 3 ? 10 : 20) : 49;  // 3-D: ten times the layers, two minutes
     if (o.times_list.empty()) o.times_list = couette ? "0.1,1" : "0.05,0.5";
     const std::vector<double> times = parse_times(o.times_list);
     p.validate();
     const double l0 = p.l0(), outer = p.R2 + 6.0 * l0;
-    check_run_size(std::numbers::pi * outer * outer / (l0 * l0),
+    check_run_size(std::numbers::pi * outer * outer / (l0 * l0) * (p.dim == 3 ? rotating::period_layers(p) : 1),
                    times.back() / (p.dt_factor * std::min(0.2 * l0 / (p.omega * p.R2), 0.2 * l0 * l0 / p.nu)),
                    "use fewer --across", "shorten --times or raise --dt-factor");
     const fs::path dir(o.out);
@@ -362,8 +384,9 @@ int main(int argc, char** argv) {
     std::vector<std::pair<std::string, RunResult>> runs;
     for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{o.model}) {
       if (!couette) p.model = rotating::parse_model(m);
-      runs.emplace_back(m, run(p, times, o.average, o.frames, both ? dir / m : dir,
-                                 std::set<int>(o.export_ppe.begin(), o.export_ppe.end())));
+      const std::set<int> export_steps(o.export_ppe.begin(), o.export_ppe.end());
+      runs.emplace_back(m, p.dim == 3 ? run<3>(p, times, o.average, o.frames, dir, export_steps)
+                                      : run<2>(p, times, o.average, o.frames, both ? dir / m : dir, export_steps));
       if (runs.back().second.status != 0) return runs.back().second.status;
     }
     const bool pass = judge(runs, o, times, both, dir);

@@ -55,6 +55,8 @@ void Params::validate() const {
   if (!(gamma >= 0.0 && gamma <= 1.0)) fail("gamma must be in [0, 1], got " + std::to_string(gamma));
   if (!positive(dt_factor)) fail("dt_factor must be positive");
   if (!(shifting >= 0.0 && std::isfinite(shifting))) fail("shifting must be >= 0 (0: off)");
+  if (dim != 2 && dim != 3) fail("the dimension must be 2 or 3, got " + std::to_string(dim));
+  if (dim == 3 && scene != Scene::couette) fail("the channel is 2-D only (its flights are planar): use --dim 2");
 }
 
 double couette_exact(const Params& p, double r) {
@@ -102,8 +104,9 @@ double frame_angle(const Params& p, double time) {
 
 double frame_rate(const Params& p) { return p.scene == Scene::channel && p.model == Model::moving ? -p.omega : 0.0; }
 
-mps::Simulation make_simulation(const Params& p) {
-  const double l0 = p.l0(), half = p.R2 + (kLayers + 1) * l0;
+namespace {
+mps::SimulationConfig make_config(const Params& p) {
+  const double l0 = p.l0();
   mps::SimulationConfig c;
   c.l0 = l0;
   c.rho = p.rho;
@@ -119,6 +122,30 @@ mps::Simulation make_simulation(const Params& p) {
   c.dt_option = "--dt-factor";
   c.warm_start = p.warm_start;
   c.shifting = p.shifting;
+  if (p.dim == 3) c.radius_density = c.radius_laplacian = 3.1;
+  return c;
+}
+
+// The walls' mirror circles (inner, outer) and their rotation rates; adds them when `mirror` is on.
+template <int D>
+void add_mirror_walls(const Params& p, double w_inner, double w_outer, mps::BasicSimulation<D>& sim) {
+  if (!p.mirror) return;
+  mps::MirrorWall inner, outer;
+  inner.group = kInnerGroup;
+  inner.radius = p.R1;
+  inner.omega = w_inner;
+  outer.group = kOuterGroup;
+  outer.radius = p.R2;
+  outer.fluid_inside = true;
+  outer.omega = w_outer;
+  sim.template add<mps::BasicMirrorNoSlip<D>>(inner);
+  sim.template add<mps::BasicMirrorNoSlip<D>>(outer);
+}
+}  // namespace
+
+mps::Simulation make_simulation(const Params& p) {
+  const double l0 = p.l0(), half = p.R2 + (kLayers + 1) * l0;
+  const mps::SimulationConfig c = make_config(p);
   mps::Particles particles = make_particles(p);
   std::vector<mps::RigidMotion> motions;
   // Mirror circles: the wall velocity as a rotation about the origin (inner, outer).
@@ -143,18 +170,31 @@ mps::Simulation make_simulation(const Params& p) {
   // Closed: a low number density is a void for the source term to close, not a free surface at P = 0 (at small
   // gamma a few particles by the corners were flagged, which anchored the gauge and clamped their pressure).
   sim.add<mps::SurfaceRegion>([](double, double) { return false; });
-  if (p.mirror) {
-    mps::MirrorWall inner, outer;
-    inner.group = kInnerGroup;
-    inner.radius = p.R1;
-    inner.omega = w_inner;
-    outer.group = kOuterGroup;
-    outer.radius = p.R2;
-    outer.fluid_inside = true;
-    outer.omega = w_outer;
-    sim.add<mps::MirrorNoSlip>(inner);
-    sim.add<mps::MirrorNoSlip>(outer);
-  }
+  add_mirror_walls(p, w_inner, w_outer, sim);
+  return sim;
+}
+
+int period_layers(const Params& p) {
+  const mps::SimulationConfig c = make_config(p);
+  const double radius = std::max({c.radius_density, c.radius_surface, c.radius_gradient, c.radius_laplacian});
+  return static_cast<int>(std::ceil(3.0 * radius - 1e-9));
+}
+
+mps::Particles3 make_particles3(const Params& p) {
+  if (p.scene != Scene::couette) throw std::invalid_argument("rotating: only the couette scene runs in 3-D");
+  return mps::extrude(make_particles(p), 0.0, p.l0(), period_layers(p));
+}
+
+mps::Simulation3 make_simulation3(const Params& p) {
+  const double l0 = p.l0(), half = p.R2 + (kLayers + 1) * l0;
+  mps::Particles3 particles = make_particles3(p);
+  const mps::RigidMotion3 inner(particles, kInnerGroup, {0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}, mps::steady_path3(p.omega));
+  inner(particles, 0.0);  // the inner cylinder starts at its velocity
+  const mps::Domain3 domain{-half, half, -half, half, 0.0, period_layers(p) * l0, false, false, true};
+  mps::Simulation3 sim(std::move(particles), domain, make_config(p));
+  sim.add<mps::BoundaryMotion3>([inner](mps::Particles3& s, double t) { inner(s, t); });
+  sim.add<mps::SurfaceRegion3>([](const mps::Vec<3>&) { return false; });  // closed, as in 2-D
+  add_mirror_walls(p, p.omega, 0.0, sim);
   return sim;
 }
 
@@ -192,8 +232,9 @@ void LineSampler::clear() {
   samples_ = 0;
 }
 
-void LineSampler::add(const mps::Simulation& sim) {
-  const mps::Particles& s = sim.particles();
+template <int D>
+void LineSampler::add(const mps::BasicSimulation<D>& sim) {
+  const mps::BasicParticles<D>& s = sim.particles();
   const double l0 = p_.l0(), a = frame_angle(p_, sim.time()), w = frame_rate(p_);
   const double ca = std::cos(a), sa = std::sin(a), U = p_.omega * p_.R2;
   const auto bins = static_cast<double>(sum_.size());
@@ -232,6 +273,8 @@ void LineSampler::add(const mps::Simulation& sim) {
   }
   ++samples_;
 }
+template void LineSampler::add(const mps::BasicSimulation<2>&);
+template void LineSampler::add(const mps::BasicSimulation<3>&);
 
 Curve LineSampler::result() const {
   Curve c;
@@ -308,8 +351,9 @@ double range(const Curve& c, double limit) {
   return hi >= lo ? hi - lo : 0.0;
 }
 
-long escaped_particles(const Params& p, const mps::Simulation& sim) {
-  const mps::Particles& s = sim.particles();
+template <int D>
+long escaped_particles(const Params& p, const mps::BasicSimulation<D>& sim) {
+  const mps::BasicParticles<D>& s = sim.particles();
   const double a = frame_angle(p, sim.time());
   long n = 0;
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -319,6 +363,16 @@ long escaped_particles(const Params& p, const mps::Simulation& sim) {
     n += r <= p.R1 || r >= p.R2 || (p.scene == Scene::channel && std::abs(phi) >= 0.5 * p.span);
   }
   return n;
+}
+template long escaped_particles(const Params&, const mps::BasicSimulation<2>&);
+template long escaped_particles(const Params&, const mps::BasicSimulation<3>&);
+
+double max_axial_speed(const mps::Simulation3& sim) {
+  const mps::Particles3& s = sim.particles();
+  double w = 0.0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid) w = std::max(w, std::abs(s.w[i]));
+  return w;
 }
 
 }  // namespace rotating

@@ -13,6 +13,9 @@
 // layer and four dummy layers; fluid on concentric rings. The circular walls (cylinders, bottom, barrel) take
 // mirror velocities across the circle (mps::MirrorWall with a radius) unless `mirror` is off; the flights, and
 // with `mirror` off every wall, carry the wall velocity itself (seed 000's static particles).
+// couette in 3-D (dim 3): the annulus extruded along z over period_layers() spacings, periodic in z, the cylinders'
+// axis along z; the same walls (mps::MirrorNoSlip3 on the cylinders) and numerics but for the kernel radii (3.1 l0
+// for the Laplacian and density, the 3-D channels' choice: a third of the 4.1 l0 sphere's neighbours).
 // Results are read in the channel's frame: angle phi from the channel's centre line (phi = 0 points along +y
 // at t = 0; the barrel moves towards +phi relative to the channel), velocities less the channel's rotation.
 #include <string>
@@ -39,6 +42,7 @@ struct Params {
   double span = 1;         // channel: opening angle [rad]
   double omega = 1;        // couette: inner cylinder, counter-clockwise; channel: the channel, clockwise [rad/s]
   double rho = 1, nu = 1;
+  int dim = 2;              // 3: couette only, the annulus extruded along z, periodic in z
   double across = 49;      // fluid rings across the gap, l0 = (R2 - R1)/across; 49: seed 000's 3,626 fluid particles
   // Small: the density part of the source turns layout errors into pressure ~ gamma rho dn/dt^2, which grows with
   // resolution at a viscous dt; shifting keeps the layout even instead (docs/rotating.md).
@@ -64,9 +68,13 @@ struct Params {
 
 double couette_exact(const Params& p, double r);  // steady u_theta(r)
 
-mps::Particles make_particles(const Params& p);
+mps::Particles make_particles(const Params& p);  // the 2-D layout (in 3-D, each layer's)
 // Sets up the walls' motion (and their velocities at t = 0).
 mps::Simulation make_simulation(const Params& p);
+// 3-D couette: layers along z, the smallest whole number of spacings a periodic axis may have (three search radii).
+int period_layers(const Params& p);
+mps::Particles3 make_particles3(const Params& p);
+mps::Simulation3 make_simulation3(const Params& p);
 
 // The channel frame: rotation of the channel at time t (moving model: -omega t; otherwise 0) and its rate.
 double frame_angle(const Params& p, double time);
@@ -92,7 +100,8 @@ class LineSampler {
  public:
   enum class Line { couette, line1, arc2, barrel };
   LineSampler(const Params& p, Line line);
-  void add(const mps::Simulation& sim);
+  template <int D>
+  void add(const mps::BasicSimulation<D>& sim);  // in 3-D every layer along z alike
   [[nodiscard]] Curve result() const;  // every bin; NaN where no particle was sampled
   [[nodiscard]] int samples() const { return samples_; }
   void clear();
@@ -116,6 +125,9 @@ double max_difference(const Curve& f, const Curve& g);
 double range(const Curve& c, double limit);
 
 // Fluid particles outside the fluid region (channel frame: R1 < r < R2 and, for the channel, |phi| < span/2).
-long escaped_particles(const Params& p, const mps::Simulation& sim);
+template <int D>
+long escaped_particles(const Params& p, const mps::BasicSimulation<D>& sim);
+// 3-D: the largest |w| of the fluid, the velocity along the axis, which the exact flow does not have.
+double max_axial_speed(const mps::Simulation3& sim);
 
 }  // namespace rotating

@@ -46,11 +46,12 @@ void MirrorWall::validate() const {
     throw std::invalid_argument("mirror wall: the normal (nx, ny) must have unit length");
 }
 
-void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& p) {
+template <int D>
+void apply_mirror_velocity(const MirrorWall& wall, const BasicCellGrid<D>& grid, double radius, BasicParticles<D>& p) {
   wall.validate();
   if (!(radius > 0.0) || radius > grid.cell_size() * (1.0 + 1e-12))
     throw std::invalid_argument("apply_mirror_velocity: radius must be in (0, the grid's cell size]");
-  const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0};
+  const Kernel shepard{Weight::bounded, radius, 0.0, 0.0, 0, D};
   const auto n = static_cast<std::ptrdiff_t>(p.size());
   // Writes go to walls and dummies, reads come from fluid only: the loop has no dependence between particles.
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
@@ -68,14 +69,20 @@ void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double 
     } else {
       depth = (p.x[i] - wall.px) * nx + (p.y[i] - wall.py) * ny;
     }
-    const double mx = p.x[i] - 2.0 * depth * nx, my = p.y[i] - 2.0 * depth * ny;
+    Vec<D> mirror = p.position(i);  // in 3-D at the particle's own z: the wall is extruded along z
+    mirror[0] = p.x[i] - 2.0 * depth * nx;
+    mirror[1] = p.y[i] - 2.0 * depth * ny;
     const auto U = wall.velocity_at(p.x[i] - depth * nx, p.y[i] - depth * ny);  // at the foot on the wall
-    const auto m = fluid_velocity_near<2>(grid, shepard, {mx, my}, p, [](std::size_t) { return true; });
+    const auto m = fluid_velocity_near<D>(grid, shepard, mirror, p, [](std::size_t) { return true; });
     const double um = m ? (*m)[0] : U[0], vm = m ? (*m)[1] : U[1];
     p.u[i] = 2.0 * U[0] - um;
     p.v[i] = 2.0 * U[1] - vm;
+    if constexpr (D == 3) p.w[i] = m ? -(*m)[2] : 0.0;  // the wall does not move along z
   }
 }
+
+template void apply_mirror_velocity(const MirrorWall&, const BasicCellGrid<2>&, double, BasicParticles<2>&);
+template void apply_mirror_velocity(const MirrorWall&, const BasicCellGrid<3>&, double, BasicParticles<3>&);
 
 namespace {
 // MirrorExtension::quadratic at a particle `depth` (< 0) behind the plane, m its mirror image: the fluid within

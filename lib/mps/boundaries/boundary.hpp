@@ -20,6 +20,8 @@ namespace mps {
 /// 2 U - u(m), u(m) the fluid velocity at its mirror image m across the wall line, so the fluid's velocity passes
 /// through U on the line itself. A circular wall (radius > 0, centre (px, py)) mirrors along the radius,
 /// r -> 2 R - r; omega adds a rigid rotation about (px, py) to the wall velocity. Why: docs/step.md.
+/// In 3-D the wall is the 2-D one extruded along z: a line is a plane parallel to z, a circle a cylinder about the
+/// axis through (px, py) along z; the wall does not move along z.
 struct MirrorWall {
   /// @{ a point of the wall line; a circle's centre
   double px = 0, py = 0;  /// @}
@@ -40,8 +42,11 @@ struct MirrorWall {
 
 /// u(m) is the Shepard average of the fluid within `radius` of m, weighted by the bounded weight
 /// re/(0.85 r + 0.15 re) - 1 (a mirror point may coincide with a fluid particle, where re/r - 1 is infinite);
-/// a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`.
-void apply_mirror_velocity(const MirrorWall& wall, const CellGrid& grid, double radius, Particles& particles);
+/// a mirror point with no fluid in reach takes u(m) = U. `grid` must have been binned with `particles`. In 3-D the mirror
+/// image keeps the particle's z, and the velocity along z is mirrored about 0.
+template <int D>
+void apply_mirror_velocity(const MirrorWall& wall, const BasicCellGrid<D>& grid, double radius,
+                           BasicParticles<D>& particles);
 
 /// How a MirrorPlane continues the fluid's velocity to its wall and dummy particles.
 enum class MirrorExtension {

@@ -76,6 +76,18 @@ void fill_box(Particles3& particles, Box box, double l0, Kind kind, int group) {
         particles.add({box.x0 + (i + 0.5) * l0, box.y0 + (j + 0.5) * l0, box.z0 + (k + 0.5) * l0}, kind, group);
 }
 
+Particles3 extrude(const Particles& layer, double z0, double l0, int layers) {
+  require_positive(l0, "particle spacing l0");
+  if (layers < 1) throw std::invalid_argument("extrude: at least one layer, got " + std::to_string(layers));
+  if (!std::isfinite(z0)) throw std::invalid_argument("extrude: z0 must be finite");
+  Particles3 out;
+  out.reserve(layer.size() * static_cast<std::size_t>(layers));
+  for (int k = 0; k < layers; ++k)
+    for (std::size_t i = 0; i < layer.size(); ++i)
+      out.add({layer.x[i], layer.y[i], z0 + (k + 0.5) * l0}, layer.kind[i], layer.group[i], {layer.u[i], layer.v[i], 0.0});
+  return out;
+}
+
 void add_box_walls(Particles3& particles, Box inner, double l0, unsigned faces, int wall_layers, int dummy_layers,
                    int group) {
   require_positive(l0, "particle spacing l0");

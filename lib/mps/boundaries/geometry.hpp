@@ -33,6 +33,10 @@ struct Box {
 /// Cubic lattice filling box; points sit at cell centres, as fill_rectangle's.
 void fill_box(Particles3& particles, Box box, double l0, Kind kind, int group = 0);
 
+/// A 2-D layout extruded along z: `layers` copies of `layer` at z = z0 + (k + 1/2) l0, k = 0, ..., layers - 1, with
+/// its kinds and groups, layer by layer (a periodic slab of a planar flow, a prism of a 2-D shape).
+Particles3 extrude(const Particles& layer, double z0, double l0, int layers);
+
 /// Faces of a box, combined with |, e.g. everything but z_high for a tank open at the top (gravity along -z). The
 /// first four have the values of the rectangle's sides.
 enum Face : unsigned { x_low = 1u, x_high = 2u, y_low = 4u, y_high = 8u, z_low = 16u, z_high = 32u };

@@ -8,21 +8,17 @@
 
 namespace mps {
 
-MirrorNoSlip::MirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }
-
-void MirrorNoSlip::before_predictor(StepContext& c) {
-  apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
-}
-
 // Mirrored values in div u* would put the fluid's streamwise changes into the source wherever the flow develops
 // or the wall changes speed (an inlet channel grew a period-2 pressure oscillation that way).
-void MirrorNoSlip::before_projection(StepContext& c) {
-  Particles& p = c.particles;
+template <int D>
+void BasicMirrorNoSlip<D>::before_projection(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
   for (std::size_t i = 0; i < p.size(); ++i)
     if ((p.kind[i] == Kind::wall || p.kind[i] == Kind::dummy) && p.group[i] == wall_.group) {
       const auto U = wall_.velocity_at(p.x[i], p.y[i]);
       p.u[i] = U[0];
       p.v[i] = U[1];
+      if constexpr (D == 3) p.w[i] = 0.0;
     }
 }
 
@@ -362,6 +358,8 @@ double BasicContinuousFreeSurface<D>::surface_distance(const Kernel& k, double e
 
 template class BasicOpenOutlet<2>;
 template class BasicOpenOutlet<3>;
+template class BasicMirrorNoSlip<2>;
+template class BasicMirrorNoSlip<3>;
 template class BasicMirrorPlaneNoSlip<2>;
 template class BasicMirrorPlaneNoSlip<3>;
 template class BasicSurfaceRegion<2>;

@@ -13,8 +13,7 @@
 
 namespace mps {
 
-// Components that work in D = 2 and 3 are class templates BasicX<D>, with X the 2-D one and X3 the 3-D one;
-// MirrorNoSlip (circles and lines of MirrorWall) is 2-D.
+// Components that work in D = 2 and 3 are class templates BasicX<D>, with X the 2-D one and X3 the 3-D one.
 
 /// Moves walls: called after the predictor with the particles and the new time (RigidMotion, PushingPlate, ...).
 template <int D>
@@ -37,18 +36,24 @@ class BasicBoundaryMotion : public BasicStepComponent<D> {
 using BoundaryMotion = BasicBoundaryMotion<2>;   ///< 2-D
 using BoundaryMotion3 = BasicBoundaryMotion<3>;  ///< 3-D
 
-/// No-slip by mirror velocities (see MirrorWall): the wall's particles take the mirrored fluid velocity for the
-/// viscous term, and the wall's own velocity for the projection (no penetration).
-class MirrorNoSlip : public StepComponent {
+/// No-slip by mirror velocities (see MirrorWall; in 3-D its line or circle extruded along z): the wall's particles take
+/// the mirrored fluid velocity for the viscous term, and the wall's own velocity for the projection (no penetration).
+template <int D>
+class BasicMirrorNoSlip : public BasicStepComponent<D> {
  public:
-  explicit MirrorNoSlip(const MirrorWall& wall);  ///< throws std::invalid_argument for a bad wall
-  void before_predictor(StepContext& c) override;
+  using typename BasicStepComponent<D>::StepContext;
+  explicit BasicMirrorNoSlip(const MirrorWall& wall) : wall_(wall) { wall_.validate(); }  ///< checked
+  void before_predictor(StepContext& c) override {
+    apply_mirror_velocity(wall_, c.sim.grid(), c.sim.gradient_kernel().re, c.particles);
+  }
   void before_projection(StepContext& c) override;
   [[nodiscard]] const MirrorWall& wall() const { return wall_; }  ///< the wall it applies
 
  private:
   MirrorWall wall_;
 };
+using MirrorNoSlip = BasicMirrorNoSlip<2>;   ///< 2-D
+using MirrorNoSlip3 = BasicMirrorNoSlip<3>;  ///< 3-D: a plane or cylinder along z
 
 /// No-slip at a flat wall in D dimensions (see MirrorPlane), as MirrorNoSlip does for MirrorWall: the wall's particles
 /// take the mirrored fluid velocity for the viscous term, and the wall's own velocity for the projection.
@@ -278,6 +283,8 @@ using ContinuousFreeSurface3 = BasicContinuousFreeSurface<3>;  ///< 3-D
 
 extern template class BasicOpenOutlet<2>;
 extern template class BasicOpenOutlet<3>;
+extern template class BasicMirrorNoSlip<2>;
+extern template class BasicMirrorNoSlip<3>;
 extern template class BasicMirrorPlaneNoSlip<2>;
 extern template class BasicMirrorPlaneNoSlip<3>;
 extern template class BasicSurfaceRegion<2>;

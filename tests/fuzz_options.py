@@ -123,8 +123,6 @@ def special_inputs(build, tmp):
         cases += [(["--dim", "3", "--out", str(tmp / "d3")],
                    None if app in ("hydrostatic", "dambreak", "rotating") else "this app is 2-D only"),
                   (["--dim", "2", "--out", str(tmp / "d2")], None)]
-        if app == "rotating":  # the screw channel is 2-D only
-            cases += [(["--dim", "3", "--scene", "channel", "--out", str(tmp / "d3c")], "the channel is 2-D only")]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]

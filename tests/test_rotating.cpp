@@ -170,6 +170,9 @@ TEST(RotatingCouette, ThreeDimensionalAnnulusIsWithinOnePercentOfTheExactProfile
   p.across = 10;
   mps::Simulation3 sim = rotating::make_simulation3(p);
   ASSERT_EQ(rotating::period_layers(p), 10);  // three search radii of 3.1 l0
+  rotating::Params channel = p;
+  channel.scene = rotating::Scene::channel;
+  EXPECT_THROW(channel.validate(), std::invalid_argument);  // the screw channel is planar
   const std::size_t fluid = sim.particles().count(mps::Kind::fluid);
   EXPECT_EQ(fluid, rotating::make_particles(p).count(mps::Kind::fluid) * 10);
   rotating::LineSampler sampler(p, Line::couette);

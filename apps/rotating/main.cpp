@@ -38,7 +38,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::BasicSimulation
   nlohmann::json physics = {"viscosity (explicit)", "wall + 4 dummy layers", "rigid wall motion", "closed-domain PPE gauge",
                             "no gravity"};
   if (p.shifting > 0) physics.push_back("particle shifting");
-  nlohmann::json params = {{"scene", rotating::to_string(p.scene)}, {"dim", D}, {"model", couette ? "moving" : rotating::to_string(p.model)},
+  nlohmann::json params = {{"scene", rotating::to_string(p.scene)}, {"dimensions", D}, {"model", couette ? "moving" : rotating::to_string(p.model)},
           {"inner_radius_m", p.R1}, {"outer_radius_m", p.R2}, {"span_rad", couette ? 2 * std::numbers::pi : p.span},
           {"omega_rad_per_s", p.omega}, {"sense", couette ? "inner cylinder counter-clockwise" : "channel clockwise"},
           {"rho_kg_per_m3", p.rho}, {"nu_m2_per_s", p.nu}, {"re", p.reynolds()}, {"velocity_scale_m_per_s", p.U()},
@@ -53,7 +53,7 @@ nlohmann::json params_json(const rotating::Params& p, const mps::BasicSimulation
           {"walls", p.mirror ? "mirror velocities on the circles" : "plain (wall velocity)"},
           {"physics_on", physics}};
   if constexpr (D == 3) {
-    params["period_layers_z"] = rotating::period_layers(p);
+    params["period_z_layers"] = rotating::period_layers(p);
     params["period_z_m"] = rotating::period_layers(p) * p.l0();
   }
   return params;
@@ -146,7 +146,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
           ": " + std::to_string(sim.particles().size()) + " particles (" +
           std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
       params,
-      {{"scene", {"dim", "inner_radius_m", "outer_radius_m", "span_rad", "omega_rad_per_s", "nu_m2_per_s", "rho_kg_per_m3",
+      {{"scene", {"dimensions", "inner_radius_m", "outer_radius_m", "span_rad", "omega_rad_per_s", "nu_m2_per_s", "rho_kg_per_m3",
                   "re", "walls"}},
        {"numerics", {"across", "dx_m", "gamma", "gradient", "cfl", "viscous_number", "dt_factor", "shifting",
                      "reference_number_density"}},

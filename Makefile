@@ -142,9 +142,10 @@ bench-solvers: deps build/release/CMakeCache.txt
 	  --out bench/results/solvers.csv data/*.mtx data/ppe/*.mtx.gz
 	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
 
-# The sample PPEs of real scenes (inlet channel, screw channel, dam break; data/ppe/, docs/solvers.md#sample-matrices):
-# SAMPLES=small (the ~1e4 cases, half a minute), large (the ~1e5 ones, about 11 minutes) or all; the matrices stay out
-# of git, their index (data/ppe/index.csv) is in it.
+# The sample PPEs of real scenes (inlet channel, screw channel, dam break, 3-D dam break; data/ppe/,
+# docs/solvers.md#sample-matrices): SAMPLES=small (the ~1e4 cases, half a minute), large (the ~1e5 ones, about 19
+# minutes), huge (the 3-D ~1e6 one, 20 minutes, 1.2 GB) or all; the matrices stay out of git, their index
+# (data/ppe/index.csv) is in it.
 SAMPLES ?= small
 sample-ppes: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating dambreak

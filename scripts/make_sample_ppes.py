@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Sample PPEs from real scenes for solver benchmarks (docs/solvers.md#sample-matrices): the inlet channel
-(poiseuille), the screw channel (rotating) and the dam break, each at about 1e4 and 1e5 unknowns. Each case runs its
+(poiseuille), the screw channel (rotating) and the dam break, each at about 1e4 and 1e5 unknowns, and the 3-D dam break
+(SPHERIC Test 2) at about 1e5 and 1e6. Each case runs its
 app with --export-ppe at one step and keeps the step's A (symmetric Matrix Market, with the exporter's header: scene,
 step, time, l0, radius, gamma, rho) and b, gzip-compressed, in data/ppe/, and its row in data/ppe/index.csv (file,
 scene, the options, the command that repeats it, step, time, unknowns, nonzeros, SHA-256 of the uncompressed A and
@@ -11,7 +12,7 @@ option, defaults included), so a later change of an app's defaults does not move
 compressed each at ~1e4, about 30 MB at ~1e5) are made on demand and ignored by git; the index and the options are
 committed.
 
-  scripts/make_sample_ppes.py BUILD_DIR [NAME|small|large|all ...]   make the cases (default: small) into data/ppe/
+  scripts/make_sample_ppes.py BUILD_DIR [NAME|small|large|huge|all ...]   make the cases (default: small) into data/ppe/
   scripts/make_sample_ppes.py BUILD_DIR --check NAME                 make NAME in a scratch directory and compare it
                                                                       with data/ppe/index.csv (and the file on disk, if any)
 Every run uses one OpenMP thread; a run is bitwise repeatable, so a case made again gives the same bytes as long as
@@ -51,9 +52,17 @@ CASES = {
     "dambreak_1e5": ("dambreak", "classic dam break, dx 0.65 mm",
                      "--column classic --tank-length 4 --pressure-treatment none --dx 0.00065 --end-time 0.0445 "
                      "--frames 0", 800, False),
+    # SPHERIC Test 2, the 3-D dam break against a box: 4.1 l0 Laplacian, ~290 nonzeros a row against 2-D's ~51
+    "dambreak3d_1e5": ("dambreak", "3-D dam break (SPHERIC Test 2), dx 2 cm",
+                       "--dim 3 --dx 0.02 --end-time 0.13 --frames 0", 100, False),
+    # at the fifth step, the column still at rest: a later one would take hours at this size
+    "dambreak3d_1e6": ("dambreak", "3-D dam break (SPHERIC Test 2), dx 9 mm, fifth step",
+                       "--dim 3 --dx 0.009 --end-time 0.0035 --frames 0", 5, False),
 }
-GROUPS = {"small": [n for n, c in CASES.items() if c[4]], "large": [n for n, c in CASES.items() if not c[4]],
-          "all": list(CASES)}
+# huge: the ~1e6 case (7 minutes of run, 1.2 GB compressed, about 10 GB of memory), made only when named
+GROUPS = {"small": [n for n, c in CASES.items() if c[4]],
+          "large": [n for n, c in CASES.items() if not c[4] and not n.endswith("_1e6")],
+          "huge": [n for n in CASES if n.endswith("_1e6")], "all": list(CASES)}
 
 
 def sha256(data):
@@ -105,7 +114,8 @@ def make(build, name, scratch):
     row = {"file": f"{name}.mtx.gz", "scene": scene, "options": f"{args} --export-ppe {step}",
            "command": f"{app} --config data/ppe/{name}.toml --out DIR", "step": step, "time_s": time,
            "unknowns": unknowns, "nonzeros": nonzeros, "mtx_sha256": sha256(a), "rhs_sha256": sha256(b),
-           "made_by": "make sample-ppes" if small else "make sample-ppes SAMPLES=large"}
+           "made_by": "make sample-ppes" if small else
+                      f"make sample-ppes SAMPLES={'huge' if name.endswith('_1e6') else 'large'}"}
     return row, a, b
 
 
@@ -155,7 +165,7 @@ def check(build, name):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("build", help="the build directory holding apps/")
-    parser.add_argument("cases", nargs="*", default=["small"], help="case names, or small, large, all")
+    parser.add_argument("cases", nargs="*", default=["small"], help="case names, or small, large, huge, all")
     parser.add_argument("--check", metavar="NAME", help="make NAME in a scratch directory and compare; write nothing")
     args = parser.parse_args()
     if args.check:
@@ -164,7 +174,7 @@ def main():
     for c in args.cases:
         for n in GROUPS.get(c, [c]):
             if n not in CASES:
-                parser.error(f"unknown case {n!r}: choose from {', '.join(CASES)}, small, large, all")
+                parser.error(f"unknown case {n!r}: choose from {', '.join(CASES)}, small, large, huge, all")
             names.append(n)
     DATA.mkdir(parents=True, exist_ok=True)
     index = read_index()

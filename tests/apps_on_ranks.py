@@ -37,6 +37,8 @@ CASES = {
                  [("front.csv", 20.0)]),  # x / a, a = 20 l0
     # The inlet channel at 10 across: its plate, ghost pool and outflow buffer; the profile at the station summed over
     # the ranks (u / U, averaged over the last 0.5 D/U).
+    # SPHERIC Test 2 in 3-D at its coarsest spacing, past P1's first rise: the gauges' heights, in m (l0 = 0.1 m)
+    "dambreak-3d": ("--dim 3 --dx 0.1 --end-time 0.6 --frames 2", 0.1, "dambreak.pvd", [("level.csv", 10.0)]),
     "poiseuille": ("--mode inlet --re 40 --across 10 --end-time 1.5 --profiles 1 --average 0.5 --frames 2", 0.02,
                    "channel.pvd", [("profile.csv", 1.0)]),
 }
@@ -52,7 +54,7 @@ def read_frame(path: Path) -> dict:
     arrays = data.GetPointData()
     ids = vtk_to_numpy(arrays.GetArray("id"))
     order = np.argsort(ids)
-    return {"id": ids[order], "xy": vtk_to_numpy(data.GetPoints().GetData())[order, :2],
+    return {"id": ids[order], "xyz": vtk_to_numpy(data.GetPoints().GetData())[order],
             "p": vtk_to_numpy(arrays.GetArray("pressure"))[order]}
 
 
@@ -73,17 +75,18 @@ def main() -> int:
     build, mpiexec, ranks = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
-        for app, (options, l0, pvd, series) in CASES.items():
+        for case, (options, l0, pvd, series) in CASES.items():
+            app = case.removesuffix("-3d")
             binary = str(build / "apps" / app / app)
             command = [binary] + options.split() + ["--solver", SOLVER]
-            serial_out, ranks_out = Path(tmp) / f"{app}_serial", Path(tmp) / f"{app}_ranks"
+            serial_out, ranks_out = Path(tmp) / f"{case}_serial", Path(tmp) / f"{case}_ranks"
             status = run(command, serial_out)
             status_ranks = run([mpiexec, "--oversubscribe", "--mca", "btl", "self,vader", "-np", str(ranks)] + command,
                                ranks_out)
 
             def check(ok, what):
                 if not ok:
-                    failures.append(f"{app} on {ranks} ranks: {what}")
+                    failures.append(f"{case} on {ranks} ranks: {what}")
                 return ok
 
             check(status == status_ranks, f"exit status {status_ranks}, serially {status}")
@@ -102,7 +105,7 @@ def main() -> int:
             last_a, last_b = read_frame(fa[-1][1]), read_frame(fb[-1][1])
             if not check(np.array_equal(last_a["id"], last_b["id"]), "the last frame holds other particles"):
                 continue
-            position = np.max(np.hypot(*(last_a["xy"] - last_b["xy"]).T)) / l0
+            position = np.max(np.linalg.norm(last_a["xyz"] - last_b["xyz"], axis=1)) / l0
             largest = np.max(np.abs(last_a["p"]))
             pressure = np.max(np.abs(last_a["p"] - last_b["p"])) / largest
             worst_series = 0.0
@@ -114,7 +117,7 @@ def main() -> int:
                 values_b = np.array(rows_b[1:], dtype=float)
                 check(np.allclose(values_a[:, 0], values_b[:, 0], rtol=TIME_RELATIVE, atol=0), f"{name}: other sample times")
                 worst_series = max(worst_series, np.max(np.abs(values_a[:, 1:] - values_b[:, 1:])) * unit_l0)
-            print(f"{app} on {ranks} ranks, {a['steps']} steps: last frame max |r - r_serial| = {position:.3g} l0, "
+            print(f"{case} on {ranks} ranks, {a['steps']} steps: last frame max |r - r_serial| = {position:.3g} l0, "
                   f"max |p - p_serial| = {pressure:.3g} of {largest:.4g} Pa; series max difference {worst_series:.3g}")
             check(position <= POSITION_L0, f"positions differ by {position:.3g} l0 (bound {POSITION_L0})")
             check(pressure <= PRESSURE, f"pressures differ by {pressure:.3g} of the largest (bound {PRESSURE})")

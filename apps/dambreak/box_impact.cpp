@@ -145,21 +145,24 @@ const Params& checked(const Params& p) {
   return p;
 }
 
-std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpactGeometry& g) {
-  const mps::Particles3 particles = make_box_impact_particles(g, p.l0);
+std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpactGeometry& g,
+                                                  const mps::Particles3& particles, std::optional<int> comm) {
   const double margin = 6.0 * p.l0;
   const mps::Domain3 domain{g.tank.x0 - margin, g.tank.x1 + margin, g.tank.y0 - margin,
                             g.tank.y1 + margin, g.tank.z0 - margin, g.tank.z1 + 0.5 * g.column.z1 + margin};
+  if (comm)
+    return std::make_unique<mps::Simulation3>(particles, domain, make_config(p, 3),
+                                              std::make_unique<mps::RankExchange3>(*comm));
   return std::make_unique<mps::Simulation3>(particles, domain, make_config(p, 3));
 }
 }  // namespace
 
-BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors)
-    : params_(checked(p)),
-      sensors_(std::move(sensors)),
-      geometry_(box_impact_geometry(p.l0)),
-      sim_(make_simulation(p, geometry_)),
-      initial_fluid_(static_cast<long>(sim_->particles().count(mps::Kind::fluid))) {
+BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<int> comm)
+    : params_(checked(p)), sensors_(std::move(sensors)), geometry_(box_impact_geometry(p.l0)) {
+  const mps::Particles3 particles = make_box_impact_particles(geometry_, p.l0);
+  initial_fluid_ = static_cast<long>(particles.count(mps::Kind::fluid));
+  sim_ = make_simulation(p, geometry_, particles, comm);
+  distributed_ = dynamic_cast<const mps::RankExchange3*>(&sim_->exchange());
   const mps::Box t = geometry_.tank;
   const double ceiling = sim_->domain().zmax - 2 * p.l0;
   add_dam_break_components<3>(*sim_, p, [=](const mps::Vec<3>& r) {
@@ -168,7 +171,9 @@ BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors)
   sample();
 }
 
-long BoxImpact::removed() const { return sim_->find<mps::RemoveEscaped3>()->removed(); }
+long BoxImpact::removed() const {
+  return static_cast<long>(sim_->exchange().sum(sim_->find<mps::RemoveEscaped3>()->removed()));
+}
 
 void BoxImpact::step() {
   sim_->step();
@@ -179,7 +184,11 @@ void BoxImpact::step() {
 }
 
 void BoxImpact::sample() {
-  const mps::Particles3& s = sim_->particles();
+  if (distributed_) {
+    gathered_ = distributed_->gather(sim_->particles());
+    if (distributed_->rank() != 0) return;
+  }
+  const mps::Particles3& s = all_particles();
   const double l0 = params_.l0;
   BoxImpactSample sample{sim_->time(), {}, {}};
   for (const Sensor& sensor : sensors_.pressure)

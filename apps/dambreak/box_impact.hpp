@@ -63,17 +63,19 @@ struct BoxImpactSample {
 
 class BoxImpact {
  public:
-  BoxImpact(const Params& p, BoxImpactSensors sensors);
+  // comm: step on the MPI ranks of that communicator (every rank passes the same p), sampled on rank 0.
+  BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<int> comm = {});
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
   [[nodiscard]] bool done() const { return sim_->time() >= params_.end_time - 1e-12; }
   [[nodiscard]] const mps::Simulation3& sim() const { return *sim_; }
   [[nodiscard]] mps::Simulation3& sim() { return *sim_; }
-  [[nodiscard]] const mps::Particles3& all_particles() const { return sim_->particles(); }  // as Scene's, for frames
+  // Every particle after the last step (on ranks: gathered on rank 0, sorted by id; empty on the other ranks).
+  [[nodiscard]] const mps::Particles3& all_particles() const { return distributed_ ? gathered_ : sim_->particles(); }
   [[nodiscard]] const Params& params() const { return params_; }
   [[nodiscard]] const BoxImpactGeometry& geometry() const { return geometry_; }
   [[nodiscard]] const BoxImpactSensors& sensors() const { return sensors_; }
   [[nodiscard]] const std::vector<BoxImpactSample>& samples() const { return samples_; }  // t = 0 and every step
-  [[nodiscard]] long removed() const;  // fluid removed as spray over the walls
+  [[nodiscard]] long removed() const;  // fluid removed as spray over the walls (on ranks: the sum, collective)
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
   // Fluid particles inside a wall or the box (past its first layer's centres, l0/2 beyond its surface): the most at any
   // sample; and the deepest any fluid went past a wall's or the box's surface [m] (<= 0: never).
@@ -89,6 +91,8 @@ class BoxImpact {
   BoxImpactSensors sensors_;
   BoxImpactGeometry geometry_;
   std::unique_ptr<mps::Simulation3> sim_;
+  const mps::RankExchange3* distributed_ = nullptr;  // the simulation's, on ranks
+  mps::Particles3 gathered_;
   long initial_fluid_ = 0;
   long most_inside_walls_ = 0;
   double deepest_past_wall_ = -1e300;

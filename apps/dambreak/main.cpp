@@ -514,8 +514,9 @@ BoxImpactFigures box_impact_figures(const dambreak::BoxImpact& scene, const damb
   return f;
 }
 
+// On rank 0 alone, after the run: `removed` is the spray over every rank (BoxImpact::removed, collective).
 int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
-                      const BoxImpactTolerances& tolerance, const nlohmann::json& params) {
+                      const BoxImpactTolerances& tolerance, long removed, const nlohmann::json& params) {
   const mps::Simulation3& sim = scene.sim();
   const dambreak::Params& p = scene.params();
   const BoxImpactSeries series = write_box_impact_series(dir, scene);
@@ -553,9 +554,10 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
                       {"largest_m", *std::max_element(heights[k].begin(), heights[k].end())}});
   checks["pressure_sensors"] = sensors;
   checks["height_gauges"] = gauges;
-  const long fluid_left = static_cast<long>(sim.particles().count(mps::Kind::fluid));
-  checks["fluid_removed_as_spray_count"] = scene.removed();
-  checks["fluid_conserved"] = fluid_left + scene.removed() == scene.initial_fluid();
+  const mps::Particles3& all = scene.all_particles();
+  const long fluid_left = static_cast<long>(all.count(mps::Kind::fluid));
+  checks["fluid_removed_as_spray_count"] = removed;
+  checks["fluid_conserved"] = fluid_left + removed == scene.initial_fluid();
   checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
   checks["deepest_past_wall_l0"] = std::max(0.0, scene.deepest_past_wall() / p.l0);
 
@@ -579,24 +581,24 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
               "of the column's height %s\n", std::min(6.0, time.back()), 100 * f.h2_error, 100 * f.h4_error,
               heights_ok ? "PASS" : "FAIL");
   std::printf("spray removed: %ld particles; fluid conserved: %s; most fluid particles inside a wall or the box at once: "
-              "%ld (deepest %.2f l0) %s\n", scene.removed(), checks["fluid_conserved"].get<bool>() ? "yes" : "NO",
+              "%ld (deepest %.2f l0) %s\n", removed, checks["fluid_conserved"].get<bool>() ? "yes" : "NO",
               scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall() / p.l0), walls_ok ? "PASS" : "FAIL");
   std::printf("SPHERIC Test 2 (P1 arrival within %.0f %%, first peak within %.0f %%, H2 and H4 within %.0f %%, no fluid "
               "inside a wall): %s\n", 100 * tolerance.arrival, 100 * tolerance.peak, 100 * tolerance.height,
               pass ? "PASS" : "FAIL");
   write_solves(dir, sim);
   write_summary(dir, {{"status", pass ? "passed" : "check failed"}, {"parameters", params},
-                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", sim.particles().size()}}},
+                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", all.size()}}},
                       {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
-                      {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
+                      {"timings", timings_json(sim.times(), sim.last_step().step, all.size())}});
   std::printf("outputs: frames (ParaView: dambreak.pvd), pressure.csv, level.csv, summary.json in %s\n",
               dir.string().c_str());
   return pass ? 0 : 2;
 }
 
 int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks) {
-  if (ranks.distributed())
-    throw std::invalid_argument("the 3-D dam break runs in one process so far: run it without mpirun");
+  if (ranks.distributed() && !o.export_ppe.empty())
+    throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
   if (o.dim != 3) throw std::invalid_argument("--column spheric2 is the 3-D dam break: add --dim 3");
   if (!o.column_name.empty() && o.column_name != "spheric2")
     throw std::invalid_argument("--dim 3 runs SPHERIC Test 2 (--column spheric2); the " + o.column_name +
@@ -624,18 +626,20 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   check_run_size((size.tank_length / p.l0 + 10) * (size.tank_width / p.l0 + 10) * (size.tank_height / p.l0 + 5),
                  dambreak::estimated_steps(p), "raise --dx", "shorten --end-time or raise --dx");
   const fs::path data(o.data);
-  dambreak::BoxImpact scene(p, dambreak::read_box_impact_sensors((data / "spheric2_sensors.csv").string()));
+  dambreak::BoxImpact scene(p, dambreak::read_box_impact_sensors((data / "spheric2_sensors.csv").string()),
+                            ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
   const dambreak::BoxImpactRecord record = dambreak::read_box_impact_record((data / "spheric2_p1_h2_h4.csv").string());
   const mps::Simulation3& sim = scene.sim();
   const dambreak::BoxImpactGeometry& g = scene.geometry();
-  nlohmann::json params = params_json(p, sim, o.data, 1);
+  nlohmann::json params = params_json(p, sim, o.data, ranks.size());
   params["dimensions"] = 3;
   params["tank_m"] = {g.tank.x1 - g.tank.x0, g.tank.y1 - g.tank.y0, g.tank.z1 - g.tank.z0};
   params["column_m"] = {g.column.x0, g.column.x1, g.column.z1};
   params["box_m"] = {g.box.x0, g.box.x1, g.box.y0, g.box.y1, g.box.z1};
   std::cout << parameter_table(
-      "dam break, 3-D, SPHERIC Test 2: " + std::to_string(sim.particles().size()) + " particles (" +
-          std::to_string(scene.initial_fluid()) + " fluid)",
+      "dam break, 3-D, SPHERIC Test 2: " + std::to_string(scene.all_particles().size()) + " particles (" +
+          std::to_string(scene.initial_fluid()) + " fluid)" +
+          (ranks.distributed() ? " on " + std::to_string(ranks.size()) + " MPI ranks" : ""),
       params,
       {{"scene", {"tank_m", "column_m", "box_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
        {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
@@ -643,28 +647,37 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
-  clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                      "last_good.vtp", "config.toml", "solves.csv", "ppe"});
-  scene.sim().add<BasicSolveLog<3>>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
-                                    "dambreak, SPHERIC Test 2");
-  write_run_config(app, "dambreak", dir);
-  fs::create_directories(dir / "frames");
-  FrameSeries series(dir, "dambreak", o.frames, p.end_time);
-  series.write_if_due(sim);
+  // Rank 0 writes every output; the others step with it and join its gathers.
+  FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
+  if (ranks.root()) {
+    clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
+                        "last_good.vtp", "config.toml", "solves.csv", "ppe"});
+    scene.sim().add<BasicSolveLog<3>>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
+                                      "dambreak, SPHERIC Test 2");
+    write_run_config(app, "dambreak", dir);
+    fs::create_directories(dir / "frames");
+  }
+  series.write_if_due(sim.time(), scene.all_particles());
   Progress progress(p.end_time, "s");
   try {
-    run<dambreak::BoxImpact>(scene, series, progress, true, [](const dambreak::BoxImpact& sc) {
+    run<dambreak::BoxImpact>(scene, series, progress, ranks.root(), [](const dambreak::BoxImpact& sc) {
       char text[40];
       std::snprintf(text, sizeof text, "P1 %.0f Pa", sc.samples().back().pressures[0]);
       return std::string(text);
     });
   } catch (const mps::SimulationError& e) {
     progress.finish(sim.time(), sim.last_step().step);
+    // As the 2-D dam break's: the step stops every rank at one stage; the scene's own check may be one rank's alone.
+    if (!ranks.every_rank_failed())
+      ranks.end_alone(e.what(), [&] { record_failure_alone(dir, e.what(), params, sim); });
+    if (!ranks.root()) return 1;
     write_box_impact_series(dir, scene);  // the sensors up to the last good step
-    return report_guard_stop(dir, e, params, sim);
+    return report_guard_stop(dir, e, params, sim, &scene.all_particles());
   }
   progress.finish(sim.time(), sim.last_step().step);
-  return report_box_impact(dir, scene, record, o.box, params);
+  const long removed = scene.removed();
+  if (!ranks.root()) return 0;
+  return report_box_impact(dir, scene, record, o.box, removed, params);
 }
 
 }  // namespace

@@ -81,7 +81,8 @@ def main():
         rows = []
         for solver in SOLVERS:
             out = runs / solver.replace(":", "_").replace(",", "_").replace("=", "")
-            r = {"solver": solver, "dx_m": a.dx, "end_time_s": a.end_time, **run(a.build, out, a.dx, a.end_time, solver)}
+            r = {"solver": solver, "dx_m": a.dx, "end_time_s": a.end_time,
+                 **run(a.build, out, a.dx, a.end_time, solver)}
             print(r, flush=True)
             rows.append(r)
         with open(results / "solvers3d.csv", "w", newline="") as f:
@@ -110,9 +111,11 @@ def main():
     ax.legend(fontsize=8, loc="lower right")
     if sample_rows:
         bx = axes[0][1]
-        backends = list(dict.fromkeys(r["backend"].replace(",tol=1e-8", "").replace(":tol=1e-8", "") for r in sample_rows))
+        def name(r):
+            return r["backend"].replace(",tol=1e-8", "").replace(":tol=1e-8", "")
+        backends = list(dict.fromkeys(name(r) for r in sample_rows))
         for k, source in enumerate(dict.fromkeys(r["source"] for r in sample_rows)):
-            by = {r["backend"].replace(",tol=1e-8", "").replace(":tol=1e-8", ""): r for r in sample_rows if r["source"] == source}
+            by = {name(r): r for r in sample_rows if r["source"] == source}
             y = [i + (k - 0.5) * 0.38 for i in range(len(backends))]
             total = [float(by[b]["total_s"]) if b in by else 0.0 for b in backends]
             n = next(iter(by.values()))["n"]

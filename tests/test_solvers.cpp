@@ -95,6 +95,7 @@ const std::vector<std::string>& all_backends() {
       "hypre-amg:tol=1e-13",
       "hypre-pcg:tol=1e-13",
       "hypre-pcg:filter=0.2,tol=1e-13",
+      "hypre-pcg:precond=jacobi,tol=1e-13",
   };
   return specs;
 }

@@ -310,6 +310,16 @@ TEST(Distributed, TankPressuresEqualTheSerialSolveToTheSolverTolerance) {
   EXPECT_LE(c.relative_difference, 1e-7);
 }
 
+// Jacobi-CG on ranks (hypre's PCG with the diagonal, what auto runs there first) reaches the same pressures.
+TEST(Distributed, JacobiPcgOnRanksEqualsTheSerialSolveToTheSolverTolerance) {
+  const Comparison c = compare_with_serial(Scene(false), "hypre-pcg:precond=jacobi,tol=1e-10");
+  if (rank() != 0) return;
+  std::printf("tank, Jacobi-PCG: %lld unknowns on %d ranks, max |p - p_serial| / max |p_serial| = %.3g\n", c.unknowns,
+              ranks(), c.relative_difference);
+  EXPECT_GT(c.unknowns, 1000);
+  EXPECT_LE(c.relative_difference, 1e-7);
+}
+
 TEST(Distributed, SealedBoxGetsTheZeroMeanGaugeAcrossRanks) {
   const Comparison c = compare_with_serial(Scene(true), "hypre-pcg:tol=1e-10");
   EXPECT_EQ(c.closed_groups, 1);  // one group over all ranks, not one per rank

@@ -2,6 +2,8 @@
 // an AMG hierarchy would be rebuilt nearly every step), AMG-preconditioned CG with its hierarchy reused once they
 // have stayed the same for a few solves and Jacobi needed many iterations. The rule reads only the systems' sizes and
 // iteration counts, so a run repeats bitwise; docs/solvers.md has the measurements behind it.
+#include <mpi.h>
+
 #include <memory>
 #include <string>
 
@@ -22,20 +24,32 @@ class AutoSolver final : public LinearSolver {
     static_cast<void>(o.number("tol", 1e-16, 1e-1));
     static_cast<void>(o.integer("reuse", 0, 1000000));
     static_cast<void>(o.number("filter", 0.0, 1.0));
-    jacobi_ = make_solver("eigen-cg:precond=jacobi," + tol);
+    distributed_ = context.mpi_comm.has_value();
+    if (distributed_) comm_ = MPI_Comm_f2c(*context.mpi_comm);
+    // Eigen solves one rank's rows only: on ranks, Jacobi-CG is hypre's PCG with the diagonal.
+    jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol, context)
+                           : make_solver("eigen-cg:precond=jacobi," + tol);
     amg_ = make_solver("hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol,
                        context);
-    distributed_ = context.mpi_comm.has_value();  // Eigen solves one rank's rows only
   }
 
   SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) override {
-    steady_ = a.rows == last_rows_ ? steady_ + 1 : 1;
+    // On ranks: steady only while no rank's count changed (what lets hypre reuse a hierarchy), the same on every rank.
+    bool same = a.rows == last_rows_;
+    if (distributed_) {
+      int local = same ? 1 : 0, all = 0;
+      MPI_Allreduce(&local, &all, 1, MPI_INT, MPI_LAND, comm_);
+      same = all != 0;
+    }
+    steady_ = same ? steady_ + 1 : 1;
     last_rows_ = a.rows;
     // Jacobi this slow costs more than a fresh filtered AMG setup and solve (about 150 and 50 SpMVs at 1e5
     // unknowns, docs/solvers.md): AMG from then on, its hierarchy rebuilt whenever the unknowns change.
     always_amg_ = always_amg_ || last_jacobi_iterations_ > rebuild_iterations_;
-    if (distributed_ || always_amg_ ||
-        (steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_))) {
+    // Every input of the rule is the same on every rank (the iterations are global), so the ranks choose alike.
+    const bool steady_and_slow =
+        steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_);
+    if (always_amg_ || steady_and_slow) {
       on_amg_ = true;
       return amg_->solve(a, b, x);
     }
@@ -51,6 +65,7 @@ class AutoSolver final : public LinearSolver {
   int switch_iterations_, rebuild_iterations_, steady_solves_;
   std::string spec_;
   bool distributed_ = false, on_amg_ = false, always_amg_ = false;
+  MPI_Comm comm_ = MPI_COMM_SELF;
   int last_rows_ = -1, last_jacobi_iterations_ = 0;
   int steady_ = 0;  // solves in a row, this one included, with the same unknown count
 };
@@ -59,10 +74,10 @@ class AutoSolver final : public LinearSolver {
 
 SolverEntry auto_entry() {
   return {"auto",
-          "The default: Jacobi-CG (eigen-cg:precond=jacobi) while it needs few iterations or the unknowns change from "
-          "step to step; hypre-pcg with its AMG hierarchy reused once the unknowns stay the same and Jacobi needed "
-          "more than switch_iterations, or for good once a Jacobi solve needed more than rebuild_iterations. Each "
-          "solve's report names the backend it used.",
+          "The default: Jacobi-CG (eigen-cg:precond=jacobi; on MPI ranks hypre-pcg:precond=jacobi) while it needs few "
+          "iterations or the unknowns change from step to step; hypre-pcg with its AMG hierarchy reused once the "
+          "unknowns (on ranks, every rank's) stay the same and Jacobi needed more than switch_iterations, or for good once a "
+          "Jacobi solve needed more than rebuild_iterations. Each solve's report names the backend it used.",
           {{"tol", "1e-8", "relative residual ||b-Ax||/||b|| to reach, for either backend"},
            {"switch_iterations", "50", "Jacobi iterations above which an unchanged system moves to AMG-PCG"},
            {"rebuild_iterations", "150",

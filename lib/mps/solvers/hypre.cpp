@@ -251,7 +251,11 @@ class HypreSolver final : public LinearSolver {
         max_iter_(o.integer("max_iter", 1, 100000)),
         reuse_(o.integer("reuse", 0, 1000000)),
         filter_(method == Method::pcg ? o.number("filter", 0.0, 1.0) : 0.0),
+        jacobi_(method == Method::pcg && o.choice("precond", {"amg", "jacobi"}) == "jacobi"),
         spec_(o.spec()) {
+    if (jacobi_ && filter_ > 0.0)
+      throw std::invalid_argument(name_ + ": filter builds the AMG preconditioner; precond=jacobi has none: leave "
+                                          "filter out");
     ensure_runtime();
     comm_ = context.mpi_comm ? MPI_Comm_f2c(*context.mpi_comm) : MPI_COMM_SELF;
     if (comm_ == MPI_COMM_NULL)
@@ -268,7 +272,7 @@ class HypreSolver final : public LinearSolver {
     const std::lock_guard lock(hypre_mutex());
     HYPRE_ClearAllErrors();
     SolveReport report;
-    report.backend = name_;
+    report.backend = jacobi_ ? name_ + ":precond=jacobi" : name_;
     const Partition part = partition(a, b, x, report);
     if (part.global_rows == 0) return report;
 
@@ -276,9 +280,10 @@ class HypreSolver final : public LinearSolver {
     ParSystem sys;
     upload(a, b, x, part, sys, report);
     const bool count_changed = any_rank(part.local_rows() != setup_local_rows_, comm_);
-    const bool rebuild = amg_ == nullptr || count_changed || reuses_ >= reuse_ || rebuild_pending_;
+    // Jacobi has no hierarchy: hypre's DiagScale reads the diagonal in the solve itself.
+    const bool rebuild = !jacobi_ && (amg_ == nullptr || count_changed || reuses_ >= reuse_ || rebuild_pending_);
     if (rebuild) build_hierarchy(sys, part, report);
-    report.setup_reused = !rebuild;
+    report.setup_reused = !rebuild && !jacobi_;
     report.setup_seconds = seconds_since(t0);
 
     const std::vector<double> guess(x.begin(), x.end());
@@ -602,7 +607,10 @@ class HypreSolver final : public LinearSolver {
     HYPRE_PCGSetPrintLevel(pcg, 0);
     HYPRE_PCGSetLogging(pcg, 1);
     FilteredPrecond filtered{amg_, sys.m};
-    if (sys.m != sys.a)
+    if (jacobi_)
+      HYPRE_PCGSetPrecond(pcg, reinterpret_cast<HYPRE_PtrToSolverFcn>(HYPRE_ParCSRDiagScale),
+                          reinterpret_cast<HYPRE_PtrToSolverFcn>(HYPRE_ParCSRDiagScaleSetup), nullptr);
+    else if (sys.m != sys.a)
       HYPRE_PCGSetPrecond(pcg, reinterpret_cast<HYPRE_PtrToSolverFcn>(filtered_vcycle),
                           reinterpret_cast<HYPRE_PtrToSolverFcn>(no_setup), reinterpret_cast<HYPRE_Solver>(&filtered));
     else
@@ -638,6 +646,7 @@ class HypreSolver final : public LinearSolver {
   double tol_;
   int max_iter_, reuse_;
   double filter_;
+  bool jacobi_;  // precond=jacobi: PCG with the diagonal, no AMG
   std::string spec_;
   MPI_Comm comm_ = MPI_COMM_SELF;
 
@@ -665,6 +674,9 @@ std::vector<SolverKey> hypre_keys(const char* tol, const char* max_iter) {
 // A filtered preconditioner changes what a V-cycle converges to, so only PCG, which iterates on A itself, offers it.
 std::vector<SolverKey> pcg_keys() {
   std::vector<SolverKey> keys = hypre_keys("1e-8", "1000");
+  keys.push_back({"precond", "amg",
+                  "the preconditioner: amg (one BoomerAMG V-cycle) | jacobi (the diagonal: no setup; Jacobi-CG on MPI "
+                  "ranks)"});
   keys.push_back({"filter", "0",
                   "build the AMG preconditioner on A with off-diagonal entries below FILTER x the largest one lumped "
                   "onto the diagonal (sparser, cheaper V-cycles; PCG still solves A); 0: on A itself"});
@@ -686,7 +698,8 @@ SolverEntry hypre_amg_entry() {
 SolverEntry hypre_pcg_entry() {
   return {"hypre-pcg",
           "hypre PCG preconditioned by one BoomerAMG V-cycle: iterations nearly independent of N, the pick for large "
-          "PPEs; with reuse=10 the setup is paid once every ~10 steps.",
+          "PPEs; with reuse=10 the setup is paid once every ~10 steps. precond=jacobi: by the diagonal (Jacobi-CG on "
+          "MPI ranks).",
           pcg_keys(), [](const SolverOptions& o, const SolverContext& c) {
             return std::make_unique<HypreSolver>(Method::pcg, o, c);
           },

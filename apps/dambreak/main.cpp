@@ -596,6 +596,18 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   return pass ? 0 : 2;
 }
 
+// Rank 0's outputs before the first step: the folder cleared of an earlier run's, the solve log (and --export-ppe),
+// config.toml and the frames' folder.
+template <int D>
+void start_outputs(const fs::path& dir, const CLI::App& app, const std::vector<int>& export_ppe, const std::string& scene,
+                   mps::BasicSimulation<D>& sim) {
+  clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
+                      "last_good.vtp", "config.toml", "solves.csv", "ppe"});
+  sim.template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), scene);
+  write_run_config(app, "dambreak", dir);
+  fs::create_directories(dir / "frames");
+}
+
 int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks) {
   if (ranks.distributed() && !o.export_ppe.empty())
     throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
@@ -650,12 +662,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   // Rank 0 writes every output; the others step with it and join its gathers.
   FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
   if (ranks.root()) {
-    clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                        "last_good.vtp", "config.toml", "solves.csv", "ppe"});
-    scene.sim().add<BasicSolveLog<3>>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
-                                      "dambreak, SPHERIC Test 2");
-    write_run_config(app, "dambreak", dir);
-    fs::create_directories(dir / "frames");
+    start_outputs(dir, app, o.export_ppe, "dambreak, SPHERIC Test 2", scene.sim());
   }
   series.write_if_due(sim.time(), scene.all_particles());
   Progress progress(p.end_time, "s");
@@ -724,12 +731,7 @@ int main(int argc, char** argv) {
     // Rank 0 writes every output; the others step with it and join its gathers.
     FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
     if (ranks.root()) {
-      clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                          "last_good.vtp", "config.toml", "solves.csv", "ppe"});
-      scene.sim().add<SolveLog>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()),
-                                "dambreak, " + start.scene_name);
-      write_run_config(app, "dambreak", dir);
-      fs::create_directories(dir / "frames");
+      start_outputs(dir, app, o.export_ppe, "dambreak, " + start.scene_name, scene.sim());
     }
     series.write_if_due(sim.time(), scene.all_particles());
     Progress progress(p.end_time, "s");

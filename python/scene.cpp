@@ -556,8 +556,7 @@ Ppe assemble(const mps::Particles& star, double dt, py::handle domain_in, Config
   mps::Domain domain;
   if (domain_in.is_none()) {
     // Any box holding the particles gives the same system: neighbour lists are sorted whatever the cells.
-    const double margin = config.l0 * (2.0 + std::max({config.radius_density, config.radius_surface,
-                                                       config.radius_gradient, config.radius_laplacian}));
+    const double margin = config.l0 * (2.0 + config.largest_radius());
     double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
     bool first = true;
     for (std::size_t i = 0; i < star.size(); ++i) {

@@ -36,25 +36,32 @@ double number(const std::string& text, const std::string& where) {
   return v;
 }
 
+// Calls row(fields, where) for each data line of a CSV file: blank lines, '#' comments and the header (the line
+// starting with `header`) skipped; `where` names the file and line for messages.
+template <class Row>
+void for_each_row(const std::string& path, const std::string& what, const std::string& header, Row row) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read " + what + " " + path + ": " + std::strerror(errno));
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#' || line.rfind(header, 0) == 0) continue;
+    row(split_csv(line), path + " line " + std::to_string(n));
+  }
+}
+
 int lattice_count(double length, double l0) { return std::max(1, static_cast<int>(std::lround(length / l0))); }
 double on_lattice(double x, double l0) { return static_cast<double>(std::lround(x / l0)) * l0; }
 }  // namespace
 
 BoxImpactSensors read_box_impact_sensors(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read the sensor positions " + path + ": " + std::strerror(errno));
   BoxImpactSensors out;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    if (line.empty() || line[0] == '#' || line.rfind("name,", 0) == 0) continue;
-    const std::string where = path + " line " + std::to_string(n);
-    const std::vector<std::string> f = split_csv(line);
+  for_each_row(path, "the sensor positions", "name,", [&](const std::vector<std::string>& f, const std::string& where) {
     if (f.size() != 5) throw std::runtime_error(where + ": need name,x,y,z,face (face: front, top or gauge)");
     Sensor s{f[0], number(f[1], where), number(f[2], where), number(f[3], where), f[4]};
     if (s.face == "gauge") out.height.push_back(s);
     else if (s.face == "front" || s.face == "top") out.pressure.push_back(s);
     else throw std::runtime_error(where + ": face '" + s.face + "' is none of front, top, gauge");
-  }
+  });
   if (out.pressure.empty() || out.height.empty())
     throw std::runtime_error(path + " lists no pressure sensor or no height gauge");
   return out;
@@ -210,14 +217,8 @@ void BoxImpact::sample() {
 }
 
 BoxImpactRecord read_box_impact_record(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read the experiment's record " + path + ": " + std::strerror(errno));
   BoxImpactRecord r;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    if (line.empty() || line[0] == '#' || line.rfind("time", 0) == 0) continue;
-    const std::string where = path + " line " + std::to_string(n);
-    const std::vector<std::string> f = split_csv(line);
+  for_each_row(path, "the experiment's record", "time", [&](const std::vector<std::string>& f, const std::string& where) {
     if (f.size() != 4) throw std::runtime_error(where + ": need time, P1, H2, H4");
     r.time.push_back(number(f[0], where));
     r.p1.push_back(number(f[1], where));
@@ -225,7 +226,7 @@ BoxImpactRecord read_box_impact_record(const std::string& path) {
     r.h4.push_back(number(f[3], where));
     if (r.time.size() > 1 && !(r.time.back() > r.time[r.time.size() - 2]))
       throw std::runtime_error(where + ": the times must increase");
-  }
+  });
   if (r.time.size() < 2) throw std::runtime_error(path + " holds fewer than two records");
   return r;
 }

@@ -175,9 +175,7 @@ mps::Simulation make_simulation(const Params& p) {
 }
 
 int period_layers(const Params& p) {
-  const mps::SimulationConfig c = make_config(p);
-  const double radius = std::max({c.radius_density, c.radius_surface, c.radius_gradient, c.radius_laplacian});
-  return static_cast<int>(std::ceil(3.0 * radius - 1e-9));
+  return static_cast<int>(std::ceil(3.0 * make_config(p).largest_radius() - 1e-9));
 }
 
 mps::Particles3 make_particles3(const Params& p) {

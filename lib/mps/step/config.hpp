@@ -3,6 +3,7 @@
 /// The physics and numerics of a run (SimulationConfig) and its schema: every field once, with its unit, its valid
 /// range and a line of doc. Validation, Python's SimulationConfig and the apps' summaries all walk the schema
 /// (for_each_parameter), so a new field is written here and nowhere else.
+#include <algorithm>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -20,6 +21,10 @@ struct SimulationConfig {
   /// @{ Kernel radii in l0. The source's number density uses the Laplacian's radius: at 2.1 against a 4.1
   /// Laplacian, short waves grow ~(1 + 0.03 gamma) per step whatever dt is. Free-surface detection keeps 2.1.
   double radius_density = 4.1, radius_surface = 2.1, radius_gradient = 2.1, radius_laplacian = 4.1;  /// @}
+  /// The largest of the four radii [l0]: the neighbour search's, and three times it a periodic axis's shortest length.
+  [[nodiscard]] double largest_radius() const {
+    return std::max({radius_density, radius_surface, radius_gradient, radius_laplacian});
+  }
   Weight weight = Weight::bounded;  ///< the weight function of every kernel
   double rho = 1000.0;          ///< density [kg/m^3]
   double nu = 1e-6;             ///< kinematic viscosity [m^2/s]

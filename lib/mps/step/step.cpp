@@ -147,8 +147,7 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight, D)),
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight, D)),
       k_pressure_(pressure_kernel_of(k_laplacian_, config_.higher_order_laplacian)),
-      grid_(domain_, config_.l0 * std::max({config_.radius_density, config_.radius_surface, config_.radius_gradient,
-                                            config_.radius_laplacian})) {
+      grid_(domain_, config_.l0 * config_.largest_radius()) {
   if (D == 2 && config_.fz != 0.0)
     throw std::invalid_argument("simulation config: fz = " + fmt(config_.fz) + " is a 3-D body force; a 2-D "
                                 "simulation takes fx and fy");
@@ -390,8 +389,7 @@ template <int D>
 void BasicSimulation<D>::begin_exchange() {
   // Components are added after construction: their reach is read each step. Both particles of a pair may move
   // max_displacement in the step.
-  const double kernels = config_.l0 * std::max({config_.radius_density, config_.radius_surface,
-                                                config_.radius_gradient, config_.radius_laplacian});
+  const double kernels = config_.l0 * config_.largest_radius();
   const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
   exchange_->begin_step(particles_, domain_, reach);
 }

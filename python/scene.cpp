@@ -136,6 +136,22 @@ mps::Box box_of(py::handle obj, const char* what) {
   return {v[0], v[1], v[2], v[3], v[4], v[5]};
 }
 
+// A wall backstop's box: (x0, y0, x1, y1) in 2-D, (x0, y0, z0, x1, y1, z1) in 3-D, each lower corner below its upper.
+template <int D>
+typename mps::BasicWallBackstop<D>::AxisBox axis_box_of(py::handle obj, const char* what) {
+  typename mps::BasicWallBackstop<D>::AxisBox b;
+  if constexpr (D == 2) {
+    const mps::Rect r = rect_of(obj, what);
+    b = {{r.x0, r.y0}, {r.x1, r.y1}};
+  } else {
+    const mps::Box r = box_of(obj, what);
+    b = {{r.x0, r.y0, r.z0}, {r.x1, r.y1, r.z1}};
+  }
+  for (std::size_t a = 0; a < D; ++a)
+    if (!(b.lo[a] < b.hi[a])) throw py::value_error(std::string(what) + ": each lower corner must lie below its upper");
+  return b;
+}
+
 unsigned faces_of(py::handle obj) {
   static const std::map<std::string, unsigned> names{{"x_low", mps::x_low}, {"x_high", mps::x_high},
                                                      {"y_low", mps::y_low}, {"y_high", mps::y_high},
@@ -661,6 +677,18 @@ void bind_simulation(py::module_& m) {
           py::arg("fraction") = 0.9,
           "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
           "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
+      .def(
+          "add_wall_backstop",
+          [](Simulation<D>& s, py::handle tank, const py::list& obstacles) {
+            const auto box = axis_box_of<D>(tank, "the tank");
+            std::vector<typename mps::BasicWallBackstop<D>::AxisBox> inside;
+            for (py::handle o : obstacles) inside.push_back(axis_box_of<D>(o, "an obstacle"));
+            s.locked([&] { s.sim->template add<mps::BasicWallBackstop<D>>(box, std::move(inside)); });
+          },
+          py::arg("tank"), py::arg("obstacles") = py::list(),
+          "Fluid that crosses a face of the tank (below its top) or of an obstacle is put back on the face and loses\n"
+          "its velocity into the wall (mps::WallBackstop): a backstop for 3-D wall lattices, whose holes let pressed\n"
+          "fluid through. tank and each obstacle: (x0, y0, x1, y1) in 2-D, (x0, y0, z0, x1, y1, z1) in 3-D.")
       .def(
           "add_wet_walls", [](Simulation<D>& s) { s.locked([&] { s.sim->template add<mps::BasicWetWalls<D>>(); }); },
           "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")

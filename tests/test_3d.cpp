@@ -596,3 +596,39 @@ TEST(ThreeD, InletSlabDevelopsThePlaneParabolaAndBalancesInflowAndOutflow) {
   EXPECT_LT(r.peak_error, 0.06);
   EXPECT_LT(r.flow_rate_error, 0.03);
 }
+
+// The wall backstop: fluid stepping past the tank's floor or side, or into an obstacle from above or from the side, is
+// put on that face with its velocity into the solid removed and its other components kept; fluid through the floor
+// under the obstacle leaves it by its nearest side, not its bottom; fluid above the open top is left alone. The particles are lone (no neighbours, free surface, no body force), so one step moves each by u dt.
+TEST(ThreeD, WallBackstopPutsFluidThatCrossedAFaceBackOnItWithoutTheVelocityIntoTheSolid) {
+  mps::Particles3 start;
+  const double dt = 1e-3;
+  struct Case {
+    mps::Vec<3> r, u, r_after, u_after;
+  };
+  const std::vector<Case> cases = {
+      {{0.1, 0.5, 0.0005}, {0.3, 0.0, -1.0}, {0.1 + 0.3 * dt, 0.5, 0.0}, {0.3, 0.0, 0.0}},          // through the floor
+      {{0.9995, 0.2, 0.5}, {1.0, 0.2, 0.0}, {1.0, 0.2 + 0.2 * dt, 0.5}, {0.0, 0.2, 0.0}},           // through x_high
+      {{0.1, 0.1, 1.2}, {0.0, -1.0, 0.0}, {0.1, 0.1 - dt, 1.2}, {0.0, -1.0, 0.0}},                  // above the top: free
+      {{0.55, 0.55, 0.2005}, {0.0, 0.0, -1.0}, {0.55, 0.55, 0.2}, {0.0, 0.0, 0.0}},                 // onto the box's top
+      {{0.2995, 0.4, 0.1}, {1.0, 0.0, 0.5}, {0.3, 0.4, 0.1 + 0.5 * dt}, {0.0, 0.0, 0.5}},           // into its x_low side
+      {{0.66, 0.35, 0.0005}, {0.0, 0.0, -1.0}, {0.7, 0.35, 0.0}, {0.0, 0.0, 0.0}}};                 // under it: out by x_high
+  for (const Case& k : cases) start.add(k.r, mps::Kind::fluid, 0, k.u);
+  mps::SimulationConfig c;
+  c.l0 = 0.05;
+  c.dt_max = dt;
+  mps::Simulation3 sim(start, mps::Domain3{-0.5, 1.5, -0.5, 1.5, -0.5, 1.5}, c);
+  using Box = mps::WallBackstop3::AxisBox;
+  const auto& backstop = sim.add<mps::WallBackstop3>(Box{{0, 0, 0}, {1, 1, 1}}, std::vector<Box>{{{0.3, 0.3, 0}, {0.7, 0.7, 0.2}}});
+  sim.step();
+  ASSERT_EQ(sim.last_step().dt, dt);
+  const mps::Particles3& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Case& k = cases[static_cast<std::size_t>(p.id[i])];
+    for (std::size_t a = 0; a < 3; ++a) {
+      EXPECT_NEAR(p.position(i)[a], k.r_after[a], 1e-12) << "particle " << p.id[i] << " axis " << a;
+      EXPECT_NEAR((*p.velocities()[a])[i], k.u_after[a], 1e-12) << "particle " << p.id[i] << " axis " << a;
+    }
+  }
+  EXPECT_EQ(backstop.returned(), 5);
+}

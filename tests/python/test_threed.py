@@ -95,3 +95,17 @@ def test_3d_frames_hold_every_field(tmp_path):
 def test_bad_3d_input_raises_naming_the_cause(make, error, message):
     with pytest.raises(error, match=message):
         make()
+
+
+def test_the_wall_backstop_puts_fluid_through_the_floor_back_on_it():
+    """A lone particle stepping 0.5 mm through the floor ends on it with no velocity into it, its sideways speed
+    kept (tests/test_3d.cpp checks every face); a box whose corners are swapped is refused."""
+    p = sparsemps.Particles3([[0.1, 0.5, 0.0005]], "fluid", velocities=[[0.3, 0.0, -1.0]])
+    sim = sparsemps.Simulation3(p, (-0.5, 1.5, -0.5, 1.5, -0.5, 1.5), l0=0.05, dt_max=1e-3)
+    sim.add_wall_backstop((0, 0, 0, 1, 1, 1), [(0.4, 0.4, 0, 0.6, 0.6, 0.2)])
+    sim.step()
+    q = sim.particles
+    assert q.z[0] == 0.0 and q.w[0] == 0.0
+    assert abs(q.x[0] - (0.1 + 0.3e-3)) < 1e-12 and q.u[0] == 0.3
+    with pytest.raises(ValueError, match="an obstacle: each lower corner must lie below its upper"):
+        sim.add_wall_backstop((0, 0, 0, 1, 1, 1), [(0.6, 0.4, 0, 0.4, 0.6, 0.2)])

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 namespace mps {
 
@@ -166,6 +167,47 @@ void BasicRemoveEscaped<D>::after_corrector(StepContext& c) {
       p.p[i] = 0.0;
       ++removed_;
     }
+}
+
+template <int D>
+void BasicWallBackstop<D>::after_corrector(StepContext& c) {
+  BasicParticles<D>& p = c.particles;
+  const auto r = p.positions();
+  const auto vel = p.velocities();
+  constexpr std::size_t up = D - 1;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] != Kind::fluid) continue;
+    bool moved = false;
+    // Onto face `a` of a solid lying on the side `sign` (-1 below, +1 above): no velocity into it remains.
+    auto put_on = [&](std::size_t a, double face, double sign) {
+      (*r[a])[i] = face;
+      double& u = (*vel[a])[i];
+      u = sign < 0 ? std::max(u, 0.0) : std::min(u, 0.0);
+      moved = true;
+    };
+    if ((*r[up])[i] < tank_.hi[up])
+      for (std::size_t a = 0; a < D; ++a) {
+        if ((*r[a])[i] < tank_.lo[a]) put_on(a, tank_.lo[a], -1.0);
+        if (a != up && (*r[a])[i] > tank_.hi[a]) put_on(a, tank_.hi[a], 1.0);
+      }
+    for (const AxisBox& b : obstacles_) {
+      // Out through the nearest face; not through the bottom of an obstacle standing on the tank's floor (fluid put
+      // on the floor below it would stay inside).
+      const bool on_floor = b.lo[up] <= tank_.lo[up];
+      double depth = std::numeric_limits<double>::infinity();
+      std::size_t axis = 0;
+      bool upper = false, inside = true;
+      for (std::size_t a = 0; a < D && inside; ++a) {
+        const double x = (*r[a])[i], below = x - b.lo[a], above = b.hi[a] - x;
+        // On a face is outside, but on the floor under an obstacle standing on it is inside.
+        inside = (below > 0.0 || (below == 0.0 && a == up && on_floor)) && above > 0.0;
+        if (below < depth && !(a == up && on_floor)) depth = below, axis = a, upper = false;
+        if (above < depth) depth = above, axis = a, upper = true;
+      }
+      if (inside) put_on(axis, upper ? b.hi[axis] : b.lo[axis], upper ? -1.0 : 1.0);
+    }
+    returned_ += moved;
+  }
 }
 
 template <int D>
@@ -372,6 +414,8 @@ template class BasicParticleCollision<2>;
 template class BasicParticleCollision<3>;
 template class BasicRemoveEscaped<2>;
 template class BasicRemoveEscaped<3>;
+template class BasicWallBackstop<2>;
+template class BasicWallBackstop<3>;
 template class BasicHydrostaticSplit<2>;
 template class BasicHydrostaticSplit<3>;
 template class BasicInitialReferenceDensity<2>;

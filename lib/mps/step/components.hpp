@@ -194,6 +194,33 @@ class BasicRemoveEscaped : public BasicStepComponent<D> {
 using RemoveEscaped = BasicRemoveEscaped<2>;   ///< 2-D
 using RemoveEscaped3 = BasicRemoveEscaped<3>;  ///< 3-D
 
+/// Fluid that crosses a solid's face is put back on it and loses its velocity into the solid: a backstop for wall
+/// lattices with holes. In 3-D a fluid particle pressed into the middle of four wall particles is only 0.71 l0 from
+/// each, nearer than collisions act, and sinks through the wall (docs/dambreak3d.md). The solids are axis-aligned
+/// boxes: a tank (fluid below its top kept inside; the last axis' upper face is open) and obstacles (fluid kept out).
+template <int D>
+class BasicWallBackstop : public BasicStepComponent<D> {
+ public:
+  using typename BasicStepComponent<D>::StepContext;
+  /// An axis-aligned box.
+  struct AxisBox {
+    Vec<D> lo;  ///< lower corner [m]
+    Vec<D> hi;  ///< upper corner [m]
+  };
+  /// Fluid is kept inside `tank` below its top and outside every obstacle (an obstacle whose bottom lies on the tank's
+  /// floor is left by its sides or top only).
+  BasicWallBackstop(AxisBox tank, std::vector<AxisBox> obstacles) : tank_(tank), obstacles_(std::move(obstacles)) {}
+  void after_corrector(StepContext& c) override;
+  [[nodiscard]] long returned() const { return returned_; }  ///< fluid particles put back so far (one per step each)
+
+ private:
+  AxisBox tank_;
+  std::vector<AxisBox> obstacles_;
+  long returned_ = 0;
+};
+using WallBackstop = BasicWallBackstop<2>;   ///< 2-D
+using WallBackstop3 = BasicWallBackstop<3>;  ///< 3-D
+
 /// SimulationConfig::hydrostatic_split: the body force (fx, fy) along non-periodic axes is balanced by
 /// P_h = rho f . r; the predictor leaves it out, the PPE solves for P - P_h, free-surface particles are held at
 /// P = rho |f| l0/2 (the surface lies half a spacing above them) and take their own P' as gradient reference.
@@ -297,6 +324,8 @@ extern template class BasicParticleCollision<2>;
 extern template class BasicParticleCollision<3>;
 extern template class BasicRemoveEscaped<2>;
 extern template class BasicRemoveEscaped<3>;
+extern template class BasicWallBackstop<2>;
+extern template class BasicWallBackstop<3>;
 extern template class BasicHydrostaticSplit<2>;
 extern template class BasicHydrostaticSplit<3>;
 extern template class BasicInitialReferenceDensity<2>;

@@ -462,6 +462,40 @@ TEST(Distributed, PlacementKeepsTheCutsBelowTheThresholdAndRepartitionsAboveIt) 
                 ranks(), first.imbalance, crowded.kept_imbalance, crowded.imbalance, moved.particles_sent);
 }
 
+// Kind weights: a dam-break column in one corner of a long tank whose wall and dummy layers outnumber it. Cut by the
+// particle count the fluid lands on few ranks; weighted to the fluid alone, every rank gets its share of the fluid,
+// and the placement reports the weighted imbalance. Weights that are negative, not finite or all zero are refused.
+TEST(Distributed, KindWeightsBalanceTheLoadTheyDescribe) {
+  mps::Particles scene;
+  const double l0 = 0.01;
+  mps::fill_rectangle(scene, {0.0, 0.0, 0.4, 0.4}, l0, mps::Kind::fluid);
+  mps::add_rectangle_walls(scene, {0.0, 0.0, 4.0, 0.6}, l0, mps::left | mps::right | mps::bottom, 1, 4);
+  const std::size_t fluid = scene.count(mps::Kind::fluid);
+  ASSERT_GT(scene.size() - fluid, fluid);
+  auto fluid_imbalance = [&](const mps::RcbPartition::KindWeights& weights, double* reported) {
+    mps::RcbPartition partition(comm(), weights);
+    mps::Particles p;
+    if (rank() == 0) p = scene;
+    const mps::RcbPartition::Placement placed = partition.place(p, 1.01);
+    mps::migrate_particles(p, placed.destination, comm());
+    *reported = placed.imbalance;
+    return mps::load_imbalance(p.count(mps::Kind::fluid), comm());
+  };
+  double counted = 0, weighted = 0;
+  const double by_count = fluid_imbalance({1, 1, 1, 1}, &counted);
+  const double by_fluid = fluid_imbalance({1, 0, 0, 0}, &weighted);
+  if (ranks() > 1) {
+    EXPECT_GT(by_count, 1.5) << "the column fits in one rank's box when every particle counts alike";
+  }
+  EXPECT_LT(by_fluid, 1.1);
+  EXPECT_DOUBLE_EQ(weighted, by_fluid) << "with the fluid's weight alone the reported imbalance is the fluid's";
+  EXPECT_LT(counted, 1.1);
+  for (const mps::RcbPartition::KindWeights& bad :
+       {mps::RcbPartition::KindWeights{1, -1, 1, 1}, {1, 1, std::nan(""), 1}, {0, 0, 0, 0}}) {
+    EXPECT_THROW(mps::RcbPartition(comm(), bad), std::invalid_argument);
+  }
+}
+
 TEST(Distributed, PlacementRefusesANanThreshold) {
   mps::RcbPartition partition(comm());
   mps::Particles p;

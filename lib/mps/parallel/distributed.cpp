@@ -84,13 +84,17 @@ void resize(BasicParticles<D>& s, std::size_t n) {
 struct ZoltanInput {
   std::size_t count = 0;
   const int* ids = nullptr;
+  const Kind* kinds = nullptr;
+  std::array<double, 4> weights{};
   int dim = 2;
   std::array<const double*, 3> coords{};
 };
 template <int D>
-void set_input(ZoltanInput& in, const BasicParticles<D>& particles) {
+void set_input(ZoltanInput& in, const BasicParticles<D>& particles, const std::array<double, 4>& weights) {
   in.count = particles.size();
   in.ids = particles.id.data();
+  in.kinds = particles.kind.data();
+  in.weights = weights;
   in.dim = D;
   for (std::size_t a = 0; a < D; ++a) in.coords[a] = particles.positions()[a]->data();
 }
@@ -98,11 +102,13 @@ int zoltan_count(void* data, int* ierr) {
   *ierr = ZOLTAN_OK;
   return static_cast<int>(static_cast<ZoltanInput*>(data)->count);
 }
-void zoltan_objects(void* data, int, int, ZOLTAN_ID_PTR global, ZOLTAN_ID_PTR local, int, float*, int* ierr) {
+void zoltan_objects(void* data, int, int, ZOLTAN_ID_PTR global, ZOLTAN_ID_PTR local, int weight_dim, float* weight,
+                    int* ierr) {
   const ZoltanInput& s = *static_cast<ZoltanInput*>(data);
   for (std::size_t i = 0; i < s.count; ++i) {
     global[i] = static_cast<ZOLTAN_ID_TYPE>(s.ids[i]);
     local[i] = static_cast<ZOLTAN_ID_TYPE>(i);
+    if (weight_dim == 1) weight[i] = static_cast<float>(s.weights[static_cast<std::size_t>(s.kinds[i])]);
   }
   *ierr = ZOLTAN_OK;
 }
@@ -157,7 +163,21 @@ struct RcbPartition::Zoltan {
   int dim = 0;  // of the particles it partitions (fixed at the first repartition)
 };
 
-RcbPartition::RcbPartition(int comm_handle) : comm_(comm_handle) { require_mpi("RcbPartition"); }
+namespace {
+bool every_kind_alike(const RcbPartition::KindWeights& w) {
+  return std::all_of(w.begin(), w.end(), [&](double x) { return x == w[0]; });
+}
+}  // namespace
+
+RcbPartition::RcbPartition(int comm_handle, KindWeights weights) : comm_(comm_handle), weights_(weights) {
+  require_mpi("RcbPartition");
+  for (double w : weights_)
+    if (!(w >= 0.0 && std::isfinite(w)))
+      throw std::invalid_argument("RcbPartition: a kind's load weight must be finite and >= 0, got " +
+                                  std::to_string(w));
+  if (weights_[0] == 0.0 && every_kind_alike(weights_))
+    throw std::invalid_argument("RcbPartition: every kind's load weight is 0; give the fluid a positive weight");
+}
 
 RcbPartition::~RcbPartition() {
   if (zoltan_ == nullptr) return;
@@ -169,11 +189,12 @@ RcbPartition::~RcbPartition() {
 }
 
 RcbPartition::RcbPartition(RcbPartition&& other) noexcept
-    : comm_(other.comm_), has_cuts_(std::exchange(other.has_cuts_, false)),
+    : comm_(other.comm_), weights_(other.weights_), has_cuts_(std::exchange(other.has_cuts_, false)),
       zoltan_(std::exchange(other.zoltan_, nullptr)) {}
 
 RcbPartition& RcbPartition::operator=(RcbPartition&& other) noexcept {
   std::swap(comm_, other.comm_);
+  std::swap(weights_, other.weights_);
   std::swap(has_cuts_, other.has_cuts_);
   std::swap(zoltan_, other.zoltan_);
   return *this;
@@ -200,7 +221,8 @@ std::vector<int> RcbPartition::repartition(const BasicParticles<D>& particles) {
     // ranks depending on who held what.
     const char* params[][2] = {{"DEBUG_LEVEL", "0"},          {"LB_METHOD", "RCB"},
                                {"NUM_GID_ENTRIES", "1"},      {"NUM_LID_ENTRIES", "1"},
-                               {"OBJ_WEIGHT_DIM", "0"},       {"RETURN_LISTS", "NONE"},
+                               {"OBJ_WEIGHT_DIM", every_kind_alike(weights_) ? "0" : "1"},
+                               {"RETURN_LISTS", "NONE"},
                                {"RCB_RECTILINEAR_BLOCKS", "1"}, {"KEEP_CUTS", "1"},
                                {"REMAP", "0"},                {"IMBALANCE_TOL", "1.05"}};
     for (const auto& kv : params) Zoltan_Set_Param(zz, kv[0], kv[1]);
@@ -212,7 +234,7 @@ std::vector<int> RcbPartition::repartition(const BasicParticles<D>& particles) {
   if (zoltan_->dim != D)
     throw std::invalid_argument("RcbPartition: cut for " + std::to_string(zoltan_->dim) + "-D particles, given " +
                                 std::to_string(D) + "-D ones");
-  set_input(zoltan_->input, particles);
+  set_input(zoltan_->input, particles, weights_);
   int changes = 0, gid_entries = 0, lid_entries = 0, imports = 0, exports = 0;
   ZOLTAN_ID_PTR import_gid = nullptr, import_lid = nullptr, export_gid = nullptr, export_lid = nullptr;
   int *import_procs = nullptr, *import_parts = nullptr, *export_procs = nullptr, *export_parts = nullptr;
@@ -244,15 +266,25 @@ std::vector<int> RcbPartition::assign(const BasicParticles<D>& particles) const 
   return destination;
 }
 
-double RcbPartition::imbalance_of(const std::vector<int>& destination) const {
+template <int D>
+double RcbPartition::imbalance_of(const BasicParticles<D>& particles, const std::vector<int>& destination) const {
   const MPI_Comm comm = to_comm(comm_);
-  std::vector<unsigned long long> count(static_cast<std::size_t>(size_of(comm)), 0);
-  for (int d : destination) ++count[static_cast<std::size_t>(d)];
-  MPI_Allreduce(MPI_IN_PLACE, count.data(), static_cast<int>(count.size()), MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm);
-  const unsigned long long sum = std::accumulate(count.begin(), count.end(), 0ULL);
-  if (sum == 0) return 1.0;
-  return static_cast<double>(*std::max_element(count.begin(), count.end())) * static_cast<double>(count.size()) /
-         static_cast<double>(sum);
+  if (every_kind_alike(weights_)) {  // the particle count, exactly
+    std::vector<unsigned long long> count(static_cast<std::size_t>(size_of(comm)), 0);
+    for (int d : destination) ++count[static_cast<std::size_t>(d)];
+    MPI_Allreduce(MPI_IN_PLACE, count.data(), static_cast<int>(count.size()), MPI_UNSIGNED_LONG_LONG, MPI_SUM, comm);
+    const unsigned long long sum = std::accumulate(count.begin(), count.end(), 0ULL);
+    if (sum == 0) return 1.0;
+    return static_cast<double>(*std::max_element(count.begin(), count.end())) * static_cast<double>(count.size()) /
+           static_cast<double>(sum);
+  }
+  std::vector<double> load(static_cast<std::size_t>(size_of(comm)), 0.0);
+  for (std::size_t i = 0; i < destination.size(); ++i)
+    load[static_cast<std::size_t>(destination[i])] += weights_[static_cast<std::size_t>(particles.kind[i])];
+  MPI_Allreduce(MPI_IN_PLACE, load.data(), static_cast<int>(load.size()), MPI_DOUBLE, MPI_SUM, comm);
+  const double sum = std::accumulate(load.begin(), load.end(), 0.0);
+  if (sum == 0.0) return 1.0;
+  return *std::max_element(load.begin(), load.end()) * static_cast<double>(load.size()) / sum;
 }
 
 template <int D>
@@ -263,11 +295,11 @@ RcbPartition::Placement RcbPartition::place(const BasicParticles<D>& particles, 
   Placement out;
   if (has_cuts_) {
     out.destination = assign(particles);
-    out.kept_imbalance = out.imbalance = imbalance_of(out.destination);
+    out.kept_imbalance = out.imbalance = imbalance_of(particles, out.destination);
     if (out.kept_imbalance <= threshold && threshold > 1.0) return out;
   }
   out.destination = repartition(particles);
-  out.imbalance = imbalance_of(out.destination);
+  out.imbalance = imbalance_of(particles, out.destination);
   out.repartitioned = true;
   return out;
 }

@@ -1,4 +1,5 @@
 #pragma once
+#include <array>
 /// \file
 /// Particles and the PPE distributed over the ranks of an MPI communicator (issue 27, first slice): a Zoltan RCB
 /// partition, migration of whole particles to their owners, a halo of the other ranks' particles near one's own, and
@@ -42,12 +43,16 @@ double load_imbalance(std::size_t load, int comm);
 /// An RCB partition whose cuts are kept between steps (Zoltan's KEEP_CUTS): repartition() finds new cuts over all
 /// ranks' particles; assign() puts particles into the kept boxes without any communication
 /// (Zoltan_LB_Point_Assign). Either way a particle's rank is a function of its position and the cuts alone, not of
-/// which rank holds it. The load balanced is the particle count, every kind alike (what RCB without weights
-/// balances).
+/// which rank holds it. The load balanced is the sum of the particles' kind weights: by default every kind alike (the
+/// particle count); a 3-D tank's wall and dummy layers outnumber its fluid, and weighting them by what they cost
+/// keeps the fluid from landing on one rank (docs/scaling.md).
 class RcbPartition {
  public:
-  /// No cuts yet: the first place() or repartition() makes them. Throws std::runtime_error if MPI is not running.
-  explicit RcbPartition(int comm);
+  /// The load of one particle of each Kind (fluid, wall, dummy, ghost).
+  using KindWeights = std::array<double, 4>;
+  /// No cuts yet: the first place() or repartition() makes them. Throws std::runtime_error if MPI is not running, and
+  /// std::invalid_argument for a weight that is negative or not finite, or all zero.
+  explicit RcbPartition(int comm, KindWeights weights = {1.0, 1.0, 1.0, 1.0});
   ~RcbPartition();  ///< frees Zoltan's structure
   RcbPartition(RcbPartition&& other) noexcept;  ///< takes other's Zoltan structure and cuts (other has none after)
   RcbPartition& operator=(RcbPartition&& other) noexcept;  ///< swaps the two (other frees this one's when it goes)
@@ -80,8 +85,10 @@ class RcbPartition {
 
  private:
   struct Zoltan;  // the Zoltan_Struct holding the cuts
-  [[nodiscard]] double imbalance_of(const std::vector<int>& destination) const;
+  template <int D>
+  [[nodiscard]] double imbalance_of(const BasicParticles<D>& particles, const std::vector<int>& destination) const;
   int comm_ = 0;
+  KindWeights weights_;
   bool has_cuts_ = false;
   Zoltan* zoltan_ = nullptr;
 };

@@ -59,7 +59,7 @@ template <int D>
 void BasicRankExchange<D>::distribute(Particles& particles) {
   if (rank_ != 0) particles = Particles{};  // every rank validated the whole scene; rank 0's copy is distributed
   const auto start = Clock::now();
-  partition_.emplace(comm_);
+  partition_.emplace(comm_, options_.kind_weights);
   const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
   stats_.kept_imbalance = stats_.imbalance = stats_.max_imbalance = placed.imbalance;
   count(migrate_particles(particles, placed.destination, comm_));

@@ -40,6 +40,10 @@ struct DistributedOptions {
   /// step, every step; of the thresholds tried (1 to 1.10) this one cost least, about half what new cuts every step
   /// did.
   double rebalance_threshold = 1.01;
+  /// The load of a particle of each kind (fluid, wall, dummy, ghost) that the cuts balance (RcbPartition). Every kind
+  /// alike balances the particle count, right where fluid dominates (the 2-D scenes); the 3-D dam break's walls
+  /// outnumber its fluid three to one and it weighs them by their measured cost (docs/scaling.md).
+  RcbPartition::KindWeights kind_weights = {1.0, 1.0, 1.0, 1.0};
 };
 
 /// A step's exchange over the ranks of `comm` (MPI_Comm_c2f of the communicator), given to a Simulation:

@@ -143,6 +143,23 @@ double water_height(const mps::Particles3& s, double x, double y, double l0) {
   return 0.0;
 }
 
+mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0) {
+  const double margin = 6.0 * l0;
+  return {g.tank.x0 - margin, g.tank.x1 + margin, g.tank.y0 - margin,
+          g.tank.y1 + margin, g.tank.z0 - margin, g.tank.z1 + 0.5 * g.column.z1 + margin};
+}
+
+void add_box_impact_components(mps::Simulation3& sim, const Params& p, const BoxImpactGeometry& g) {
+  const mps::Box t = g.tank, b = g.box;
+  const double ceiling = sim.domain().zmax - 2 * p.l0;
+  add_dam_break_components<3>(sim, p, [=](const mps::Vec<3>& r) {
+    return r[2] < ceiling && (r[2] < t.z1 || (r[0] > t.x0 && r[0] < t.x1 && r[1] > t.y0 && r[1] < t.y1));
+  });
+  // The cubic wall lattice lets pressed fluid through its holes (docs/dambreak3d.md): put it back on the face.
+  sim.add<mps::WallBackstop3>(mps::WallBackstop3::AxisBox{{t.x0, t.y0, t.z0}, {t.x1, t.y1, t.z1}},
+                              std::vector<mps::WallBackstop3::AxisBox>{{{b.x0, b.y0, b.z0}, {b.x1, b.y1, b.z1}}});
+}
+
 namespace {
 const Params& checked(const Params& p) {
   if (!(p.l0 > 0.0 && p.l0 <= 0.1))
@@ -154,12 +171,13 @@ const Params& checked(const Params& p) {
 
 std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpactGeometry& g,
                                                   const mps::Particles3& particles, std::optional<int> comm) {
-  const double margin = 6.0 * p.l0;
-  const mps::Domain3 domain{g.tank.x0 - margin, g.tank.x1 + margin, g.tank.y0 - margin,
-                            g.tank.y1 + margin, g.tank.z0 - margin, g.tank.z1 + 0.5 * g.column.z1 + margin};
-  if (comm)
+  const mps::Domain3 domain = box_impact_domain(g, p.l0);
+  if (comm) {
+    mps::DistributedOptions options;
+    options.kind_weights = box_impact_kind_weights;
     return std::make_unique<mps::Simulation3>(particles, domain, make_config(p, 3),
-                                              std::make_unique<mps::RankExchange3>(*comm));
+                                              std::make_unique<mps::RankExchange3>(*comm, options));
+  }
   return std::make_unique<mps::Simulation3>(particles, domain, make_config(p, 3));
 }
 }  // namespace
@@ -170,12 +188,12 @@ BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<in
   initial_fluid_ = static_cast<long>(particles.count(mps::Kind::fluid));
   sim_ = make_simulation(p, geometry_, particles, comm);
   distributed_ = dynamic_cast<const mps::RankExchange3*>(&sim_->exchange());
-  const mps::Box t = geometry_.tank;
-  const double ceiling = sim_->domain().zmax - 2 * p.l0;
-  add_dam_break_components<3>(*sim_, p, [=](const mps::Vec<3>& r) {
-    return r[2] < ceiling && (r[2] < t.z1 || (r[0] > t.x0 && r[0] < t.x1 && r[1] > t.y0 && r[1] < t.y1));
-  });
+  add_box_impact_components(*sim_, p, geometry_);
   sample();
+}
+
+long BoxImpact::backstop_returns() const {
+  return static_cast<long>(sim_->exchange().sum(sim_->find<mps::WallBackstop3>()->returned()));
 }
 
 long BoxImpact::removed() const {

@@ -516,7 +516,8 @@ BoxImpactFigures box_impact_figures(const dambreak::BoxImpact& scene, const damb
 
 // On rank 0 alone, after the run: `removed` is the spray over every rank (BoxImpact::removed, collective).
 int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
-                      const BoxImpactTolerances& tolerance, long removed, const nlohmann::json& params) {
+                      const BoxImpactTolerances& tolerance, long removed, long backstop_returns,
+                      const nlohmann::json& params) {
   const mps::Simulation3& sim = scene.sim();
   const dambreak::Params& p = scene.params();
   const BoxImpactSeries series = write_box_impact_series(dir, scene);
@@ -560,6 +561,7 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   checks["fluid_conserved"] = fluid_left + removed == scene.initial_fluid();
   checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
   checks["deepest_past_wall_l0"] = std::max(0.0, scene.deepest_past_wall() / p.l0);
+  checks["fluid_returned_to_a_face_count"] = backstop_returns;
 
   const bool arrival_ok = arrival_error <= tolerance.arrival, peak_ok = peak_error <= tolerance.peak;
   const bool heights_ok = f.h2_error <= tolerance.height && f.h4_error <= tolerance.height;
@@ -581,8 +583,9 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
               "of the column's height %s\n", std::min(6.0, time.back()), 100 * f.h2_error, 100 * f.h4_error,
               heights_ok ? "PASS" : "FAIL");
   std::printf("spray removed: %ld particles; fluid conserved: %s; most fluid particles inside a wall or the box at once: "
-              "%ld (deepest %.2f l0) %s\n", removed, checks["fluid_conserved"].get<bool>() ? "yes" : "NO",
-              scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall() / p.l0), walls_ok ? "PASS" : "FAIL");
+              "%ld (deepest %.2f l0) %s; put back on a face by the wall backstop: %ld times\n", removed,
+              checks["fluid_conserved"].get<bool>() ? "yes" : "NO", scene.most_inside_walls(),
+              std::max(0.0, scene.deepest_past_wall() / p.l0), walls_ok ? "PASS" : "FAIL", backstop_returns);
   std::printf("SPHERIC Test 2 (P1 arrival within %.0f %%, first peak within %.0f %%, H2 and H4 within %.0f %%, no fluid "
               "inside a wall): %s\n", 100 * tolerance.arrival, 100 * tolerance.peak, 100 * tolerance.height,
               pass ? "PASS" : "FAIL");
@@ -682,9 +685,9 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
     return report_guard_stop(dir, e, params, sim, &scene.all_particles());
   }
   progress.finish(sim.time(), sim.last_step().step);
-  const long removed = scene.removed();
+  const long removed = scene.removed(), backstop_returns = scene.backstop_returns();
   if (!ranks.root()) return 0;
-  return report_box_impact(dir, scene, record, o.box, removed, params);
+  return report_box_impact(dir, scene, record, o.box, removed, backstop_returns, params);
 }
 
 }  // namespace

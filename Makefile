@@ -8,7 +8,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -118,6 +118,21 @@ bench-distributed-scaling: deps build/release/CMakeCache.txt
 	    --out bench/results/distributed_scaling.csv || exit 1; \
 	done; done
 	/usr/bin/python3 bench/scaling_model.py
+
+# The 3-D dam break's step (SPHERIC Test 2, bench_distributed_step --dim 3) on 1 and 2 ranks at four spacings with
+# the app's solver and kind weights, into a fresh bench/results/distributed_step_3d.csv; then the 3-D model and its
+# projection to 1e9 particles on 10,000 ranks (docs/scaling.md). About 8 minutes and 6 GB; run it on an idle machine.
+DSTEP3_WEIGHTS ?= 1 0.6 0.25 0.01
+DSTEP3_BENCH ?= ./build/release/bench/bench_distributed_step
+bench-distributed-3d: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_step
+	rm -f bench/results/distributed_step_3d.csv
+	for run in "1 0.05" "2 0.05" "1 0.03" "2 0.03" "1 0.02" "2 0.02" "1 0.0116" "2 0.0116"; do set -- $$run; \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
+	    $(DSTEP3_BENCH) --dim 3 --l0 $$2 --steps 3 --solver auto --kind-weights $(DSTEP3_WEIGHTS) \
+	    --out bench/results/distributed_step_3d.csv || exit 1; \
+	done
+	/usr/bin/python3 bench/scaling_model.py --dim 3
 
 # The dam break's load imbalance on 2 ranks against time, one trace per rebalance threshold (docs/scaling.md, "Keeping
 # the cuts"): concatenated into bench/results/rebalance_trace.csv, the runs' rows appended to rebalance.csv, the figure.

@@ -1,5 +1,6 @@
-// The MPS step on P ranks (mps/parallel/rank_exchange.hpp): apps/dambreak's classic column at a spacing giving about the
-// requested fluid count, built on every rank and distributed, stepped `--steps` times after one untimed step (the
+// The MPS step on P ranks (mps/parallel/rank_exchange.hpp): apps/dambreak's classic column (2-D) or SPHERIC Test 2
+// (--dim 3, docs/dambreak3d.md) at a spacing giving about the requested fluid count (or --l0), built on every rank and
+// distributed, stepped `--steps` times after one untimed step (the
 // first solve's AMG setup and the first halo). Per step: the slowest rank's wall time (between barriers), its phase
 // times, the partition + migration and halo set-up, the halo copies, messages, bytes and migrations, the
 // repartitions and the largest load imbalance. One CSV row per run, appended; run it under mpirun for each P:
@@ -21,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "box_impact.hpp"
 #include "column.hpp"
 #include "mpi_bench.hpp"
 #include "mps/parallel/rank_exchange.hpp"
@@ -31,45 +33,87 @@ namespace {
 double slowest(MPI_Comm comm, double seconds) { return reduce(comm, seconds, MPI_MAX, MPI_DOUBLE); }
 double total(MPI_Comm comm, double value) { return reduce(comm, value, MPI_SUM, MPI_DOUBLE); }
 
+struct Settings {
+  MPI_Comm comm;
+  int rank, ranks;
+  double fluid, load;
+  int steps;
+  std::string spec, out, trace;
+  mps::DistributedOptions options;
+};
+
+template <int D>
+int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& exchange, std::size_t scene_size,
+            const Settings& set);
+
 int run(int argc, char** argv) {
-  const MPI_Comm comm = MPI_COMM_WORLD;
-  int rank = 0, ranks = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &ranks);
+  Settings set{MPI_COMM_WORLD, 0, 1, 1e5, -1.0, 5, "hypre-pcg:tol=1e-8", "", "", {}};
+  MPI_Comm_rank(set.comm, &set.rank);
+  MPI_Comm_size(set.comm, &set.ranks);
 
   CLI::App app("The MPS step on P ranks: per-step phase times, halo volume, messages and migrations");
-  double fluid = 1e5;
-  int steps = 5;
-  std::string spec = "hypre-pcg:tol=1e-8", out, trace;
-  mps::DistributedOptions options;
-  app.add_option("--fluid", fluid, "fluid particles of the dam-break column (about)")->check(CLI::Range(1e2, 1e8));
-  app.add_option("--steps", steps, "steps timed, after one untimed")->check(CLI::Range(1, 10000));
-  app.add_option("--solver", spec, "solver spec (hypre-pcg or hypre-amg on more than one rank)");
-  app.add_option("--out", out, "CSV file to append the row to (header written when the file is new)");
-  app.add_option("--threshold", options.rebalance_threshold,
+  int dim = 2;
+  double l0 = 0.0;
+  app.add_option("--dim", dim, "2: the classic column; 3: SPHERIC Test 2 (a column hitting a box)")
+      ->check(CLI::IsMember({2, 3}));
+  app.add_option("--fluid", set.fluid, "fluid particles of the dam-break column (about)")->check(CLI::Range(1e2, 1e8));
+  app.add_option("--l0", l0, "the spacing instead of --fluid [m]")->check(CLI::PositiveNumber);
+  app.add_option("--steps", set.steps, "steps timed, after one untimed")->check(CLI::Range(1, 10000));
+  app.add_option("--solver", set.spec, "solver spec (hypre-pcg or hypre-amg on more than one rank)");
+  app.add_option("--out", set.out, "CSV file to append the row to (header written when the file is new)");
+  app.add_option("--threshold", set.options.rebalance_threshold,
                  "new RCB cuts when the largest rank holds more than this times the mean (1: every step; inf: never)");
-  app.add_option("--trace", trace, "CSV file to write one row per step to (imbalance, repartitions, migrations)");
+  std::vector<double> weights;
+  app.add_option("--kind-weights", weights, "the load of a fluid, wall, dummy and ghost particle the cuts balance "
+                 "(default: the app's: every kind 1 in 2-D, dambreak::box_impact_kind_weights in 3-D)")->expected(4);
+  app.add_option("--trace", set.trace, "CSV file to write one row per step to (imbalance, repartitions, migrations)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  const double load = rank == 0 ? load_average() : -1.0;
+  if (dim == 3) set.options.kind_weights = dambreak::box_impact_kind_weights;  // the app's
+  if (!weights.empty()) std::copy(weights.begin(), weights.end(), set.options.kind_weights.begin());
+  set.load = set.rank == 0 ? load_average() : -1.0;
+  const int fortran_comm = static_cast<int>(MPI_Comm_c2f(set.comm));
 
+  if (dim == 3) {
+    dambreak::Params p = dambreak::box_impact_defaults();
+    const dambreak::BoxImpactSize z;
+    p.l0 = l0 > 0 ? l0 : std::cbrt(z.column_length * z.tank_width * z.column_height / set.fluid);
+    p.solver = set.spec;
+    const dambreak::BoxImpactGeometry g = dambreak::box_impact_geometry(p.l0);
+    const mps::Particles3 scene = dambreak::make_box_impact_particles(g, p.l0);
+    auto exchange = std::make_unique<mps::RankExchange3>(fortran_comm, set.options);
+    const mps::RankExchange3& ranks_exchange = *exchange;
+    mps::Simulation3 sim(scene, dambreak::box_impact_domain(g, p.l0), dambreak::make_config(p, 3), std::move(exchange));
+    dambreak::add_box_impact_components(sim, p, g);
+    return measure<3>(sim, ranks_exchange, scene.size(), set);
+  }
   // The classic column is a wide and 2a high: a / l0 = sqrt(fluid / 2) particles across.
   dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
-  p.l0 = p.width / std::round(std::sqrt(fluid / 2.0));
-  p.solver = spec;
+  p.l0 = l0 > 0 ? l0 : p.width / std::round(std::sqrt(set.fluid / 2.0));
+  p.solver = set.spec;
   const mps::Particles scene = dambreak::make_particles(p);
   const mps::Domain domain = dambreak::make_domain(p, scene);
-  auto ranks_exchange = std::make_unique<mps::RankExchange>(static_cast<int>(MPI_Comm_c2f(comm)), options);
-  const mps::RankExchange& exchange = *ranks_exchange;
-  mps::Simulation sim(scene, domain, dambreak::make_config(p), std::move(ranks_exchange));
+  auto exchange = std::make_unique<mps::RankExchange>(fortran_comm, set.options);
+  const mps::RankExchange& ranks_exchange = *exchange;
+  mps::Simulation sim(scene, domain, dambreak::make_config(p), std::move(exchange));
   sim.add<mps::ParticleCollision>(p.collision, p.restitution);
   sim.add<mps::AsymmetrySurface>(p.asymmetry);
   const double ceiling = domain.ymax - 2 * p.l0, top = p.tank_height, length = p.tank_length;
   sim.add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < length)); });
+  return measure<2>(sim, ranks_exchange, scene.size(), set);
+}
 
+template <int D>
+int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& exchange, std::size_t scene_size,
+            const Settings& set) {
+  const MPI_Comm comm = set.comm;
+  const int rank = set.rank, ranks = set.ranks, steps = set.steps;
+  const double fluid = set.fluid, load = set.load;
+  const std::string &spec = set.spec, &out = set.out, &trace = set.trace;
+  const mps::DistributedOptions& options = set.options;
   std::ofstream trace_csv;
   if (rank == 0 && !trace.empty()) {
     trace_csv.open(trace);
@@ -152,7 +196,7 @@ int run(int argc, char** argv) {
   const double repartition = repartitions ? repartition_total / static_cast<double>(repartitions) : 0.0;
   if (rank != 0) return 0;
 
-  std::cout << ranks << " rank(s), " << scene.size() << " particles (" << fluid_count << " fluid), load " << load
+  std::cout << ranks << " rank(s), " << D << "-D, " << scene_size << " particles (" << fluid_count << " fluid), load " << load
             << ": " << wall / n << " s per step (migrate " << migrate << ", halo " << halo << ", neighbours "
             << neighbors << ", predict " << predict << ", assemble " << assemble << ", AMG setup " << setup
             << ", solve " << solve << ", correct " << correct << "); halo copies " << copies_max << " (largest rank), "
@@ -167,7 +211,7 @@ int run(int argc, char** argv) {
         "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"
         "neighbors_s,predict_s,assemble_s,setup_s,solve_s,correct_s,iterations,halo_copies_max,halo_copies_sum,"
         "messages_per_step,bytes_per_step,migrated_per_step,rebalance_threshold,repartitions,max_imbalance,assign_s,"
-        "repartition_s";
+        "repartition_s,dimensions,kind_weights";
     const bool fresh = !std::filesystem::exists(out);
     if (!fresh) {
       std::string existing;
@@ -178,12 +222,13 @@ int run(int argc, char** argv) {
     std::ofstream csv(out, std::ios::app);
     if (fresh) csv << header << '\n';
     const char* threads = std::getenv("OMP_NUM_THREADS");
-    csv << ranks << ',' << (threads ? threads : "") << ',' << load << ',' << scene.size() << ',' << fluid_count << ','
+    csv << ranks << ',' << (threads ? threads : "") << ',' << load << ',' << scene_size << ',' << fluid_count << ','
         << owned_max << ',' << spec << ',' << steps << ',' << wall / n << ',' << migrate << ',' << halo << ','
         << neighbors << ',' << predict << ',' << assemble << ',' << setup << ',' << solve << ',' << correct << ','
         << sim.last_step().solve.iterations << ',' << copies_max << ',' << copies_sum << ',' << messages_sum << ','
         << bytes_sum << ',' << migrated_sum << ',' << options.rebalance_threshold << ',' << repartitions << ','
-        << s.max_imbalance << ',' << assign << ',' << repartition << '\n';
+        << s.max_imbalance << ',' << assign << ',' << repartition << ',' << D << ',' << options.kind_weights[0] << ' '
+        << options.kind_weights[1] << ' ' << options.kind_weights[2] << ' ' << options.kind_weights[3] << '\n';
   }
   return 0;
 }

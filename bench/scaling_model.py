@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """A communication model of the distributed step, fitted to this machine's measurements, and its projection to 1e8
-particles on 1,000 ranks (issue 27, item 5; docs/scaling.md#the-model-and-the-projection).
+particles on 1,000 ranks (issue 27, item 5; docs/scaling.md#the-model-and-the-projection); with --dim 3, fitted to the
+3-D dam break's measurements and projected to 1e9 particles on 10,000 ranks (issue 39).
 
-Per rank and step, for n particles per rank on P ranks (2D, RCB boxes):
+Per rank and step, for n particles per rank on P ranks (RCB boxes; 2D written out, 3D below):
 
   T(n, P) = T1(n) + T_ppe_loss(n, P) + T_halo(n, P) + T_collective(P)
 
@@ -15,12 +16,16 @@ Per rank and step, for n particles per rank on P ranks (2D, RCB boxes):
                  bytes at beta (the network's) plus the packing measured here;
   T_collective   the step's allreduces and the PCG's two per iteration, each 2 log2(P) alpha.
 
+In 3D a box's face holds n^(2/3) particles: k n^(2/3) copies per face, and an interior box has 26 neighbours (6
+faces; 12 edges of w^2 n^(1/3) copies; 8 corners of w^3), w = k / 2 rows as in 2D.
+
 alpha and beta of this machine (shared memory, OpenMPI's vader) are fitted to the distributed PPE bench's timed
 refreshes of one field (bench/results/distributed_ppe.csv, the idle runs): they include packing and unpacking.
 The network's are assumed (ASSUMED below): a cluster was not available to measure them.
 
-  /usr/bin/python3 bench/scaling_model.py [--step-csv bench/results/distributed_scaling.csv]
+  /usr/bin/python3 bench/scaling_model.py [--dim 2] [--step-csv bench/results/distributed_scaling.csv]
       [--ppe-csv bench/results/distributed_ppe.csv] [--png bench/results/scaling_model.png]
+  /usr/bin/python3 bench/scaling_model.py --dim 3   (bench/results/distributed_step_3d.csv, scaling_model_3d.png)
 """
 import argparse
 import csv
@@ -60,14 +65,24 @@ def median(values: list) -> float:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--step-csv", default="bench/results/distributed_scaling.csv")
+    ap.add_argument("--dim", type=int, choices=(2, 3), default=2)
+    ap.add_argument("--step-csv")
     ap.add_argument("--ppe-csv", default="bench/results/distributed_ppe.csv")
-    ap.add_argument("--png", default="bench/results/scaling_model.png")
+    ap.add_argument("--png")
+    ap.add_argument("--kind-weights", help="3-D: the rows run with these kind weights (as the CSV writes them)")
     args = ap.parse_args()
+    dim = args.dim
+    suffix = "" if dim == 2 else "_3d"
+    args.step_csv = args.step_csv or ("bench/results/distributed_scaling.csv" if dim == 2
+                                      else "bench/results/distributed_step_3d.csv")
+    args.png = args.png or f"bench/results/scaling_model{suffix}.png"
+    total_particles, total_ranks = (1e8, 1000) if dim == 2 else (1e9, 10000)
 
     # One script made every row of the step's file with no other job on the machine (its own 2-rank runs raise the
     # 1-minute load average the next run starts at, so the load is not a filter here).
     steps = rows(Path(args.step_csv))
+    if args.kind_weights:
+        steps = [r for r in steps if r.get("kind_weights") == args.kind_weights]
     one = [r for r in steps if int(r["ranks"]) == 1]
     two = [r for r in steps if int(r["ranks"]) == 2]
     if len({r["particles"] for r in one}) < 2 or not two:
@@ -83,8 +98,9 @@ def main() -> int:
                  for n, rs in sorted(by_size.items())]
     a, b = fit_power(t1_points)
 
-    # Halo: copies on the larger rank per sqrt(owned), and bytes per copy over a step's counted exchanges.
-    k = median([float(r["halo_copies_max"]) / math.sqrt(float(r["owned_max"])) for r in two])
+    # Halo: copies on the larger rank per owned^((D-1)/D) (a cut's face), and bytes per copy over a step's exchanges.
+    face = (dim - 1) / dim
+    k = median([float(r["halo_copies_max"]) / float(r["owned_max"]) ** face for r in two])
     bytes_per_copy = median([float(r["bytes_per_step"]) / float(r["halo_copies_sum"]) for r in two])
     messages_per_neighbour = median([float(r["messages_per_step"]) / 2.0 for r in two])  # 2 ranks, 1 neighbour each
     # The PPE's own exchanges, not counted by the step bench: flags (1 B), held values (8), numbers and labels
@@ -115,10 +131,15 @@ def main() -> int:
     def model(n: float, P: int, alpha: float, beta: float, ppe_eff: float) -> dict:
         if P == 1:
             return {"compute": t1(n), "ppe_loss": 0.0, "halo": 0.0, "collective": 0.0}
-        # 2 ranks: one cut; more: an interior box, 4 sides and 4 corners (a square of the halo's width each).
+        # 2 ranks: one cut; more: an interior box, 4 sides and 4 corners (a square of the halo's width each); in 3D
+        # 6 faces, 12 edges (w^2 times an edge's n^(1/3)) and 8 corners (w^3).
         width = k / 2.0  # copies per unit of cut length on one side: the halo's width in lattice rows
-        sides, corners, neighbours = (1, 0, 1) if P == 2 else (4, 4, NEIGHBOURS_INTERIOR)
-        copies = sides * k * math.sqrt(n) + corners * width * width
+        if dim == 2:
+            sides, corners, neighbours = (1, 0, 1) if P == 2 else (4, 4, NEIGHBOURS_INTERIOR)
+            copies = sides * k * math.sqrt(n) + corners * width * width
+        else:
+            faces, edges, corners, neighbours = (1, 0, 0, 1) if P == 2 else (6, 12, 8, 26)
+            copies = faces * k * n ** face + edges * width ** 2 * n ** (1 / 3) + corners * width ** 3
         halo = neighbours * messages_per_neighbour * alpha + copies * bytes_per_copy * beta
         allreduces = 8 + 2 * iterations
         collective = allreduces * 2 * math.log2(P) * alpha
@@ -131,7 +152,7 @@ def main() -> int:
     print(f"T1(n) = {a:.3g} n^{b:.3f} s (1-rank steps: " +
           ", ".join(f"{n:.3g}: {t:.3f} s" for n, t in t1_points) + ")")
     print(f"PPE share of the 1-rank step: " + ", ".join(f"{n:.3g}: {s:.2f}" for n, s in ppe_share))
-    print(f"halo: {k:.2f} copies per sqrt(owned) per cut on 2 ranks; {bytes_per_copy:.0f} bytes per copy per step; "
+    print(f"halo: {k:.2f} copies per {'sqrt(owned)' if dim == 2 else 'owned^(2/3)'} per cut on 2 ranks; {bytes_per_copy:.0f} bytes per copy per step; "
           f"{messages_per_neighbour:.1f} messages per neighbour per step; PCG iterations {iterations:.0f}")
     print(f"this machine: beta = {beta_local * 1e9:.3f} ns/byte ({1 / beta_local / 1e9:.2f} GB/s, packing included), "
           f"alpha fitted {alpha_fit * 1e6:.2f} us (taken as {alpha_local * 1e6:.2f}), from refreshes of {c1} and {c2} "
@@ -165,9 +186,12 @@ def main() -> int:
               f"{float(near['step_s']):.3f} s for {int(near['particles'])} on 1 rank: weak efficiency "
               f"{per_particle_1 * n / float(r['step_s']):.2f}")
 
-    print("\nprojection: 1e8 particles on 1,000 ranks (1e5 per rank), network " +
-          f"alpha {net_alpha * 1e6:.0f} us, {ASSUMED['network_bandwidth_bytes_per_s'] / 1e9:.0f} GB/s:")
-    n, P = 1e8 / 1000, 1000
+    def power(x):
+        return f"1e{round(math.log10(x))}"
+
+    print(f"\nprojection: {power(total_particles)} particles on {total_ranks:,} ranks ({power(total_particles / total_ranks)} "
+          f"per rank), network alpha {net_alpha * 1e6:.0f} us, {ASSUMED['network_bandwidth_bytes_per_s'] / 1e9:.0f} GB/s:")
+    n, P = total_particles / total_ranks, total_ranks
     for label, eff in (("PPE efficiency 90 % (Guo et al.)", ASSUMED["ppe_efficiency_1000_ranks"]),
                        ("PPE efficiency 100 %", 1.0), ("PPE efficiency 50 %", 0.5)):
         m = model(n, P, net_alpha, net_beta, eff)
@@ -184,7 +208,7 @@ def main() -> int:
         print("matplotlib missing: no chart (use /usr/bin/python3)", file=sys.stderr)
         return 0
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ranks = [1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1000]
+    ranks = [1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1000] + ([] if dim == 2 else [2000, 4000, 10000])
     for per_rank, colour in ((1e5, "tab:blue"), (5e5, "tab:orange")):
         for eff, style in ((ASSUMED["ppe_efficiency_1000_ranks"], "-"), (0.5, ":")):
             ts = [sum(model(per_rank, P, net_alpha, net_beta, 1.0 if P == 1 else eff).values()) for P in ranks]
@@ -201,7 +225,8 @@ def main() -> int:
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    ax.set_title("Dam-break step: measured on 1-2 ranks, modelled to 1,000", fontsize=10)
+    ax.set_title(f"{'Dam-break' if dim == 2 else '3-D dam-break (SPHERIC Test 2)'} step: measured on 1-2 ranks, "
+                 f"modelled to {ranks[-1]:,}", fontsize=10)
     fig.tight_layout()
     fig.savefig(args.png, dpi=120)
     print(f"\nchart: {args.png}")

@@ -72,12 +72,12 @@ class RcbPartition {
   /// Where each particle goes for the next step, and whether the cuts were renewed for it.
   struct Placement {
     std::vector<int> destination;  ///< this rank's particles' ranks
-    double kept_imbalance = 1;     ///< load_imbalance the kept cuts would give (1 when there were none)
-    double imbalance = 1;          ///< load_imbalance of `destination`: after the repartition if there was one
+    double kept_imbalance = 1;     ///< the largest rank's load over the mean under the kept cuts (1: none)
+    double imbalance = 1;          ///< the same for `destination`: after the repartition if there was one
     bool repartitioned = false;    ///< new cuts were made (no cuts yet, or kept_imbalance > threshold)
   };
   /// The kept cuts' assignment, or a repartition when there are no cuts yet or the kept cuts would leave the largest
-  /// rank more than `threshold` times the mean particle count. Collective (one MPI_Allreduce of P counts, plus the
+  /// rank more than `threshold` times the mean load (kind weights). Collective (one MPI_Allreduce of P loads, plus the
   /// repartition when made); every rank takes the same decision. A threshold of 1 or below repartitions every
   /// time, +infinity never after the first. Throws std::invalid_argument for a NaN threshold.
   template <int D>

@@ -34,7 +34,7 @@ struct DistributedStepStats {
 
 /// How the rank exchange spreads its particles.
 struct DistributedOptions {
-  /// New RCB cuts when the kept ones would give the largest rank more than this many times the mean particle count.
+  /// New RCB cuts when the kept ones would give the largest rank more than this many times the mean load.
   /// 1 or below: new cuts every step; +infinity: never after the first. Chosen from the classic dam break on 2 ranks
   /// (docs/scaling.md, "Keeping the cuts"): new cuts cost about 1 % of a step, 1 % of imbalance costs up to 1 % of a
   /// step, every step; of the thresholds tried (1 to 1.10) this one cost least, about half what new cuts every step

@@ -48,8 +48,7 @@ Params box_impact_defaults();
 
 mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0);
 // On MPI ranks the cuts balance these loads of a fluid, wall, dummy and ghost particle: the walls and dummies
-// outnumber the fluid but cost less a step. At 9e5 particles on 2 ranks they took the step from 20.0 to 16.7 s
-// against the particle count (docs/scaling.md).
+// outnumber the fluid but cost less a step (estimated and measured in docs/scaling.md).
 inline constexpr mps::RcbPartition::KindWeights box_impact_kind_weights{1.0, 0.6, 0.25, 0.01};
 // The domain around the tank, with room above the column for splashes; and what the scene adds to its simulation: the
 // dam break's components (collisions, the surface test, spray over the walls removed) and the wall backstop.

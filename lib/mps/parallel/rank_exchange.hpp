@@ -41,8 +41,8 @@ struct DistributedOptions {
   /// did.
   double rebalance_threshold = 1.01;
   /// The load of a particle of each kind (fluid, wall, dummy, ghost) that the cuts balance (RcbPartition). Every kind
-  /// alike balances the particle count, right where fluid dominates (the 2-D scenes); the 3-D dam break's walls
-  /// outnumber its fluid three to one and it weighs them by their measured cost (docs/scaling.md).
+  /// alike balances the particle count, right where fluid dominates (the 2-D scenes); the 3-D dam break's walls and
+  /// dummies outnumber its fluid and it weighs them by their estimated cost (docs/scaling.md).
   RcbPartition::KindWeights kind_weights = {1.0, 1.0, 1.0, 1.0};
 };
 

@@ -483,10 +483,12 @@ const char* ppe_doc =
 
 // The scene components that need no callback, with the ranges the apps accept.
 template <int D>
-void add_asymmetry_surface(mps::BasicSimulation<D>& sim, double fraction) {
+void add_asymmetry_surface(mps::BasicSimulation<D>& sim, double fraction, double interior_density = 0.0) {
   if (!(fraction > 0.0 && fraction <= 10.0))
     throw py::value_error("asymmetry fraction must be in (0, 10], got " + std::to_string(fraction));
-  sim.template add<mps::BasicAsymmetrySurface<D>>(fraction);
+  if (!(interior_density >= 0.0 && interior_density <= 10.0))
+    throw py::value_error("interior_density must be in [0, 10] n0 (0: no limit), got " + std::to_string(interior_density));
+  sim.template add<mps::BasicAsymmetrySurface<D>>(fraction, interior_density);
 }
 
 template <int D>
@@ -673,10 +675,13 @@ void bind_simulation(py::module_& m) {
           "that approach lose their approach speed down to restitution of it (the dam break's default).")
       .def(
           "add_asymmetry_surface",
-          [](Simulation<D>& s, double fraction) { s.locked([&] { add_asymmetry_surface(*s.sim, fraction); }); },
-          py::arg("fraction") = 0.9,
+          [](Simulation<D>& s, double fraction, double interior_density) {
+            s.locked([&] { add_asymmetry_surface(*s.sim, fraction, interior_density); });
+          },
+          py::arg("fraction") = 0.9, py::arg("interior_density") = 0.0,
           "Fluid whose neighbours lie one-sided (above fraction of a flat surface's asymmetry) is free surface too\n"
-          "(mps::AsymmetrySurface): the toe of a surge, a thin jet.")
+          "(mps::AsymmetrySurface): the toe of a surge, a thin jet; but not fluid at or above interior_density n0\n"
+          "(0: no limit; the 3-D dam break's 1 keeps fluid pressed onto a wall out of the free surface).")
       .def(
           "add_wall_backstop",
           [](Simulation<D>& s, py::handle tank, const py::list& obstacles) {

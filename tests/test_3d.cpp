@@ -632,3 +632,63 @@ TEST(ThreeD, WallBackstopPutsFluidThatCrossedAFaceBackOnItWithoutTheVelocityInto
   }
   EXPECT_EQ(backstop.returned(), 5);
 }
+
+namespace {
+
+// One layer of fluid lying on a floor (a periodic square of wall and dummy rows below it), `gap` spacings above the
+// wall row, run to the free-surface stage with the asymmetry test and the given interior density: the layer's number
+// density over n0 and whether the test (or the density test) made it free surface; every particle of the layer alike.
+struct LayerOnFloor {
+  double n_over_n0;
+  bool surface;
+};
+LayerOnFloor layer_on_floor(double gap, double interior_density) {
+  const double l0 = 0.1;
+  const int across = 16;  // three search radii of the 4.1 l0 kernel, and more
+  mps::Particles3 start;
+  for (int i = 0; i < across; ++i)
+    for (int j = 0; j < across; ++j) {
+      const double x = (i + 0.5) * l0, y = (j + 0.5) * l0;
+      for (int k = 0; k < 5; ++k)
+        start.add({x, y, -(k + 0.5) * l0}, k == 0 ? mps::Kind::wall : mps::Kind::dummy, 0, {0, 0, 0});
+      start.add({x, y, (gap - 0.5) * l0}, mps::Kind::fluid, 0, {0, 0, 0});
+    }
+  mps::SimulationConfig c;
+  c.l0 = l0;
+  c.dt_max = 1e-4;
+  mps::Domain3 d{0, across * l0, 0, across * l0, -1, 1};
+  d.periodic_x = d.periodic_y = true;
+  mps::Simulation3 sim(start, d, c);
+  sim.add<mps::AsymmetrySurface3>(0.9, interior_density);
+  sim.advance_to(mps::Stage::free_surface);
+  const auto& f = sim.fields();
+  const auto& n = f.n_surface.empty() ? f.n_star : f.n_surface;
+  const mps::Particles3& p = sim.particles();
+  std::vector<LayerOnFloor> fluid;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.kind[i] == mps::Kind::fluid) fluid.push_back({n[i] / sim.surface_kernel().n0, f.surface[i] != 0});
+  for (const LayerOnFloor& q : fluid) {
+    EXPECT_NEAR(q.n_over_n0, fluid.front().n_over_n0, 1e-12);
+    EXPECT_EQ(q.surface, fluid.front().surface);
+  }
+  return fluid.front();
+}
+
+}  // namespace
+
+// The asymmetry test's interior density spares fluid pressed onto a wall, and only that: a layer lying 0.5 l0 above
+// the floor's wall row (n = 1.05 n0) is free surface by the asymmetry test alone, and not with the limit at n0; a layer
+// at 0.58 l0 (n = 0.98 n0, above the density test's 0.97, one-sided) is free surface with the limit too. In the 3-D
+// dam break, fluid pressed onto the floor held at P = 0 sank into a crushed layer (docs/dambreak3d.md).
+TEST(ThreeD, AsymmetryTestsInteriorDensitySparesFluidPressedOntoAWallOnly) {
+  const LayerOnFloor pressed = layer_on_floor(0.5, 0.0), pressed_limited = layer_on_floor(0.5, 1.0);
+  EXPECT_GT(pressed.n_over_n0, 1.0);
+  EXPECT_TRUE(pressed.surface);
+  EXPECT_FALSE(pressed_limited.surface);
+  const LayerOnFloor lying = layer_on_floor(0.58, 1.0);
+  EXPECT_GT(lying.n_over_n0, 0.97);
+  EXPECT_LT(lying.n_over_n0, 1.0);
+  EXPECT_TRUE(lying.surface);
+  EXPECT_THROW(mps::AsymmetrySurface3(0.9, -1.0), std::invalid_argument);
+  EXPECT_THROW(mps::AsymmetrySurface3(0.9, std::nan("")), std::invalid_argument);
+}

@@ -101,6 +101,9 @@ const Params& checked(const Params& p) {
     throw std::invalid_argument("dam break: the restitution must be in [0, 1], got " + fmt(p.restitution));
   if (!(p.asymmetry >= 0.0 && p.asymmetry <= 10.0))
     throw std::invalid_argument("dam break: the asymmetry fraction must be in [0, 10] (0: off), got " + fmt(p.asymmetry));
+  if (!(p.asymmetry_interior_density >= 0.0 && p.asymmetry_interior_density <= 10.0))
+    throw std::invalid_argument("dam break: the asymmetry test's interior density must be in [0, 10] n0 (0: no limit), got " +
+                                fmt(p.asymmetry_interior_density));
   if (!(p.pressure_patch >= 0.5 && p.pressure_patch <= 20))
     throw std::invalid_argument("dam break: the pressure patch radius must be in [0.5, 20] l0, got " +
                                 fmt(p.pressure_patch));

@@ -37,6 +37,9 @@ struct Params {
   double restitution = 0.2;
   // Free surface also where the neighbours lie one-sided: above this fraction of a flat surface's asymmetry (0: off).
   double asymmetry = 0.9;
+  // ... but never fluid at or above this number density, in n0 (0: no limit): fluid pressed onto a wall is not free
+  // surface. The 3-D dam break's cubic walls need it (docs/dambreak3d.md); the 2-D columns keep 0.
+  double asymmetry_interior_density = 0.0;
   // Wall particles next to fluid that is not free surface carry pressure even where the density test calls them dry.
   bool wet_walls = false;
   // Particle shifting coefficient (0: off); particles on or next to the free surface shift along it only. 0.5 gave the
@@ -89,7 +92,7 @@ template <int D>
 void add_dam_break_components(mps::BasicSimulation<D>& sim, const Params& p,
                               typename mps::BasicRemoveEscaped<D>::Region inside) {
   if (p.collision > 0.0) sim.template add<mps::BasicParticleCollision<D>>(p.collision, p.restitution);
-  if (p.asymmetry > 0.0) sim.template add<mps::BasicAsymmetrySurface<D>>(p.asymmetry);
+  if (p.asymmetry > 0.0) sim.template add<mps::BasicAsymmetrySurface<D>>(p.asymmetry, p.asymmetry_interior_density);
   if (p.wet_walls) sim.template add<mps::BasicWetWalls<D>>();
   sim.template add<mps::BasicRemoveEscaped<D>>(std::move(inside));
 }

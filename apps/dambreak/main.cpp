@@ -43,6 +43,7 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::BasicSimulation
           {"column_width_m", p.width}, {"column_height_m", p.height}, {"tank_length_m", p.tank_length},
           {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
           {"gradient", mps::to_string(c.pressure_gradient)}, {"pressure_treatment", mps::pressure_treatment(c)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry},
+          {"asymmetry_interior_density_over_n0", p.asymmetry_interior_density},
           {"collision_l0", p.collision}, {"restitution", p.restitution}, {"shifting", p.shifting},
           {"shifting_along_free_surface", true}, {"wet_walls", p.wet_walls},
           {"dt_max_s", c.dt_max}, {"end_time_s", p.end_time}, {"g_m_per_s2", p.g}, {"rho_kg_per_m3", c.rho},
@@ -64,7 +65,7 @@ struct FrontTolerances {
 
 // SPHERIC Test 2's checks (check_box_impact): what the default spacing reaches (docs/dambreak3d.md).
 struct BoxImpactTolerances {
-  double arrival = 0.25, peak = 0.2, height = 0.05;
+  double arrival = 0.25, peak = 0.25, height = 0.05;
 };
 
 // The command line.
@@ -78,6 +79,7 @@ struct Options {
   int frames = 20;
   std::string particles_file, write_particles;
   std::vector<int> export_ppe;
+  double interior_density = -1.0;  // the asymmetry test's; negative: the scene's default
   dambreak::Params p;
 };
 
@@ -122,6 +124,11 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--asymmetry", o.p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
                  "fraction of a flat surface's asymmetry (0: the density test alone)")
       ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+  // No default string: the default depends on --dim.
+  app.add_option("--asymmetry-interior-density", o.interior_density,
+                 "... but not fluid at or above this number density, which has a full kernel however one-sided (fluid "
+                 "pressed onto a wall) (default: 1 with --dim 3, 0 in 2-D; 0: no limit) [n0]")
+      ->check(number_in(0.0, 10.0))->group("Numerics");
   app.add_flag("--wet-walls", o.p.wet_walls, "wall particles next to fluid that is not free surface carry pressure even "
                "where their number density calls them dry (mps::WetWalls)")->group("Numerics");
   app.add_option("--sensor-height", o.p.sensor_height,
@@ -170,6 +177,7 @@ Start make_start(const Options& o) {
   Start start{o.p, {}, o.column_name, ""};
   dambreak::Params& p = start.p;
   p.gradient = mps::gradient_variant_from_name(o.gradient);
+  if (o.interior_density >= 0) p.asymmetry_interior_density = o.interior_density;
   if (!o.particles_file.empty() && o.tank_length > 0)
     throw std::invalid_argument("--tank-length and --particles: the particle file's walls are the tank; give one of "
                                 "them");
@@ -635,6 +643,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   p.level_probes.clear();
   p.pressure_probes.clear();
   p.gradient = mps::gradient_variant_from_name(o.gradient);
+  p.asymmetry_interior_density = o.interior_density >= 0 ? o.interior_density : base.asymmetry_interior_density;
   p.l0 = o.dx > 0 ? o.dx : base.l0;
   p.end_time = o.end_time > 0 ? o.end_time : base.end_time;
   const dambreak::BoxImpactSize size;
@@ -658,7 +667,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
       params,
       {{"scene", {"tank_m", "column_m", "box_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
        {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
-                     "asymmetry", "shifting", "wet_walls"}},
+                     "asymmetry", "asymmetry_interior_density_over_n0", "shifting", "wet_walls"}},
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
@@ -727,7 +736,7 @@ int main(int argc, char** argv) {
         {{"scene", {"column_width_m", "column_height_m", "tank_length_m", "tank_height_m", "g_m_per_s2",
                     "rho_kg_per_m3", "nu_m2_per_s"}},
          {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution", "asymmetry",
-                       "shifting", "wet_walls"}},
+                       "asymmetry_interior_density_over_n0", "shifting", "wet_walls"}},
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(o.out);

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace mps {
 
@@ -105,14 +107,24 @@ void BasicSurfaceRegion<D>::before_source(StepContext& c) {
 }
 
 template <int D>
+BasicAsymmetrySurface<D>::BasicAsymmetrySurface(double fraction, double interior_density)
+    : fraction_(fraction), interior_density_(interior_density) {
+  if (!(interior_density >= 0.0 && std::isfinite(interior_density)))
+    throw std::invalid_argument("AsymmetrySurface: interior_density must be a finite number >= 0 (0: no limit), got " +
+                                std::to_string(interior_density));
+}
+
+template <int D>
 void BasicAsymmetrySurface<D>::before_source(StepContext& c) {
   const BasicParticles<D>& p = c.particles;
   const Kernel& k = c.sim.surface_kernel();
   neighbour_asymmetry<D>({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
   const double limit = fraction_ * asymmetry_of_flat_surface(k, c.sim.config().l0);
+  const std::vector<double>& n = c.fields.n_surface.empty() ? c.fields.n_star : c.fields.n_surface;
+  const double n_interior = interior_density_ > 0.0 ? interior_density_ * k.n0 : HUGE_VAL;
   std::vector<char>& surface = c.fields.surface;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit) surface[i] = 1;
+    if (p.kind[i] == Kind::fluid && asymmetry_[i] > limit && n[i] < n_interior) surface[i] = 1;
 }
 
 template <int D>

@@ -123,15 +123,20 @@ using SurfaceRegion3 = BasicSurfaceRegion<3>;  ///< 3-D
 /// within the surface kernel lie one-sided, |sum w r/|r|| / n0 above `fraction` of a flat surface's value, is free
 /// surface too. The density test misses particles whose kernel is full on one side only: the toe of a surge along
 /// a wall, a thin jet.
+/// `interior_density` (0: no limit): fluid whose number density at the surface kernel is at least this many n0 is not
+/// flagged, however one-sided its neighbours lie. At 1, fluid pressed onto a wall, whose nearest wall particles
+/// outweigh the fluid above, keeps its pressure instead of being held at 0 and sinking into the wall
+/// (docs/dambreak3d.md).
 template <int D>
 class BasicAsymmetrySurface : public BasicStepComponent<D> {
  public:
   using typename BasicStepComponent<D>::StepContext;
-  explicit BasicAsymmetrySurface(double fraction) : fraction_(fraction) {}  ///< a fraction of a flat surface's value
+  /// `fraction` of a flat surface's value; throws std::invalid_argument for a negative or non-finite interior_density
+  explicit BasicAsymmetrySurface(double fraction, double interior_density = 0.0);
   void before_source(StepContext& c) override;
 
  private:
-  double fraction_;
+  double fraction_, interior_density_;
   std::vector<double> asymmetry_;
 };
 using AsymmetrySurface = BasicAsymmetrySurface<2>;   ///< 2-D

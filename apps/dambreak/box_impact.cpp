@@ -11,6 +11,11 @@
 namespace dambreak {
 
 namespace {
+// A gauge's water stands on the floor: its lowest particle within this many l0 of the floor (the first layer's centre
+// is l0/2 above it), each next one no more than kGaugeGap l0 above the one below (a disordered column's layers, seen
+// through a line l0 wide, lie closer; a sheet thrown over the line lies further).
+constexpr double kGaugeFloorReach = 1.5, kGaugeGap = 2.0;
+
 std::string fmt(double v) {
   char s[32];
   std::snprintf(s, sizeof s, "%g", v);
@@ -130,18 +135,17 @@ double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, c
 }
 
 double water_height(const mps::Particles3& s, double x, double y, double l0) {
-  std::vector<std::size_t> line;
+  std::vector<double> line;
   for (std::size_t i = 0; i < s.size(); ++i)
-    if (s.kind[i] == mps::Kind::fluid && std::hypot(s.x[i] - x, s.y[i] - y) < l0) line.push_back(i);
-  std::sort(line.begin(), line.end(), [&](std::size_t a, std::size_t b) { return s.z[a] > s.z[b]; });
-  const double r2 = 2.1 * 2.1 * l0 * l0;
-  for (std::size_t i : line)
-    for (std::size_t j = 0; j < s.size(); ++j) {
-      if (j == i || s.kind[j] != mps::Kind::fluid) continue;
-      const double dx = s.x[j] - s.x[i], dy = s.y[j] - s.y[i], dz = s.z[j] - s.z[i];
-      if (dx * dx + dy * dy + dz * dz < r2) return s.z[i] + 0.5 * l0;
-    }
-  return 0.0;
+    if (s.kind[i] == mps::Kind::fluid && std::hypot(s.x[i] - x, s.y[i] - y) < l0) line.push_back(s.z[i]);
+  std::sort(line.begin(), line.end());
+  if (line.empty() || line.front() > kGaugeFloorReach * l0) return 0.0;
+  double top = line.front();
+  for (double z : line) {
+    if (z - top > kGaugeGap * l0) break;
+    top = z;
+  }
+  return top + 0.5 * l0;
 }
 
 mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0) {

@@ -59,8 +59,10 @@ void add_box_impact_components(mps::Simulation3& sim, const Params& p, const Box
 // the sensor along it, inside the face (0 if none): the 2-D probe's patch on a face of the box.
 double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, const Sensor& sensor, double reach,
                          double radius);
-// The water height at (x, y): the largest z + l0/2 of a fluid particle within l0 of the vertical line there with a fluid
-// neighbour within 2.1 l0 (spray is not the surface); 0 if none.
+// The water height at (x, y) over the floor at z = 0: the top (+ l0/2) of the water standing on the floor there, the
+// fluid particles within l0 of the vertical line counted from the floor up while they follow each other closely; 0 if
+// none lies on the floor. A wave probe reads the wetted length of its wire: a sheet of water thrown over the line is
+// not the surface (docs/dambreak3d.md).
 double water_height(const mps::Particles3& s, double x, double y, double l0);
 
 struct BoxImpactSample {

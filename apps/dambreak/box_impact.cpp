@@ -92,7 +92,7 @@ Params box_impact_defaults() {
   p.tank_length = z.tank_length;
   p.tank_height = z.tank_height;
   p.l0 = 0.04;
-  p.end_time = 0.7;  // past the first impact's peak; from about 1 s fluid sinks into the walls (docs/dambreak3d.md)
+  p.end_time = 0.7;  // past the first impact's peak, in a few minutes (the run to 6 s: docs/dambreak3d.md)
   p.asymmetry_interior_density = 1.0;  // without it a crushed layer formed on the floor (docs/dambreak3d.md)
   p.level_probes.clear();
   p.pressure_probes.clear();

@@ -41,9 +41,9 @@ struct BoxImpactGeometry {
 };
 BoxImpactGeometry box_impact_geometry(double l0, const BoxImpactSize& size = {});
 
-// The dam break's numerics (defaults(Column::classic)'s) with this experiment's column and tank, spacing 0.04 m, to
-// 0.7 s: the first impact on the box and the column's collapse. From about 1 s fluid sinks into the walls through the
-// holes of their square lattice (docs/dambreak3d.md), so a longer run is the user's choice and its check says so.
+// The dam break's numerics (defaults(Column::classic)'s, with the asymmetry test's interior density at n0) with this
+// experiment's column and tank, spacing 0.04 m, to 0.7 s: the first impact on the box and the column's collapse, in a
+// few minutes. The run to 6 s (40 minutes at 0.04 m on one thread) is the user's choice; docs/dambreak3d.md has it.
 Params box_impact_defaults();
 
 mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0);

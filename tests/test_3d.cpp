@@ -662,7 +662,7 @@ LayerOnFloor layer_on_floor(double gap, double interior_density) {
   sim.add<mps::AsymmetrySurface3>(0.9, interior_density);
   sim.advance_to(mps::Stage::free_surface);
   const auto& f = sim.fields();
-  const auto& n = f.n_surface.empty() ? f.n_star : f.n_surface;
+  const auto& n = f.n_at_surface_radius();
   const mps::Particles3& p = sim.particles();
   std::vector<LayerOnFloor> fluid;
   for (std::size_t i = 0; i < p.size(); ++i)

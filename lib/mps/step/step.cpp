@@ -589,7 +589,7 @@ void BasicSimulation<D>::detect_surface() {
   const NeighborList& list = neighbors_at_star(k_surface_);
   const bool own_radius = k_surface_.re != k_density_.re;
   if (own_radius) mps::number_density<D>({p, domain_, list, k_surface_}, fields_.n_surface);
-  detect_free_surface(p, own_radius ? fields_.n_surface : fields_.n_star, k_surface_.n0, config_.beta, &list,
+  detect_free_surface(p, fields_.n_at_surface_radius(), k_surface_.n0, config_.beta, &list,
                       k_surface_.lattice_neighbors, config_.theta, fields_.surface);
 }
 

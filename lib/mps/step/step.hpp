@@ -58,6 +58,8 @@ struct BasicStepFields {
   std::vector<char> prescribed;  ///< fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
   std::vector<double> n_star;    ///< number density at r* (density kernel)
   std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
+  /// The number density at the surface kernel's radius: n_surface, or n_star where the radii are the same.
+  [[nodiscard]] const std::vector<double>& n_at_surface_radius() const { return n_surface.empty() ? n_star : n_surface; }
   std::vector<double> n_source;  ///< the density the source reads in place of n_star (empty: n_star)
   std::vector<double> div;       ///< div u* (with higher_order_source: -(d/n_rate) Dn/Dt at r*, u*)
   std::vector<double> n_start;   ///< scratch: number density at r^n (error_compensating_source)

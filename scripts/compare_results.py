@@ -44,6 +44,7 @@ CASES = {
     "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
     "dambreak-classic-shifting-plain-gradient": ("dambreak", "--column classic --end-time 0.1 --frames 2 --shifting 1 "
                                                              "--gradient plain"),
+    "dambreak-3d": ("dambreak", "--dim 3 --dx 0.08 --end-time 0.1 --frames 2"),
     "structure-plate": ("structure", "--scene plate --dx 0.004 --end-time 0.3 --frames 2"),
     "structure-plate-linear-no-hourglass": ("structure", "--scene plate --dx 0.004 --model linear --hourglass 0 "
                                                          "--end-time 0.1 --frames 2"),

@@ -3,6 +3,11 @@
 python3-vtk9 reads the frames, matplotlib draws them).
 
   scripts/plot_frames.py OUT.png FRAME.vtp [FRAME.vtp ...] [--pmax PA] [--box x0,x1,y0,y1]
+
+A 3-D frame is drawn on two of its axes (--axes xz: a side view, xy: from above) with the particles in a slab of the
+third (--slab lo,hi [m]), so that the water in front does not hide what lies behind it:
+
+  scripts/plot_frames.py OUT.png FRAME.vtp ... --axes xz --slab 0.05,0.1
 """
 import argparse
 
@@ -30,8 +35,19 @@ def main():
     parser.add_argument("frames", nargs="+")
     parser.add_argument("--pmax", type=float, default=None, help="top of the pressure colour scale [Pa]")
     parser.add_argument("--box", default=None, help="x0,x1,y0,y1 shown [m] (default: every particle)")
+    parser.add_argument("--axes", default="xy", choices=("xy", "xz", "yz"), help="the two axes drawn (default xy)")
+    parser.add_argument("--slab", default=None, help="lo,hi: only particles with the third axis in [lo, hi] [m]")
     args = parser.parse_args()
-    frames = [read(f) for f in args.frames]
+    shown_axes = ["xyz".index(a) for a in args.axes]
+    depth = ({0, 1, 2} - set(shown_axes)).pop()
+    frames = []
+    for f in args.frames:
+        r, kind, p, t = read(f)
+        keep = slice(None)
+        if args.slab:
+            lo, hi = (float(v) for v in args.slab.split(","))
+            keep = (r[:, depth] >= lo) & (r[:, depth] <= hi)
+        frames.append((r[keep][:, shown_axes], kind[keep], p[keep], t))
     pmax = args.pmax or max(p[k == 0].max(initial=1.0) for _, k, p, _ in frames)
     fig, axes = plt.subplots(1, len(frames), figsize=(3.6 * len(frames), 3.0), squeeze=False)
     for ax, (xy, kind, p, t) in zip(axes[0], frames):
@@ -48,6 +64,9 @@ def main():
             ax.set_xlim(x0, x1)
             ax.set_ylim(y0, y1)
         ax.tick_params(labelsize=8)
+        ax.set_xlabel(f"{args.axes[0]} [m]", fontsize=8)
+        if ax is axes[0][0]:
+            ax.set_ylabel(f"{args.axes[1]} [m]", fontsize=8)
     fig.colorbar(shown, ax=axes[0].tolist(), label="fluid pressure [Pa]", shrink=0.85)
     fig.savefig(args.out, dpi=120, bbox_inches="tight")
     print(f"wrote {args.out}")

@@ -14,6 +14,9 @@
    its CSV file.
 4. A broken file, a file with no tank and a --dx that is not the file's spacing end with exit 1 and a message
    naming the cause.
+5. In 3-D (--dim 3): SPHERIC Test 2 written out and run from its file gives bitwise the built-in run, as in 1; the
+   obstacle example's 3-D pillar (scripts/obstacle_tank.py --dim 3) runs as a new scene with 1's checks, the water
+   flowing round and over the pillar; a 2-D file with --dim 3 and a 3-D file without it are refused.
 
   tests/particle_files.py BUILD_DIR
 """
@@ -47,7 +50,7 @@ def outputs(out):
     return files, without_timings(summary)
 
 
-def frames(out):
+def frames(out, dim=2):
     """Each frame of a run as (time, dict of arrays), through VTK's own reader."""
     result = []
     for f in sorted((Path(out) / "frames").glob("*.vtp")):
@@ -56,49 +59,87 @@ def frames(out):
         reader.Update()
         data = reader.GetOutput()
         arrays = {name: vtk_to_numpy(data.GetPointData().GetArray(name)) for name in ("kind", "group", "pressure", "id")}
-        arrays["xy"] = vtk_to_numpy(data.GetPoints().GetData())[:, :2]
+        arrays["xy"] = vtk_to_numpy(data.GetPoints().GetData())[:, :dim]
         result.append((float(vtk_to_numpy(data.GetFieldData().GetArray("TIME"))[0]), arrays))
     return result
 
 
-def round_trip(build, tmp, failures):
-    written = run(build, ["--column", "classic", "--write-particles", str(tmp / "classic.csv")])
+def round_trip(build, tmp, failures, dim=2):
+    scene = ["--column", "classic"] if dim == 2 else ["--dim", "3", "--dx", "0.08"]
+    name, end, ppe = ("classic", "0.05", "20") if dim == 2 else ("spheric2", "0.1", "5")
+    written = run(build, [*scene, "--write-particles", str(tmp / f"{name}.csv")])
     if written.returncode != 0:
         failures.append(f"--write-particles: exit {written.returncode}: {written.stderr[-300:]}")
         return
     dx = written.stdout.split("--dx")[-1].split()[0]
-    common = ["--end-time", "0.05", "--frames", "3", "--export-ppe", "20"]
-    built_in = run(build, ["--column", "classic", *common], tmp / "built-in")
-    from_file = run(build, ["--particles", str(tmp / "classic.csv"), "--dx", dx, *common], tmp / "from-file")
+    common = ["--end-time", end, "--frames", "3", "--export-ppe", ppe]
+    built_in = run(build, [*scene, *common], tmp / f"built-in{dim}")
+    from_file = run(build, [*([] if dim == 2 else ["--dim", "3"]), "--particles", str(tmp / f"{name}.csv"), "--dx", dx, *common],
+                    tmp / f"from-file{dim}")
     if built_in.returncode != from_file.returncode:
         failures.append(f"exit {built_in.returncode} built in, {from_file.returncode} from the file: "
                         f"{from_file.stderr[-300:]}")
         return
-    files, summary = outputs(tmp / "built-in")
-    files2, summary2 = outputs(tmp / "from-file")
+    files, summary = outputs(tmp / f"built-in{dim}")
+    files2, summary2 = outputs(tmp / f"from-file{dim}")
     differ = sorted(k for k in set(files) | set(files2) if files.get(k) != files2.get(k))
     if differ:
         failures.append(f"round trip: files differ: {differ}")
     if summary != summary2:
         keys = sorted(k for k in set(summary) | set(summary2) if summary.get(k) != summary2.get(k))
         failures.append(f"round trip: the summaries differ in {keys}")
-    config = (tmp / "from-file" / "config.toml").read_text()
-    if f'particles="{tmp / "classic.csv"}"' not in config.splitlines():
+    config = (tmp / f"from-file{dim}" / "config.toml").read_text()
+    if f'particles="{tmp / f"{name}.csv"}"' not in config.splitlines():
         failures.append("config.toml does not record the particle file")
-    print(f"round trip: {len(files)} files and the summary bitwise the same ({summary['steps']} steps, "
-          f"front error {summary['checks'].get('martin_moyce_2_front_max_error')})")
+    if summary2["parameters"]["column"] != name:
+        failures.append(f"round trip: ran as {summary2['parameters']['column']}, not {name}")
+    print(f"round trip, {dim}-D: {len(files)} files and the summary bitwise the same ({summary['steps']} steps, "
+          f"column {summary2['parameters']['column']})")
+
+
+def block_in_frames(name, shown, count, face_x, inside_outline, failures):
+    """A block's (group 1) particles through a run's frames: they must number `count` and stand still, no fluid may lie
+    inside its outline (inside_outline(fluid positions) -> mask) and its upstream face (x = face_x) must carry an
+    impact above 0.3 rho g H of the classic column. Returns (moved, fluid inside, peak pressure)."""
+    first, peak, inside, moved = None, 0.0, 0, 0.0
+    for _, f in shown:
+        block = f["group"] == 1
+        r = f["xy"][block][np.argsort(f["id"][block])]  # the frames hold the particles in the step's order
+        if first is None:
+            first = r
+        elif len(r) == len(first):
+            moved = max(moved, np.abs(r - first).max())
+        inside += int(inside_outline(f["xy"][f["kind"] == 0]).sum())
+        face = block & (f["kind"] == 1) & (np.abs(f["xy"][:, 0] - face_x) < 1e-9)
+        peak = max(peak, f["pressure"][face].max(initial=0.0))
+    rho_g_h = 1000 * 9.81 * 2 * 0.146
+    if first is None or len(first) != count:
+        failures.append(f"{name}: {0 if first is None else len(first)} block particles in the frames, not {count}")
+    if moved != 0.0:
+        failures.append(f"{name}: the block moved by {moved} m")
+    if inside:
+        failures.append(f"{name}: fluid inside the block ({inside} particle-frames)")
+    if not peak > 0.3 * rho_g_h:
+        failures.append(f"{name}: the block's upstream face peaked at {peak:.0f} Pa, below 0.3 rho g H: no impact")
+    return moved, inside, peak
+
+
+def run_obstacle_example(build, tmp, name, dim, run_args, failures):
+    """scripts/obstacle_tank.py's file in `dim` dimensions, run: (its summary or None if the run failed, its folder)."""
+    csv, out = tmp / f"{name}.csv", tmp / name
+    subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "obstacle_tank.py"), str(csv), "--dim", str(dim)],
+                   check=True, capture_output=True)
+    proc = run(build, [*(["--dim", "3"] if dim == 3 else []), "--particles", str(csv), *run_args], out)
+    if proc.returncode != 0:
+        failures.append(f"{name}: exit {proc.returncode}: {proc.stderr[-300:]}")
+        return None, out
+    return json.loads((out / "summary.json").read_text()), out
 
 
 def obstacle(build, tmp, failures):
-    csv = tmp / "obstacle.csv"
-    subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "obstacle_tank.py"), str(csv)], check=True,
-                   capture_output=True)
-    out = tmp / "obstacle"
-    proc = run(build, ["--particles", str(csv), "--end-time", "0.15", "--frames", "15"], out)
-    if proc.returncode != 0:
-        failures.append(f"obstacle: exit {proc.returncode}: {proc.stderr[-300:]}")
+    summary, out = run_obstacle_example(build, tmp, "obstacle", 2, ["--end-time", "0.15", "--frames", "15"], failures)
+    if summary is None:
         return
-    summary = json.loads((out / "summary.json").read_text())
     a = 0.146
     l0 = a / 20
     parameters = summary["parameters"]
@@ -111,41 +152,62 @@ def obstacle(build, tmp, failures):
     if summary["status"] != "completed" or "martin_moyce_1_front_max_error" in summary["checks"]:
         failures.append(f"obstacle: status {summary['status']}, checks {summary['checks']}: an experiment compared")
     # The block: x in [2a, 2.5a], 0.5a high; its faces' particles sit l0/2 inside its outline.
-    x0, x1, top = 2 * a, 2.5 * a, 0.5 * a
-    first = None
-    peak, inside, moved = 0.0, 0, 0.0
+    x0, x1, top, h = 2 * a, 2.5 * a, 0.5 * a, 0.5 * l0
     shown = frames(out)
-    for time, f in shown:
-        block = f["group"] == 1
-        xy = f["xy"][block][np.argsort(f["id"][block])]  # the frames hold the particles in the step's order
-        if first is None:
-            first = xy
-        elif len(xy) == len(first):
-            moved = max(moved, np.abs(xy - first).max())
-        fluid = f["kind"] == 0
-        x, y = f["xy"][fluid, 0], f["xy"][fluid, 1]
-        inside += int(((x > x0 + 0.5 * l0) & (x < x1 - 0.5 * l0) & (y < top - 0.5 * l0)).sum())
-        face = block & (f["kind"] == 1) & (np.abs(f["xy"][:, 0] - (x0 + 0.5 * l0)) < 1e-9)
-        peak = max(peak, f["pressure"][face].max(initial=0.0))
-    rho_g_h = 1000 * 9.81 * 2 * a
-    print(f"obstacle: {len(first)} block particles, moved {moved:.3g} m; fluid inside the block {inside} times; "
-          f"peak pressure on its upstream face {peak:.0f} Pa = {peak / rho_g_h:.2f} rho g H over {len(shown)} frames")
-    if first is None or len(first) != 100:
-        failures.append(f"obstacle: {0 if first is None else len(first)} block particles in the frames, not 100")
-    if moved != 0.0:
-        failures.append(f"obstacle: the block moved by {moved} m")
-    if inside:
-        failures.append(f"obstacle: fluid inside the block ({inside} particle-frames)")
-    if not peak > 0.3 * rho_g_h:
-        failures.append(f"obstacle: the block's upstream face peaked at {peak:.0f} Pa, below 0.3 rho g H: no impact")
+    moved, inside, peak = block_in_frames(
+        "obstacle", shown, 100, x0 + h,
+        lambda r: (r[:, 0] > x0 + h) & (r[:, 0] < x1 - h) & (r[:, 1] < top - h), failures)
+    print(f"obstacle: the block moved {moved:.3g} m; fluid inside it {inside} times; peak pressure on its upstream face "
+          f"{peak:.0f} Pa = {peak / (1000 * 9.81 * 2 * a):.2f} rho g H over {len(shown)} frames")
     front = np.loadtxt(out / "front.csv", delimiter=",", skiprows=1)
     if not front[-1, 1] > 1.9:
         failures.append(f"obstacle: the surge front ended at {front[-1, 1]:.3f} a, short of the block at 2 a")
 
 
+def obstacle_3d(build, tmp, failures):
+    summary, out = run_obstacle_example(build, tmp, "pillar", 3, ["--end-time", "0.2", "--frames", "20"], failures)
+    if summary is None:
+        return
+    a = 0.146
+    l0 = a / 10
+    # The pillar: x in [2a, 2.5a], y in [0.2a, 0.8a] (whole cells: 2 to 8 of 10), 0.5a high.
+    x0, x1, y0, y1, top = 2 * a, 2.5 * a, 0.2 * a, 0.8 * a, 0.5 * a
+    parameters = summary["parameters"]
+    expected = {"tank_m": [4 * a, a, 3 * a], "column_m": [0, a, 2 * a], "obstacle_boxes_m": [[x0, x1, y0, y1, 0, top]]}
+    found = {k: parameters.get(k) for k in expected}
+    close = all(found[k] is not None and np.allclose(np.array(found[k], dtype=float), np.array(v), rtol=0, atol=1e-12)
+                for k, v in expected.items())
+    if parameters["column"] != "file" or not close:
+        failures.append(f"pillar: the scene found {parameters['column']}, {found}, expected {expected}")
+    if summary["status"] != "completed" or "p1_arrival_s" in summary["checks"]:
+        failures.append(f"pillar: status {summary['status']}, checks {summary['checks']}: an experiment compared")
+    h = 0.5 * l0
+    shown = frames(out, 3)
+    moved, inside, peak = block_in_frames(
+        "pillar", shown, 5 * 6 * 5, x0 + h,
+        lambda r: (r[:, 0] > x0 + h) & (r[:, 0] < x1 - h) & (r[:, 1] > y0 + h) & (r[:, 1] < y1 - h) & (r[:, 2] < top - h),
+        failures)
+    # Round the pillar: fluid level with it, in the gaps between it and the side walls, below its top; and past it.
+    beside = max(int(((x > x0) & (x < x1) & ((y < y0) | (y > y1)) & (z < top)).sum())
+                 for x, y, z in (f["xy"][f["kind"] == 0].T for _, f in shown))
+    beyond = max(int((f["xy"][f["kind"] == 0, 0] > x1).sum()) for _, f in shown)
+    print(f"pillar (3-D): moved {moved:.3g} m; fluid inside it {inside} times, beside it up to {beside}, past it up to "
+          f"{beyond}; its upstream face peaked at {peak:.0f} Pa = {peak / (1000 * 9.81 * 2 * a):.2f} rho g H over "
+          f"{len(shown)} frames")
+    if not (beside > 0 and beyond > 0):
+        failures.append(f"pillar: the water did not flow round it ({beside} beside it, {beyond} past it)")
+    cases = [(["--dim", "3", "--particles", str(tmp / "classic.csv")], "the header has no column 'z'"),
+             (["--particles", str(tmp / "pillar.csv")], "a 3-D particle file; this scene is 2-D")]
+    for args, message in cases:
+        proc = run(build, args, tmp / "refused")
+        if proc.returncode == 0 or message not in proc.stderr:
+            failures.append(f"{' '.join(args)}: exit {proc.returncode}, stderr {proc.stderr[-300:]!r}, "
+                            f"expected {message!r}")
+
+
 def from_frames(build, tmp, failures):
     for number, column in ((0, "classic"), (3, "file")):
-        frame = tmp / "built-in" / "frames" / f"dambreak_{number:04d}.vtp"
+        frame = tmp / "built-in2" / "frames" / f"dambreak_{number:04d}.vtp"
         csv = tmp / f"frame{number}.csv"
         subprocess.run(["/usr/bin/python3", str(SOURCE / "scripts" / "frame_to_csv.py"), str(frame), str(csv)],
                        check=True, capture_output=True)
@@ -166,7 +228,7 @@ def from_frames(build, tmp, failures):
             else f"exit {proc.returncode}: {proc.stderr[-300:]}"
         if found != column:
             failures.append(f"{csv.name}: ran as {found}, expected {column}")
-    frame = tmp / "built-in" / "frames" / "dambreak_0003.vtp"
+    frame = tmp / "built-in2" / "frames" / "dambreak_0003.vtp"
     reader = vtk.vtkXMLPolyDataReader()
     reader.SetFileName(str(frame))
     writer = vtk.vtkXMLPolyDataWriter()  # VTK's own layout: 32-bit headers, its block size
@@ -245,7 +307,9 @@ def main():
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
         round_trip(build, Path(tmp), failures)
+        round_trip(build, Path(tmp), failures, dim=3)
         obstacle(build, Path(tmp), failures)
+        obstacle_3d(build, Path(tmp), failures)
         from_frames(build, Path(tmp), failures)
         refusals(build, Path(tmp), failures)
     for f in failures:

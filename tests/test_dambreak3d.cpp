@@ -27,12 +27,12 @@ TEST(DamBreak3d, GeometryIsTheExperimentsToHalfASpacing) {
     EXPECT_EQ(g.column.x1, g.tank.x1) << l0;
     EXPECT_NEAR(g.column.x1 - g.column.x0, z.column_length, half) << l0;
     EXPECT_NEAR(g.column.z1, z.column_height, half) << l0;
-    EXPECT_NEAR(g.box.x1, z.box_x1, half) << l0;
-    EXPECT_NEAR(g.box.x1 - g.box.x0, z.box_x1 - z.box_x0, half) << l0;
-    EXPECT_NEAR(g.box.y0, z.box_y0, half) << l0;
-    EXPECT_NEAR(g.box.y1, z.box_y1, half) << l0;
-    EXPECT_NEAR(g.box.z1, z.box_height, half) << l0;
-    EXPECT_NEAR(std::remainder(g.box.x1, l0), 0.0, 1e-9) << l0;
+    EXPECT_NEAR(g.boxes[0].x1, z.box_x1, half) << l0;
+    EXPECT_NEAR(g.boxes[0].x1 - g.boxes[0].x0, z.box_x1 - z.box_x0, half) << l0;
+    EXPECT_NEAR(g.boxes[0].y0, z.box_y0, half) << l0;
+    EXPECT_NEAR(g.boxes[0].y1, z.box_y1, half) << l0;
+    EXPECT_NEAR(g.boxes[0].z1, z.box_height, half) << l0;
+    EXPECT_NEAR(std::remainder(g.boxes[0].x1, l0), 0.0, 1e-9) << l0;
   }
 }
 
@@ -43,13 +43,13 @@ TEST(DamBreak3d, ParticlesAreTheColumnTheTankAndTheBox) {
   const dambreak::BoxImpactGeometry g = dambreak::box_impact_geometry(l0);
   const mps::Particles3 s = dambreak::make_box_impact_particles(g, l0);
   const auto cells = [&](double a, double b) { return std::lround((b - a) / l0); };
-  const long nx = cells(g.box.x0, g.box.x1), ny = cells(g.box.y0, g.box.y1), nz = cells(g.box.z0, g.box.z1);
+  const long nx = cells(g.boxes[0].x0, g.boxes[0].x1), ny = cells(g.boxes[0].y0, g.boxes[0].y1), nz = cells(g.boxes[0].z0, g.boxes[0].z1);
   EXPECT_EQ(static_cast<long>(s.count(mps::Kind::fluid)),
             cells(g.column.x0, g.column.x1) * cells(g.column.y0, g.column.y1) * cells(g.column.z0, g.column.z1));
   long box_walls = 0, box_dummies = 0;
   for (std::size_t i = 0; i < s.size(); ++i) {
-    const bool in_box = s.x[i] > g.box.x0 && s.x[i] < g.box.x1 && s.y[i] > g.box.y0 && s.y[i] < g.box.y1 &&
-                        s.z[i] > g.box.z0 && s.z[i] < g.box.z1;
+    const bool in_box = s.x[i] > g.boxes[0].x0 && s.x[i] < g.boxes[0].x1 && s.y[i] > g.boxes[0].y0 && s.y[i] < g.boxes[0].y1 &&
+                        s.z[i] > g.boxes[0].z0 && s.z[i] < g.boxes[0].z1;
     if (s.kind[i] == mps::Kind::fluid) {
       EXPECT_FALSE(in_box);
       EXPECT_TRUE(s.x[i] > g.column.x0 && s.x[i] < g.tank.x1 && s.z[i] > 0.0 && s.z[i] < g.column.z1);
@@ -61,6 +61,66 @@ TEST(DamBreak3d, ParticlesAreTheColumnTheTankAndTheBox) {
   EXPECT_EQ(box_walls, nx * ny * nz - box_dummies);
   EXPECT_NEAR(dambreak::water_height(s, 2.638, 0.5, l0), g.column.z1, 1e-12);
   EXPECT_EQ(dambreak::water_height(s, 0.992, 0.5, l0), 0.0);
+}
+
+// A file's 3-D scene: SPHERIC Test 2's own particles, in any order, are the experiment; any other file is a new tank
+// found from its walls (moved to the origin), with its box-shaped obstacles found whole and other shapes counted.
+TEST(DamBreak3d, AParticleFileIsTheExperimentOrANewTankWithItsObstacles) {
+  const double l0 = 0.08;
+  const dambreak::Params options = dambreak::box_impact_defaults();
+  mps::Particles3 experiment = dambreak::make_box_impact_particles(dambreak::box_impact_geometry(l0), l0);
+  std::vector<int> reversed(experiment.size());
+  for (std::size_t i = 0; i < reversed.size(); ++i) reversed[i] = static_cast<int>(reversed.size() - 1 - i);
+  experiment.permute(reversed);
+  const dambreak::BoxImpactFile same = dambreak::box_impact_from_particles(experiment, l0, options);
+  EXPECT_TRUE(same.experiment);
+  EXPECT_EQ(same.params.column, dambreak::Column::spheric2);
+  ASSERT_EQ(same.geometry.boxes.size(), 1u);
+  EXPECT_EQ(same.geometry.boxes[0].x1, dambreak::box_impact_geometry(l0).boxes[0].x1);
+  experiment.u[0] = 0.1;  // moving: a new scene
+  EXPECT_FALSE(dambreak::box_impact_from_particles(experiment, l0, options).experiment);
+
+  // A tank 1.2 x 0.8 x 0.8 m with its corner at (1, 2, 3), water against its x-low end, two boxes on its floor (one
+  // 0.16 m cube, one 0.08 x 0.24 x 0.4 m) and an L of solid particles that is no box.
+  const double dx = 0.04;
+  mps::Particles3 s;
+  const mps::Box tank{1.0, 2.0, 3.0, 2.2, 2.8, 3.8};
+  mps::fill_box(s, {1.0, 2.0, 3.0, 1.4, 2.8, 3.4}, dx, mps::Kind::fluid);
+  mps::add_box_walls(s, tank, dx, mps::x_low | mps::x_high | mps::y_low | mps::y_high | mps::z_low, 1, 4);
+  mps::fill_box(s, {1.6, 2.0, 3.0, 1.76, 2.16, 3.16}, dx, mps::Kind::wall);
+  mps::fill_box(s, {1.8, 2.4, 3.0, 1.88, 2.64, 3.4}, dx, mps::Kind::dummy);
+  mps::fill_box(s, {2.0, 2.6, 3.0, 2.12, 2.64, 3.04}, dx, mps::Kind::wall);  // an L: three cells along x ...
+  mps::fill_box(s, {2.0, 2.64, 3.0, 2.04, 2.72, 3.04}, dx, mps::Kind::wall);  // ... and two along y from its end
+  const dambreak::BoxImpactFile file = dambreak::box_impact_from_particles(s, 0.0, options);
+  EXPECT_FALSE(file.experiment);
+  EXPECT_EQ(file.params.column, dambreak::Column::file);
+  EXPECT_DOUBLE_EQ(file.params.l0, dx);
+  const mps::Box& t = file.geometry.tank;
+  EXPECT_EQ(t.x0, 0.0);
+  EXPECT_EQ(t.z0, 0.0);
+  EXPECT_NEAR(t.x1, 1.2, 1e-12);
+  EXPECT_NEAR(t.y1, 0.8, 1e-12);
+  EXPECT_NEAR(t.z1, 0.8, 1e-12);
+  EXPECT_NEAR(file.params.height, 0.4, 1e-12);
+  EXPECT_NEAR(file.geometry.column.x1, 0.4, 1e-12);
+  ASSERT_EQ(file.geometry.boxes.size(), 2u);
+  std::vector<mps::Box> boxes = file.geometry.boxes;
+  std::sort(boxes.begin(), boxes.end(), [](const mps::Box& a, const mps::Box& b) { return a.x0 < b.x0; });
+  const mps::Box expected[2] = {{0.6, 0.0, 0.0, 0.76, 0.16, 0.16}, {0.8, 0.4, 0.0, 0.88, 0.64, 0.4}};
+  for (int k = 0; k < 2; ++k) {
+    const mps::Box &b = boxes[static_cast<std::size_t>(k)], &e = expected[k];
+    for (auto [got, want] : {std::pair{b.x0, e.x0}, {b.y0, e.y0}, {b.z0, e.z0}, {b.x1, e.x1}, {b.y1, e.y1}, {b.z1, e.z1}})
+      EXPECT_NEAR(got, want, 1e-12) << "box " << k;
+  }
+  EXPECT_EQ(file.unchecked_obstacle_particles, 5);
+
+  mps::Particles3 outside = s;
+  outside.add({0.9, 2.1, 3.1}, mps::Kind::fluid);  // in the upstream wall
+  EXPECT_THROW(dambreak::box_impact_from_particles(outside, 0.0, options), std::invalid_argument);
+  mps::Particles3 no_walls;
+  mps::fill_box(no_walls, {0, 0, 0, 0.4, 0.4, 0.4}, dx, mps::Kind::fluid);
+  EXPECT_THROW(dambreak::box_impact_from_particles(no_walls, 0.0, options), std::invalid_argument);
+  EXPECT_THROW(dambreak::box_impact_from_particles(s, 0.06, options), std::invalid_argument);  // not the file's spacing
 }
 
 // A gauge reads the water standing on the floor under it, as a wave probe reads the wetted length of its wire: a
@@ -103,14 +163,14 @@ TEST(DamBreak3d, SensorPressureIsTheMeanOverItsPatchOnTheFace) {
   mps::Particles3 s = dambreak::make_box_impact_particles(g, l0);
   const dambreak::BoxImpactSensors sensors = dambreak::read_box_impact_sensors(kData + "/spheric2_sensors.csv");
   // A layer of fluid on the face, and one too far from it.
-  for (double y = g.box.y0 + 0.5 * l0; y < g.box.y1; y += l0)
-    for (double z = 0.5 * l0; z < g.box.z1; z += l0) {
-      s.add({g.box.x1 + 0.5 * l0, y, z}, mps::Kind::fluid);
-      s.add({g.box.x1 + 2.5 * l0, y, z}, mps::Kind::fluid);
+  for (double y = g.boxes[0].y0 + 0.5 * l0; y < g.boxes[0].y1; y += l0)
+    for (double z = 0.5 * l0; z < g.boxes[0].z1; z += l0) {
+      s.add({g.boxes[0].x1 + 0.5 * l0, y, z}, mps::Kind::fluid);
+      s.add({g.boxes[0].x1 + 2.5 * l0, y, z}, mps::Kind::fluid);
     }
   for (std::size_t i = 0; i < s.size(); ++i) {
     s.p[i] = 1000.0 + 500.0 * s.y[i];
-    if (s.kind[i] == mps::Kind::dummy || s.x[i] > g.box.x1 + 2.0 * l0) s.p[i] = 1e9;
+    if (s.kind[i] == mps::Kind::dummy || s.x[i] > g.boxes[0].x1 + 2.0 * l0) s.p[i] = 1e9;
   }
   for (const dambreak::Sensor& sensor : sensors.pressure) {
     if (sensor.face != "front") continue;

@@ -1,12 +1,17 @@
 #include "box_impact.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
+
+#include "mps/io/io.hpp"
 
 namespace dambreak {
 
@@ -78,8 +83,8 @@ BoxImpactGeometry box_impact_geometry(double l0, const BoxImpactSize& z) {
   g.tank = {0.0, 0.0, 0.0, L, W, lattice_count(z.tank_height, l0) * l0};
   g.column = {L - lattice_count(z.column_length, l0) * l0, 0.0, 0.0, L, W, lattice_count(z.column_height, l0) * l0};
   const double face = on_lattice(z.box_x1, l0);
-  g.box = {face - lattice_count(z.box_x1 - z.box_x0, l0) * l0, on_lattice(z.box_y0, l0), 0.0, face,
-           on_lattice(z.box_y1, l0), lattice_count(z.box_height, l0) * l0};
+  g.boxes = {{face - lattice_count(z.box_x1 - z.box_x0, l0) * l0, on_lattice(z.box_y0, l0), 0.0, face,
+              on_lattice(z.box_y1, l0), lattice_count(z.box_height, l0) * l0}};
   return g;
 }
 
@@ -103,19 +108,20 @@ mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0)
   mps::Particles3 s;
   mps::fill_box(s, g.column, l0, mps::Kind::fluid);
   mps::add_box_walls(s, g.tank, l0, mps::x_low | mps::x_high | mps::y_low | mps::y_high | mps::z_low, 1, 4);
-  // The box: one layer of wall particles under its sides and top, dummies inside (it stands on the tank's floor).
-  const std::size_t first = s.size();
-  mps::fill_box(s, g.box, l0, mps::Kind::dummy);
-  const mps::Box& b = g.box;
-  for (std::size_t i = first; i < s.size(); ++i)
-    if (s.x[i] - b.x0 < l0 || b.x1 - s.x[i] < l0 || s.y[i] - b.y0 < l0 || b.y1 - s.y[i] < l0 || b.z1 - s.z[i] < l0)
-      s.kind[i] = mps::Kind::wall;
+  // Each box: one layer of wall particles under its sides and top, dummies inside (it stands on the tank's floor).
+  for (const mps::Box& b : g.boxes) {
+    const std::size_t first = s.size();
+    mps::fill_box(s, b, l0, mps::Kind::dummy);
+    for (std::size_t i = first; i < s.size(); ++i)
+      if (s.x[i] - b.x0 < l0 || b.x1 - s.x[i] < l0 || s.y[i] - b.y0 < l0 || b.y1 - s.y[i] < l0 || b.z1 - s.z[i] < l0)
+        s.kind[i] = mps::Kind::wall;
+  }
   return s;
 }
 
 double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, const Sensor& sensor, double reach,
                          double radius) {
-  const mps::Box& b = g.box;
+  const mps::Box& b = g.boxes.front();
   const bool front = sensor.face == "front";
   double sum = 0.0;
   int count = 0;
@@ -148,6 +154,154 @@ double water_height(const mps::Particles3& s, double x, double y, double l0) {
   return top + 0.5 * l0;
 }
 
+namespace {
+// The face half a spacing beyond an outermost particle's centre (side -1: below it, +1: above), on the lattice where
+// it is to round-off; never -0.
+double outer_face(double centre, double side, double l0) { return snapped(centre + side * 0.5 * l0, l0) + 0.0; }
+
+// The obstacles among a file's wall and dummy particles inside the tank: face-connected groups on the lattice. A group
+// that fills its bounding box is a box (its faces l0/2 beyond the outer centres); the others' particles are counted.
+std::vector<mps::Box> obstacle_boxes(const mps::Particles3& s, const mps::Box& tank, double l0, long& not_boxes) {
+  std::map<std::array<long, 3>, std::size_t> cell;  // lattice cell -> particle
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] != mps::Kind::fluid && s.x[i] > tank.x0 && s.x[i] < tank.x1 && s.y[i] > tank.y0 &&
+        s.y[i] < tank.y1 && s.z[i] > tank.z0)
+      cell[{std::lround(std::floor(s.x[i] / l0)), std::lround(std::floor(s.y[i] / l0)),
+            std::lround(std::floor(s.z[i] / l0))}] = i;
+  std::vector<mps::Box> boxes;
+  not_boxes = 0;
+  std::map<std::array<long, 3>, bool> seen;
+  for (const auto& [start, first] : cell) {
+    if (seen[start]) continue;
+    std::vector<std::array<long, 3>> group{start}, todo{start};
+    seen[start] = true;
+    while (!todo.empty()) {
+      const std::array<long, 3> c = todo.back();
+      todo.pop_back();
+      for (int a = 0; a < 3; ++a)
+        for (long step : {-1L, 1L}) {
+          std::array<long, 3> next = c;
+          next[a] += step;
+          if (cell.count(next) && !seen[next]) {
+            seen[next] = true;
+            group.push_back(next);
+            todo.push_back(next);
+          }
+        }
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    double lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
+    for (const auto& c : group) {
+      const std::size_t i = cell.at(c);
+      const double r[3] = {s.x[i], s.y[i], s.z[i]};
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], r[a]), hi[a] = std::max(hi[a], r[a]);
+    }
+    double filled = 1.0;
+    for (int a = 0; a < 3; ++a) filled *= std::round((hi[a] - lo[a]) / l0) + 1.0;
+    if (filled != static_cast<double>(group.size())) {
+      not_boxes += static_cast<long>(group.size());
+      continue;
+    }
+    boxes.push_back({outer_face(lo[0], -1, l0), outer_face(lo[1], -1, l0), outer_face(lo[2], -1, l0),
+                     outer_face(hi[0], 1, l0), outer_face(hi[1], 1, l0), outer_face(hi[2], 1, l0)});
+  }
+  return boxes;
+}
+}  // namespace
+
+BoxImpactFile box_impact_from_particles(mps::Particles3 particles, double dx, const Params& options) {
+  std::string how;
+  const double l0 = file_spacing(mps::median_spacing(particles), dx, how);
+  BoxImpactFile out{options, std::move(particles), {}, false, 0, ""};
+  Params& p = out.params;
+  mps::Particles3& s = out.particles;
+  p.l0 = l0;
+  p.level_probes.clear();
+  p.pressure_probes.clear();
+  // SPHERIC Test 2's own particles: built only when the file's fluid is the experiment's column to the particle.
+  const BoxImpactGeometry experiment = box_impact_geometry(l0);
+  const mps::Box& c = experiment.column;
+  const double column_count = std::round((c.x1 - c.x0) / l0) * std::round((c.y1 - c.y0) / l0) * std::round(c.z1 / l0);
+  if (column_count == static_cast<double>(s.count(mps::Kind::fluid)) &&
+      same_particles_at_rest(s, make_box_impact_particles(experiment, l0), l0)) {
+    const Params base = box_impact_defaults();
+    p.column = Column::spheric2;
+    p.width = base.width;
+    p.height = base.height;
+    p.tank_length = base.tank_length;
+    p.tank_height = base.tank_height;
+    out.geometry = experiment;
+    out.experiment = true;
+    check_initial_state(s, p);
+    out.description = "spacing " + fmt(l0) + " m (" + how + "); SPHERIC Test 2's particles: its sensors and record";
+    return out;
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  double lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::wall) {
+      const double r[3] = {s.x[i], s.y[i], s.z[i]};
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], r[a]), hi[a] = std::max(hi[a], r[a]);
+    }
+  if (s.count(mps::Kind::fluid) == 0) throw std::invalid_argument("the particle file has no fluid particles");
+  if (!(lo[0] < inf)) throw std::invalid_argument("the particle file has no wall particles: a dam break needs a tank");
+  // A floor and four sides of wall particles one spacing apart: fewer cannot enclose a box this big.
+  const double nx = (hi[0] - lo[0]) / l0, ny = (hi[1] - lo[1]) / l0, nz = (hi[2] - lo[2]) / l0;
+  const double needed = nx * ny + 2.0 * (nx + ny) * nz;
+  if (!(needed <= 1.5 * static_cast<double>(s.count(mps::Kind::wall))))
+    throw std::invalid_argument("the particle file's " + std::to_string(s.count(mps::Kind::wall)) +
+                                " wall particles span x from " + fmt(lo[0]) + " to " + fmt(hi[0]) + ", y from " +
+                                fmt(lo[1]) + " to " + fmt(hi[1]) + " and z from " + fmt(lo[2]) + " to " + fmt(hi[2]) +
+                                " m, a tank that would need about " + fmt(needed) + " of them at spacing " + fmt(l0) +
+                                " m: a wall particle lies far from the others (check the largest and smallest x, y, z)");
+  // The walls' first layer sits half a spacing outside the tank's inner faces; the tank's top is its walls' top. The
+  // tank's inner lower corner is moved to the origin.
+  const double x0 = lo[0] + 0.5 * l0, y0 = lo[1] + 0.5 * l0, z0 = lo[2] + 0.5 * l0;
+  const bool moved = std::abs(x0) > 1e-9 * l0 || std::abs(y0) > 1e-9 * l0 || std::abs(z0) > 1e-9 * l0;
+  if (moved)
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      s.x[i] -= x0;
+      s.y[i] -= y0;
+      s.z[i] -= z0;
+    }
+  BoxImpactGeometry& g = out.geometry;
+  g.tank = {0.0, 0.0, 0.0, snapped(hi[0] - 0.5 * l0 - x0, l0), snapped(hi[1] - 0.5 * l0 - y0, l0),
+            snapped(hi[2] + 0.5 * l0 - z0, l0)};
+  double f_lo[3] = {inf, inf, inf}, f_hi[3] = {-inf, -inf, -inf};
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] != mps::Kind::fluid) continue;
+    const double r[3] = {s.x[i], s.y[i], s.z[i]};
+    if (!(r[0] > 0 && r[0] < g.tank.x1 && r[1] > 0 && r[1] < g.tank.y1 && r[2] > 0))
+      throw std::invalid_argument("the particle file's fluid particle at (" + fmt(r[0] + x0) + ", " + fmt(r[1] + y0) +
+                                  ", " + fmt(r[2] + z0) + ") lies outside the tank its wall particles enclose (x in [" +
+                                  fmt(x0) + ", " + fmt(x0 + g.tank.x1) + "], y in [" + fmt(y0) + ", " +
+                                  fmt(y0 + g.tank.y1) + "], z above " + fmt(z0) +
+                                  "): a dam break's tank has walls round and below its water");
+    for (int a = 0; a < 3; ++a) f_lo[a] = std::min(f_lo[a], r[a]), f_hi[a] = std::max(f_hi[a], r[a]);
+  }
+  g.column = {outer_face(f_lo[0], -1, l0), outer_face(f_lo[1], -1, l0), 0.0,
+              outer_face(f_hi[0], 1, l0),  outer_face(f_hi[1], 1, l0),  outer_face(f_hi[2], 1, l0)};
+  g.boxes = obstacle_boxes(s, g.tank, l0, out.unchecked_obstacle_particles);
+  p.column = Column::file;
+  p.width = g.column.x1 - g.column.x0;
+  p.height = g.column.z1;
+  p.tank_length = g.tank.x1;
+  p.tank_height = g.tank.z1;
+  check_initial_state(s, p);
+  out.description = "spacing " + fmt(l0) + " m (" + how + "); tank " + fmt(g.tank.x1) + " x " + fmt(g.tank.y1) +
+                    " x " + fmt(g.tank.z1) + " m (the wall particles' inner box" +
+                    (moved ? ", moved by (" + fmt(-x0) + ", " + fmt(-y0) + ", " + fmt(-z0) +
+                                 ") m to put its lower corner at the origin"
+                           : std::string()) +
+                    "); water up to " + fmt(p.height) + " m (the fluid's box); " + std::to_string(g.boxes.size()) +
+                    " box obstacle(s)" +
+                    (out.unchecked_obstacle_particles > 0
+                         ? " and " + std::to_string(out.unchecked_obstacle_particles) +
+                               " obstacle particles in other shapes (not held by the wall backstop)"
+                         : std::string());
+  return out;
+}
+
 mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0) {
   const double margin = 6.0 * l0;
   return {g.tank.x0 - margin, g.tank.x1 + margin, g.tank.y0 - margin,
@@ -155,14 +309,15 @@ mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0) {
 }
 
 void add_box_impact_components(mps::Simulation3& sim, const Params& p, const BoxImpactGeometry& g) {
-  const mps::Box t = g.tank, b = g.box;
+  const mps::Box t = g.tank;
   const double ceiling = sim.domain().zmax - 2 * p.l0;
   add_dam_break_components<3>(sim, p, [=](const mps::Vec<3>& r) {
     return r[2] < ceiling && (r[2] < t.z1 || (r[0] > t.x0 && r[0] < t.x1 && r[1] > t.y0 && r[1] < t.y1));
   });
   // The cubic wall lattice lets pressed fluid through its holes (docs/dambreak3d.md): put it back on the face.
-  sim.add<mps::WallBackstop3>(mps::WallBackstop3::AxisBox{{t.x0, t.y0, t.z0}, {t.x1, t.y1, t.z1}},
-                              std::vector<mps::WallBackstop3::AxisBox>{{{b.x0, b.y0, b.z0}, {b.x1, b.y1, b.z1}}});
+  std::vector<mps::WallBackstop3::AxisBox> boxes;
+  for (const mps::Box& b : g.boxes) boxes.push_back({{b.x0, b.y0, b.z0}, {b.x1, b.y1, b.z1}});
+  sim.add<mps::WallBackstop3>(mps::WallBackstop3::AxisBox{{t.x0, t.y0, t.z0}, {t.x1, t.y1, t.z1}}, std::move(boxes));
 }
 
 namespace {
@@ -176,7 +331,16 @@ const Params& checked(const Params& p) {
 
 std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpactGeometry& g,
                                                   const mps::Particles3& particles, std::optional<int> comm) {
-  const mps::Domain3 domain = box_impact_domain(g, p.l0);
+  // Widened where a file's particles reach beyond it (extra dummy layers); the experiment's lie inside.
+  mps::Domain3 domain = box_impact_domain(g, p.l0);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    domain.xmin = std::min(domain.xmin, particles.x[i] - p.l0);
+    domain.xmax = std::max(domain.xmax, particles.x[i] + p.l0);
+    domain.ymin = std::min(domain.ymin, particles.y[i] - p.l0);
+    domain.ymax = std::max(domain.ymax, particles.y[i] + p.l0);
+    domain.zmin = std::min(domain.zmin, particles.z[i] - p.l0);
+    domain.zmax = std::max(domain.zmax, particles.z[i] + p.l0);
+  }
   if (comm) {
     mps::DistributedOptions options;
     options.kind_weights = box_impact_kind_weights;
@@ -189,7 +353,20 @@ std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpa
 
 BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<int> comm)
     : params_(checked(p)), sensors_(std::move(sensors)), geometry_(box_impact_geometry(p.l0)) {
-  const mps::Particles3 particles = make_box_impact_particles(geometry_, p.l0);
+  start(make_box_impact_particles(geometry_, p.l0), comm);
+}
+
+BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, mps::Particles3 particles, BoxImpactGeometry geometry,
+                     std::optional<int> comm)
+    : params_(checked(p)), sensors_(std::move(sensors)), geometry_(std::move(geometry)) {
+  for (const Sensor& sensor : sensors_.pressure)
+    if (geometry_.boxes.empty())
+      throw std::invalid_argument("the pressure sensor " + sensor.name + " sits on a box, but the scene has none");
+  start(particles, comm);
+}
+
+void BoxImpact::start(const mps::Particles3& particles, std::optional<int> comm) {
+  const Params& p = params_;
   initial_fluid_ = static_cast<long>(particles.count(mps::Kind::fluid));
   sim_ = make_simulation(p, geometry_, particles, comm);
   distributed_ = dynamic_cast<const mps::RankExchange3*>(&sim_->exchange());
@@ -227,12 +404,16 @@ void BoxImpact::sample() {
   samples_.push_back(std::move(sample));
   // Below the walls' top, fluid past a wall's or the box's surface is pressed into it; past the first layer's centres
   // (half a spacing further) it is inside.
-  const mps::Box t = geometry_.tank, b = geometry_.box;
+  const mps::Box t = geometry_.tank;
   long inside = 0;
   for (std::size_t i = 0; i < s.size(); ++i) {
     if (s.kind[i] != mps::Kind::fluid || s.z[i] >= t.z1) continue;
     double depth = std::max({t.x0 - s.x[i], s.x[i] - t.x1, t.y0 - s.y[i], s.y[i] - t.y1, t.z0 - s.z[i]});
-    depth = std::max(depth, std::min({s.x[i] - b.x0, b.x1 - s.x[i], s.y[i] - b.y0, b.y1 - s.y[i], b.z1 - s.z[i]}));
+    for (const mps::Box& b : geometry_.boxes) {
+      // A box standing on the floor is entered by its sides or top only, as the backstop holds it.
+      const double below = b.z0 <= t.z0 ? std::numeric_limits<double>::infinity() : s.z[i] - b.z0;
+      depth = std::max(depth, std::min({s.x[i] - b.x0, b.x1 - s.x[i], s.y[i] - b.y0, b.y1 - s.y[i], b.z1 - s.z[i], below}));
+    }
     deepest_past_wall_ = std::max(deepest_past_wall_, depth);
     inside += depth > 0.5 * l0;
   }

@@ -34,11 +34,14 @@ struct BoxImpactSize {
   double box_x0 = 0.6635, box_x1 = 0.8245, box_y0 = 0.2985, box_y1 = 0.7015, box_height = 0.161;
 };
 
+// The tank (open at its top), the water's box, and the box-shaped obstacles in the tank that the wall backstop and the
+// wall check hold (the experiment's box, on which its sensors sit, first).
+struct BoxImpactGeometry {
+  mps::Box tank, column;
+  std::vector<mps::Box> boxes;
+};
 // The experiment on the lattice of spacing l0: every length the nearest whole number of spacings, the column against
 // the tank's x-high end, the box's face towards the water (x1) and its sides at their nearest lattice lines.
-struct BoxImpactGeometry {
-  mps::Box tank, column, box;
-};
 BoxImpactGeometry box_impact_geometry(double l0, const BoxImpactSize& size = {});
 
 // The dam break's numerics (defaults(Column::classic)'s, with the asymmetry test's interior density at n0) with this
@@ -47,6 +50,23 @@ BoxImpactGeometry box_impact_geometry(double l0, const BoxImpactSize& size = {})
 Params box_impact_defaults();
 
 mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0);
+
+// A 3-D scene from a particle file (dambreak --dim 3 --particles, docs/particle-files.md). SPHERIC Test 2's particles
+// at rest, as --write-particles writes them, are the experiment (`experiment`: its sensors and record apply); any
+// other file is a new scene: the tank is the inner box of its wall particles (open at the top), the water its fluid,
+// and the wall and dummy particles inside the tank are obstacles, each (a face-connected group) held by the backstop
+// and the wall check if it fills a box. dx: the spacing (0: the file's median nearest-neighbour distance). Throws
+// std::invalid_argument naming what to change for a file no dam break can run.
+struct BoxImpactFile {
+  Params params;
+  mps::Particles3 particles;
+  BoxImpactGeometry geometry;
+  bool experiment = false;
+  long unchecked_obstacle_particles = 0;  // in obstacles that are not boxes: neither backstopped nor checked
+  std::string description;
+};
+BoxImpactFile box_impact_from_particles(mps::Particles3 particles, double dx, const Params& options);
+
 // On MPI ranks the cuts balance these loads of a fluid, wall, dummy and ghost particle: the walls and dummies
 // outnumber the fluid but cost less a step (estimated and measured in docs/scaling.md).
 inline constexpr mps::RcbPartition::KindWeights box_impact_kind_weights{1.0, 0.6, 0.25, 0.01};
@@ -75,6 +95,10 @@ class BoxImpact {
  public:
   // comm: step on the MPI ranks of that communicator (every rank passes the same p), sampled on rank 0.
   BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<int> comm = {});
+  // A scene of these particles in this geometry (box_impact_from_particles'); sensors on the front or top face sit on
+  // the first box.
+  BoxImpact(const Params& p, BoxImpactSensors sensors, mps::Particles3 particles, BoxImpactGeometry geometry,
+            std::optional<int> comm = {});
   void step();  // throws mps::SimulationError if the guard stops the run; sim() then holds the last good state
   [[nodiscard]] bool done() const { return sim_->time() >= params_.end_time - 1e-12; }
   [[nodiscard]] const mps::Simulation3& sim() const { return *sim_; }
@@ -89,7 +113,7 @@ class BoxImpact {
   // Fluid particles the wall backstop put back on a wall's or the box's face, summed over steps (collective on ranks).
   [[nodiscard]] long backstop_returns() const;
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
-  // Fluid particles inside a wall or the box (past its first layer's centres, l0/2 beyond its surface): the most at any
+  // Fluid particles inside a wall or a box (past its first layer's centres, l0/2 beyond its surface): the most at any
   // sample; and the deepest any fluid went past a wall's or the box's surface [m] (<= 0: never).
   [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
   [[nodiscard]] double deepest_past_wall() const { return deepest_past_wall_; }
@@ -98,6 +122,7 @@ class BoxImpact {
   [[nodiscard]] double patch_reach() const { return 2.0 * params_.l0; }
 
  private:
+  void start(const mps::Particles3& particles, std::optional<int> comm);
   void sample();
   Params params_;
   BoxImpactSensors sensors_;

@@ -119,24 +119,6 @@ const Params& checked(const Params& p) {
   return p;
 }
 
-// A file's velocities and pressures are a state a dam break could reach: a fall from the tank's top gives
-// sqrt(2 g h) and rho g h; ten and a hundred times those are beyond any splash or impact (docs/particle-files.md).
-void check_initial_state(const mps::Particles& s, const Params& p) {
-  const double h = std::max(p.tank_height, p.height), speed = std::sqrt(2.0 * p.g * h), rho_g_h = 1000.0 * p.g * h;
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    if (s.kind[i] == mps::Kind::ghost) continue;
-    const double v = std::hypot(s.u[i], s.v[i]);
-    if (!(v <= 10.0 * speed))
-      throw std::invalid_argument("the particle file's particle at (" + fmt(s.x[i]) + ", " + fmt(s.y[i]) +
-                                  ") moves at " + fmt(v) + " m/s, more than 10 times the speed of a fall from the "
-                                  "tank's top (sqrt(2 g h) = " + fmt(speed) + " m/s): check its u and v");
-    if (!(std::abs(s.p[i]) <= 100.0 * rho_g_h))
-      throw std::invalid_argument("the particle file's particle at (" + fmt(s.x[i]) + ", " + fmt(s.y[i]) +
-                                  ") holds the pressure " + fmt(s.p[i]) + " Pa, more than 100 times rho g h = " +
-                                  fmt(rho_g_h) + " Pa of the tank's height: check its p");
-  }
-}
-
 bool has_fluid_neighbour(const mps::Particles& s, std::size_t i, double radius) {
   for (std::size_t j = 0; j < s.size(); ++j)
     if (j != i && s.kind[j] == mps::Kind::fluid && std::hypot(s.x[j] - s.x[i], s.y[j] - s.y[i]) < radius) return true;
@@ -233,15 +215,86 @@ mps::Domain make_domain(const Params& p, const mps::Particles& particles) {
   return d;
 }
 
-namespace {
-// A length measured on lattice particles: a whole number of spacings when it is one to round-off.
 double snapped(double length, double l0) {
   const double n = std::round(length / l0);
   return std::abs(length - n * l0) <= 1e-6 * l0 ? n * l0 : length;
 }
 
-// Whether `particles` are the built-in column c's at spacing l0, in any order (a frame holds them in the step's order):
-// the same kinds and groups at the same positions to 1e-9 l0, at rest.
+double file_spacing(double median, double dx, std::string& how) {
+  if (!std::isfinite(median)) throw std::invalid_argument("the particle file holds fewer than two particles");
+  if (!(dx > 0)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.12g", median);
+    how = "the file's median nearest-neighbour distance";
+    return std::strtod(text, nullptr);
+  }
+  if (std::abs(median - dx) > 0.2 * dx)
+    throw std::invalid_argument("the particle file's particles lie " + fmt(median) +
+                                " m apart (the median distance to the nearest one), but --dx is " + fmt(dx) +
+                                " m: give the spacing the file was made with, or leave --dx out");
+  how = "--dx";
+  return dx;
+}
+
+template <int D>
+bool same_particles_at_rest(const mps::BasicParticles<D>& file, const mps::BasicParticles<D>& built, double l0) {
+  if (built.size() != file.size()) return false;
+  // Each set sorted by its lattice cell (centres sit mid-cell), so that the two orders need not agree.
+  auto by_cell = [&](const mps::BasicParticles<D>& s) {
+    std::vector<std::size_t> order(s.size());
+    std::vector<std::array<double, D>> cell(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      order[i] = i;
+      const mps::Vec<D> r = s.position(i);
+      for (int a = 0; a < D; ++a) cell[i][a] = std::floor(r[D - 1 - a] / l0);
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cell[a] < cell[b]; });
+    return order;
+  };
+  const std::vector<std::size_t> mine = by_cell(file), theirs = by_cell(built);
+  for (std::size_t k = 0; k < built.size(); ++k) {
+    const std::size_t i = theirs[k], j = mine[k];
+    if (built.kind[i] != file.kind[j] || built.group[i] != file.group[j] || file.p[j] != 0.0) return false;
+    const mps::Vec<D> a = built.position(i), b = file.position(j), u = file.velocity(j);
+    for (int d = 0; d < D; ++d)
+      if (std::abs(a[d] - b[d]) > 1e-9 * l0 || u[d] != 0.0) return false;
+  }
+  return true;
+}
+template bool same_particles_at_rest(const mps::Particles&, const mps::Particles&, double);
+template bool same_particles_at_rest(const mps::Particles3&, const mps::Particles3&, double);
+
+// A file's velocities and pressures are a state a dam break could reach: a fall from the tank's top gives
+// sqrt(2 g h) and rho g h; ten and a hundred times those are beyond any splash or impact (docs/particle-files.md).
+template <int D>
+void check_initial_state(const mps::BasicParticles<D>& s, const Params& p) {
+  const double h = std::max(p.tank_height, p.height), speed = std::sqrt(2.0 * p.g * h), rho_g_h = 1000.0 * p.g * h;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] == mps::Kind::ghost) continue;
+    const mps::Vec<D> r = s.position(i), u = s.velocity(i);
+    std::string at = "(";
+    double v2 = 0.0;
+    for (int d = 0; d < D; ++d) {
+      at.append(d > 0 ? ", " : "").append(fmt(r[d]));
+      v2 += u[d] * u[d];
+    }
+    at.append(")");
+    const double v = std::sqrt(v2);
+    if (!(v <= 10.0 * speed))
+      throw std::invalid_argument("the particle file's particle at " + at + " moves at " + fmt(v) +
+                                  " m/s, more than 10 times the speed of a fall from the tank's top (sqrt(2 g h) = " +
+                                  fmt(speed) + " m/s): check its " + (D == 2 ? "u and v" : "u, v and w"));
+    if (!(std::abs(s.p[i]) <= 100.0 * rho_g_h))
+      throw std::invalid_argument("the particle file's particle at " + at + " holds the pressure " + fmt(s.p[i]) +
+                                  " Pa, more than 100 times rho g h = " + fmt(rho_g_h) +
+                                  " Pa of the tank's height: check its p");
+  }
+}
+template void check_initial_state(const mps::Particles&, const Params&);
+template void check_initial_state(const mps::Particles3&, const Params&);
+
+namespace {
+// Whether `particles` are the built-in column c's at spacing l0, in any order (a frame holds them in the step's order).
 bool is_column(const mps::Particles& particles, Column c, double l0) {
   Params q = defaults(c);
   q.l0 = l0;
@@ -249,46 +302,13 @@ bool is_column(const mps::Particles& particles, Column c, double l0) {
   // built to find out.
   const double expected = (q.width / l0) * (q.height / l0) + 5.0 * (q.tank_length / l0 + 2.0 * q.tank_height / l0 + 10);
   if (!(expected < 2.0 * static_cast<double>(particles.size()) + 1000)) return false;
-  const mps::Particles built = make_particles(q);
-  if (built.size() != particles.size()) return false;
-  // Each set sorted by its lattice cell, so that the two orders need not agree.
-  auto by_cell = [&](const mps::Particles& s) {
-    std::vector<std::size_t> order(s.size());
-    std::vector<std::pair<double, double>> cell(s.size());
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      order[i] = i;
-      cell[i] = {std::floor(s.y[i] / l0), std::floor(s.x[i] / l0)};  // centres sit mid-cell
-    }
-    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cell[a] < cell[b]; });
-    return order;
-  };
-  const std::vector<std::size_t> mine = by_cell(particles), theirs = by_cell(built);
-  for (std::size_t k = 0; k < built.size(); ++k) {
-    const std::size_t i = theirs[k], j = mine[k];
-    if (built.kind[i] != particles.kind[j] || built.group[i] != particles.group[j] ||
-        std::abs(built.x[i] - particles.x[j]) > 1e-9 * l0 || std::abs(built.y[i] - particles.y[j]) > 1e-9 * l0 ||
-        particles.u[j] != 0.0 || particles.v[j] != 0.0 || particles.p[j] != 0.0)
-      return false;
-  }
-  return true;
+  return same_particles_at_rest(particles, make_particles(q), l0);
 }
 }  // namespace
 
 FileScene from_particles(mps::Particles particles, double dx, const Params& options) {
-  const double spacing = mps::median_spacing(particles);
-  if (!std::isfinite(spacing)) throw std::invalid_argument("the particle file holds fewer than two particles");
-  double l0 = dx;
-  std::string how = "--dx";
-  if (!(dx > 0)) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.12g", spacing);
-    l0 = std::strtod(text, nullptr);
-    how = "the file's median nearest-neighbour distance";
-  } else if (std::abs(spacing - dx) > 0.2 * dx) {
-    throw std::invalid_argument("the particle file's particles lie " + fmt(spacing) +
-                                " m apart (the median distance to the nearest one), but --dx is " + fmt(dx) +
-                                " m: give the spacing the file was made with, or leave --dx out");
-  }
+  std::string how;
+  const double l0 = file_spacing(mps::median_spacing(particles), dx, how);
   FileScene out{options, std::move(particles), ""};
   Params& p = out.params;
   p.l0 = l0;

@@ -122,6 +122,20 @@ struct FileScene {
 };
 FileScene from_particles(mps::Particles particles, double dx, const Params& options);
 
+// What the 2-D and 3-D particle-file scenes share. The spacing: dx, or (dx <= 0) `median`, the particles' median
+// nearest-neighbour distance, to 12 significant digits; `how` says which. Throws if dx is more than 20 % from median.
+double file_spacing(double median, double dx, std::string& how);
+// A length measured on lattice particles: a whole number of spacings when it is one to round-off.
+double snapped(double length, double l0);
+// Whether a file's particles are `built` (a built-in scene's) in any order: the same kinds and groups at the same
+// positions to 1e-9 l0, at rest.
+template <int D>
+bool same_particles_at_rest(const mps::BasicParticles<D>& file, const mps::BasicParticles<D>& built, double l0);
+// Refuses a file's state no dam break reaches: a particle faster than 10 times a fall from the tank's top or the
+// column's, or holding more than 100 rho g h.
+template <int D>
+void check_initial_state(const mps::BasicParticles<D>& s, const Params& p);
+
 // The domain of a scene: make_domain(p), widened where the particles reach beyond it (a file's extra dummy layers).
 mps::Domain make_domain(const Params& p, const mps::Particles& particles);
 

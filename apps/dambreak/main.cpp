@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <optional>
 
 #include "box_impact.hpp"
 #include "checks.hpp"
@@ -86,12 +87,12 @@ struct Options {
 void add_options(CLI::App& app, Options& o) {
   add_general_options(app);
   app.add_option("--dim", o.dim, "2: the classic and seed columns and particle files; 3: SPHERIC Test 2, a column hitting "
-                 "a box (--column spheric2, docs/dambreak3d.md)")
+                 "a box (--column spheric2, docs/dambreak3d.md), and 3-D particle files")
       ->capture_default_str()->check(CLI::IsMember({2, 3}))->group("Scene");
   app.add_option("--particles", o.particles_file,
-                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group; or "
-                 "a .vtp frame; docs/particle-files.md): the tank from its walls, the water from its fluid, the spacing "
-                 "--dx or the file's")
+                 "run the scene of a particle file instead of --column (CSV: x, y, kind and optionally u, v, p, group, "
+                 "with --dim 3 also z and optionally w; or a .vtp frame; docs/particle-files.md): the tank from its "
+                 "walls, the water from its fluid, the spacing --dx or the file's")
       ->transform(existing_file_made_absolute())->group("Scene");
   // No default string: a run from --particles then writes no column into config.toml, and its replay is no conflict.
   app.add_option("--column", o.column_name,
@@ -166,6 +167,13 @@ void add_options(CLI::App& app, Options& o) {
       ->check(output_file())->group("Output");
 }
 
+// A particle file is the scene: --column beside it would be ignored.
+void refuse_column_with_particles(const Options& o) {
+  if (!o.particles_file.empty() && !o.column_name.empty())
+    throw std::invalid_argument("--column " + o.column_name + " and --particles: the particle file is the scene (its "
+                                "tank, water and spacing); give one of them");
+}
+
 // The scene's parameters and particles: the column the options describe, or a particle file's scene.
 struct Start {
   dambreak::Params p;
@@ -181,9 +189,7 @@ Start make_start(const Options& o) {
   if (!o.particles_file.empty() && o.tank_length > 0)
     throw std::invalid_argument("--tank-length and --particles: the particle file's walls are the tank; give one of "
                                 "them");
-  if (!o.particles_file.empty() && !o.column_name.empty())
-    throw std::invalid_argument("--column " + o.column_name + " and --particles: the particle file is the scene (its "
-                                "tank, water and spacing); give one of them");
+  refuse_column_with_particles(o);
   if (start.column_name.empty()) start.column_name = "classic";
   start.scene_name = start.column_name + " column";
   if (o.particles_file.empty()) {
@@ -223,15 +229,17 @@ Start make_start(const Options& o) {
   return start;
 }
 
-// --write-particles: the scene's particles at rest, with the command that runs them.
-void write_start(const std::string& path, const Start& start) {
+// --write-particles: the scene's particles at rest, with the command that runs them (`dim`: "--dim 3 " in 3-D).
+template <int D>
+void write_start(const std::string& path, const mps::BasicParticles<D>& particles, double l0, const std::string& scene,
+                 const std::string& dim) {
   char spacing[40];
-  std::snprintf(spacing, sizeof spacing, "%.17g", start.p.l0);
-  mps::write_particles_csv(path, start.particles,
-                           {"SparseMPS dam break: the " + start.scene_name + " at spacing " + spacing + " m, at rest",
-                            "run it with: dambreak --particles THIS-FILE --dx " + std::string(spacing)});
-  std::cout << "wrote " << start.particles.size() << " particles to " << path
-            << "; run them with: dambreak --particles " << path << " --dx " << spacing << "\n";
+  std::snprintf(spacing, sizeof spacing, "%.17g", l0);
+  mps::write_particles_csv(path, particles,
+                           {"SparseMPS dam break: the " + scene + " at spacing " + spacing + " m, at rest",
+                            "run it with: dambreak " + dim + "--particles THIS-FILE --dx " + std::string(spacing)});
+  std::cout << "wrote " << particles.size() << " particles to " << path << "; run them with: dambreak " << dim
+            << "--particles " << path << " --dx " << spacing << "\n";
 }
 
 // The experiments the runs are compared with (docs/dambreak.md).
@@ -522,6 +530,24 @@ BoxImpactFigures box_impact_figures(const dambreak::BoxImpact& scene, const damb
   return f;
 }
 
+// The 3-D scene's mass and walls into `checks`, printed: fluid conserved (left plus `removed` as spray), none inside a
+// wall or a box at any sample; `backstop_returns` reported. Whether both hold.
+bool check_walls(const dambreak::BoxImpact& scene, long removed, long backstop_returns, nlohmann::json& checks) {
+  const long fluid_left = static_cast<long>(scene.all_particles().count(mps::Kind::fluid));
+  const bool conserved = fluid_left + removed == scene.initial_fluid();
+  const double deepest = std::max(0.0, scene.deepest_past_wall() / scene.params().l0);
+  checks["fluid_removed_as_spray_count"] = removed;
+  checks["fluid_conserved"] = conserved;
+  checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
+  checks["deepest_past_wall_l0"] = deepest;
+  checks["fluid_returned_to_a_face_count"] = backstop_returns;
+  const bool ok = scene.most_inside_walls() == 0 && conserved;
+  std::printf("spray removed: %ld particles; fluid conserved: %s; most fluid particles inside a wall or the box at once: "
+              "%ld (deepest %.2f l0) %s; put back on a face by the wall backstop: %ld times\n", removed,
+              conserved ? "yes" : "NO", scene.most_inside_walls(), deepest, ok ? "PASS" : "FAIL", backstop_returns);
+  return ok;
+}
+
 // On rank 0 alone, after the run: `removed` is the spray over every rank (BoxImpact::removed, collective).
 int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, const dambreak::BoxImpactRecord& record,
                       const BoxImpactTolerances& tolerance, long removed, long backstop_returns,
@@ -564,17 +590,8 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   checks["pressure_sensors"] = sensors;
   checks["height_gauges"] = gauges;
   const mps::Particles3& all = scene.all_particles();
-  const long fluid_left = static_cast<long>(all.count(mps::Kind::fluid));
-  checks["fluid_removed_as_spray_count"] = removed;
-  checks["fluid_conserved"] = fluid_left + removed == scene.initial_fluid();
-  checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
-  checks["deepest_past_wall_l0"] = std::max(0.0, scene.deepest_past_wall() / p.l0);
-  checks["fluid_returned_to_a_face_count"] = backstop_returns;
-
   const bool arrival_ok = arrival_error <= tolerance.arrival, peak_ok = peak_error <= tolerance.peak;
   const bool heights_ok = f.h2_error <= tolerance.height && f.h4_error <= tolerance.height;
-  const bool walls_ok = scene.most_inside_walls() == 0 && checks["fluid_conserved"].get<bool>();
-  const bool pass = arrival_ok && peak_ok && heights_ok && walls_ok;
   // A figure the run is too short for is printed as such, not as NaN.
   auto shown = [](double v, const char* format) {
     char text[40] = "none";
@@ -590,10 +607,8 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   std::printf("heights over 0-%.2f s (the record's 0-6 s the run covers), mean absolute error: H2 %.2f %%, H4 %.2f %% "
               "of the column's height %s\n", std::min(6.0, time.back()), 100 * f.h2_error, 100 * f.h4_error,
               heights_ok ? "PASS" : "FAIL");
-  std::printf("spray removed: %ld particles; fluid conserved: %s; most fluid particles inside a wall or the box at once: "
-              "%ld (deepest %.2f l0) %s; put back on a face by the wall backstop: %ld times\n", removed,
-              checks["fluid_conserved"].get<bool>() ? "yes" : "NO", scene.most_inside_walls(),
-              std::max(0.0, scene.deepest_past_wall() / p.l0), walls_ok ? "PASS" : "FAIL", backstop_returns);
+  const bool walls_ok = check_walls(scene, removed, backstop_returns, checks);
+  const bool pass = arrival_ok && peak_ok && heights_ok && walls_ok;
   std::printf("SPHERIC Test 2 (P1 arrival within %.0f %%, first peak within %.0f %%, H2 and H4 within %.0f %%, no fluid "
               "inside a wall): %s\n", 100 * tolerance.arrival, 100 * tolerance.peak, 100 * tolerance.height,
               pass ? "PASS" : "FAIL");
@@ -605,6 +620,24 @@ int report_box_impact(const fs::path& dir, const dambreak::BoxImpact& scene, con
   std::printf("outputs: frames (ParaView: dambreak.pvd), pressure.csv, level.csv, summary.json in %s\n",
               dir.string().c_str());
   return pass ? 0 : 2;
+}
+
+// A 3-D scene from a particle file that is not the experiment: no sensors; its mass and walls checked.
+int report_box_impact_file(const fs::path& dir, const dambreak::BoxImpact& scene, long removed, long backstop_returns,
+                           long unchecked_obstacle_particles, const nlohmann::json& params) {
+  const mps::Simulation3& sim = scene.sim();
+  nlohmann::json checks{{"box_obstacles", scene.geometry().boxes.size()},
+                        {"obstacle_particles_not_in_boxes", unchecked_obstacle_particles}};
+  std::printf("\n");
+  const bool walls_ok = check_walls(scene, removed, backstop_returns, checks);
+  write_solves(dir, sim);
+  const std::size_t total = scene.all_particles().size();
+  write_summary(dir, {{"status", walls_ok ? "completed" : "check failed"}, {"parameters", params},
+                      {"particles", {{"fluid", scene.initial_fluid()}, {"total", total}}},
+                      {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
+                      {"timings", timings_json(sim.times(), sim.last_step().step, total)}});
+  std::printf("outputs: frames (ParaView: dambreak.pvd), summary.json in %s\n", dir.string().c_str());
+  return walls_ok ? 0 : 2;
 }
 
 // Rank 0's outputs before the first step: the folder cleared of an earlier run's, the solve log (and --export-ppe),
@@ -626,10 +659,9 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   if (!o.column_name.empty() && o.column_name != "spheric2")
     throw std::invalid_argument("--dim 3 runs SPHERIC Test 2 (--column spheric2); the " + o.column_name +
                                 " column is 2-D: leave out --dim 3");
+  refuse_column_with_particles(o);
   // By value, not by count: a replayed config.toml holds every option, the 2-D ones at their defaults.
-  const std::pair<const char*, bool> two_d[] = {{"--particles", !o.particles_file.empty()},
-                                                {"--tank-length", o.tank_length > 0},
-                                                {"--write-particles", !o.write_particles.empty()},
+  const std::pair<const char*, bool> two_d[] = {{"--tank-length", o.tank_length > 0},
                                                 {"--sensor-height", o.p.sensor_height != dambreak::Params{}.sensor_height}};
   for (const auto& [name, given] : two_d)
     if (given) throw std::invalid_argument(std::string(name) + " is the 2-D dam break's; leave it out with --dim 3");
@@ -646,26 +678,62 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   p.asymmetry_interior_density = o.interior_density >= 0 ? o.interior_density : base.asymmetry_interior_density;
   p.l0 = o.dx > 0 ? o.dx : base.l0;
   p.end_time = o.end_time > 0 ? o.end_time : base.end_time;
-  const dambreak::BoxImpactSize size;
-  check_run_size((size.tank_length / p.l0 + 10) * (size.tank_width / p.l0 + 10) * (size.tank_height / p.l0 + 5),
-                 dambreak::estimated_steps(p), "raise --dx", "shorten --end-time or raise --dx");
+  if (!o.write_particles.empty()) {
+    if (ranks.root()) {
+      const mps::Particles3 particles = dambreak::make_box_impact_particles(dambreak::box_impact_geometry(p.l0), p.l0);
+      write_start(o.write_particles, particles, p.l0, "SPHERIC Test 2 (3-D)", "--dim 3 ");
+    }
+    return 0;
+  }
+  // A particle file's scene (the experiment's own particles, or a new one), or the experiment built in.
+  std::optional<dambreak::BoxImpactFile> file;
+  if (!o.particles_file.empty()) {
+    const bool frame = fs::path(o.particles_file).extension() == ".vtp";
+    file = dambreak::box_impact_from_particles(
+        frame ? mps::read_vtp<3>(o.particles_file) : mps::read_particles_csv<3>(o.particles_file), o.dx, p);
+    std::cout << "particles from " << o.particles_file << ": " << file->description << "\n";
+    p = file->params;
+    check_run_size(static_cast<double>(file->particles.size()), dambreak::estimated_steps(p),
+                   "use a coarser particle file", "shorten --end-time or use a coarser particle file");
+  } else {
+    const dambreak::BoxImpactSize size;
+    check_run_size((size.tank_length / p.l0 + 10) * (size.tank_width / p.l0 + 10) * (size.tank_height / p.l0 + 5),
+                   dambreak::estimated_steps(p), "raise --dx", "shorten --end-time or raise --dx");
+  }
+  const bool experiment = !file || file->experiment;
   const fs::path data(o.data);
-  dambreak::BoxImpact scene(p, dambreak::read_box_impact_sensors((data / "spheric2_sensors.csv").string()),
-                            ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
-  const dambreak::BoxImpactRecord record = dambreak::read_box_impact_record((data / "spheric2_p1_h2_h4.csv").string());
+  dambreak::BoxImpactSensors sensors;
+  if (experiment) sensors = dambreak::read_box_impact_sensors((data / "spheric2_sensors.csv").string());
+  const std::optional<int> comm = ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt;
+  dambreak::BoxImpact scene = file ? dambreak::BoxImpact(p, std::move(sensors), std::move(file->particles),
+                                                         file->geometry, comm)
+                                   : dambreak::BoxImpact(p, std::move(sensors), comm);
+  dambreak::BoxImpactRecord record;
+  if (experiment) record = dambreak::read_box_impact_record((data / "spheric2_p1_h2_h4.csv").string());
   const mps::Simulation3& sim = scene.sim();
   const dambreak::BoxImpactGeometry& g = scene.geometry();
   nlohmann::json params = params_json(p, sim, o.data, ranks.size());
   params["dimensions"] = 3;
   params["tank_m"] = {g.tank.x1 - g.tank.x0, g.tank.y1 - g.tank.y0, g.tank.z1 - g.tank.z0};
   params["column_m"] = {g.column.x0, g.column.x1, g.column.z1};
-  params["box_m"] = {g.box.x0, g.box.x1, g.box.y0, g.box.y1, g.box.z1};
+  std::string box_key = "box_m", scene_name = "SPHERIC Test 2";
+  if (experiment) {
+    const mps::Box& b = g.boxes.front();
+    params["box_m"] = {b.x0, b.x1, b.y0, b.y1, b.z1};
+  } else {
+    box_key = "obstacle_boxes_m";
+    params[box_key] = nlohmann::json::array();
+    for (const mps::Box& b : g.boxes) params[box_key].push_back({b.x0, b.x1, b.y0, b.y1, b.z0, b.z1});
+    params["particle_file"] = o.particles_file;
+    scene_name = "particles of " + o.particles_file;
+  }
+  if (file && experiment) params["particle_file"] = o.particles_file;
   std::cout << parameter_table(
-      "dam break, 3-D, SPHERIC Test 2: " + std::to_string(scene.all_particles().size()) + " particles (" +
+      "dam break, 3-D, " + scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
           std::to_string(scene.initial_fluid()) + " fluid)" +
           (ranks.distributed() ? " on " + std::to_string(ranks.size()) + " MPI ranks" : ""),
       params,
-      {{"scene", {"tank_m", "column_m", "box_m", "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
+      {{"scene", {"tank_m", "column_m", box_key, "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
        {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
                      "asymmetry", "asymmetry_interior_density_over_n0", "shifting", "wet_walls"}},
        {"solver", {"solver", "warm_start"}},
@@ -674,14 +742,15 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   // Rank 0 writes every output; the others step with it and join its gathers.
   FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
   if (ranks.root()) {
-    start_outputs(dir, app, o.export_ppe, "dambreak, SPHERIC Test 2", scene.sim());
+    start_outputs(dir, app, o.export_ppe, "dambreak, " + scene_name, scene.sim());
   }
   series.write_if_due(sim.time(), scene.all_particles());
   Progress progress(p.end_time, "s");
   try {
     run<dambreak::BoxImpact>(scene, series, progress, ranks.root(), [](const dambreak::BoxImpact& sc) {
-      char text[40];
-      std::snprintf(text, sizeof text, "P1 %.0f Pa", sc.samples().back().pressures[0]);
+      char text[40] = "";
+      if (!sc.samples().back().pressures.empty())
+        std::snprintf(text, sizeof text, "P1 %.0f Pa", sc.samples().back().pressures[0]);
       return std::string(text);
     });
   } catch (const mps::SimulationError& e) {
@@ -690,12 +759,14 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
     if (!ranks.every_rank_failed())
       ranks.end_alone(e.what(), [&] { record_failure_alone(dir, e.what(), params, sim); });
     if (!ranks.root()) return 1;
-    write_box_impact_series(dir, scene);  // the sensors up to the last good step
+    if (experiment) write_box_impact_series(dir, scene);  // the sensors up to the last good step
     return report_guard_stop(dir, e, params, sim, &scene.all_particles());
   }
   progress.finish(sim.time(), sim.last_step().step);
   const long removed = scene.removed(), backstop_returns = scene.backstop_returns();
   if (!ranks.root()) return 0;
+  if (!experiment)
+    return report_box_impact_file(dir, scene, removed, backstop_returns, file->unchecked_obstacle_particles, params);
   return report_box_impact(dir, scene, record, o.box, removed, backstop_returns, params);
 }
 
@@ -718,7 +789,7 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--export-ppe writes the PPE of one process; run without mpirun to export it");
     Start start = make_start(o);
     if (!o.write_particles.empty()) {
-      if (ranks.root()) write_start(o.write_particles, start);
+      if (ranks.root()) write_start(o.write_particles, start.particles, start.p.l0, start.scene_name, "");
       return 0;
     }
     const Experiments experiments = read_experiments(o.data);

@@ -31,10 +31,14 @@ inline CLI::Option* add_cold_start_flag(CLI::App& app, bool& warm_start) {
       ->group("Solver");
 }
 
-inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting) {
-  return app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the particle "
-                        "concentration gradient by A l0 |u|max dt per step, its velocity carried along (0: off)")
-      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+// default_by_scene: the default depends on other options, said in these words, and `shifting` holds a negative
+// sentinel until given (no default is written into config.toml).
+inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting, const std::string& default_by_scene = "") {
+  CLI::Option* o = app.add_option("--shifting", shifting, "particle shifting coefficient A: fluid moves down the "
+                                  "particle concentration gradient by A l0 |u|max dt per step, its velocity carried "
+                                  "along (0: off)" + default_by_scene);
+  if (default_by_scene.empty()) o->capture_default_str();
+  return o->check(number_in(0.0, 10.0))->group("Numerics");
 }
 
 // --pressure-treatment: Khayyer & Gotoh's treatments of the projection by name (mps::set_pressure_treatment), a bad

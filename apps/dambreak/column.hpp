@@ -43,7 +43,7 @@ struct Params {
   // Wall particles next to fluid that is not free surface carry pressure even where the density test calls them dry.
   bool wet_walls = false;
   // Particle shifting coefficient (0: off); particles on or next to the free surface shift along it only. 0.5 gave the
-  // least wall-pressure noise at the seed's spacing (docs/dambreak.md).
+  // least wall-pressure noise at the seed's spacing (docs/dambreak.md); the 3-D dam break takes 0 (docs/dambreak3d.md).
   double shifting = 0.5;
   // The pressure gradient of the corrector (mps::GradientVariant).
   mps::GradientVariant gradient = mps::GradientVariant::min_reference;

@@ -66,7 +66,7 @@ struct FrontTolerances {
 
 // SPHERIC Test 2's checks (check_box_impact): what the default spacing reaches (docs/dambreak3d.md).
 struct BoxImpactTolerances {
-  double arrival = 0.25, peak = 0.25, height = 0.05;
+  double arrival = 0.2, peak = 0.3, height = 0.05;
 };
 
 // The command line.
@@ -81,6 +81,7 @@ struct Options {
   std::string particles_file, write_particles;
   std::vector<int> export_ppe;
   double interior_density = -1.0;  // the asymmetry test's; negative: the scene's default
+  double shifting = -1.0;          // negative: the scene's default
   dambreak::Params p;
 };
 
@@ -137,7 +138,7 @@ void add_options(CLI::App& app, Options& o) {
                  "height, the same at every spacing (0.15 H: the experiment's 90 mm sensor on a 0.6 m column); 0: over "
                  "a disc of radius 2 l0 [H]")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Run");
-  add_shifting_option(app, o.p.shifting);
+  add_shifting_option(app, o.shifting, " (default: 0.5 in 2-D, 0 with --dim 3, where it compressed the water)");
   add_solver_options(app, o.p.solver);
   add_cold_start_flag(app, o.p.warm_start);
   app.add_option("--end-time", o.end_time, "simulated time (default: T = 3.5 for classic, t sqrt(g/H) = 7 for seed, 0.7 s "
@@ -186,6 +187,7 @@ Start make_start(const Options& o) {
   dambreak::Params& p = start.p;
   p.gradient = mps::gradient_variant_from_name(o.gradient);
   if (o.interior_density >= 0) p.asymmetry_interior_density = o.interior_density;
+  if (o.shifting >= 0) p.shifting = o.shifting;
   if (!o.particles_file.empty() && o.tank_length > 0)
     throw std::invalid_argument("--tank-length and --particles: the particle file's walls are the tank; give one of "
                                 "them");
@@ -676,6 +678,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   p.pressure_probes.clear();
   p.gradient = mps::gradient_variant_from_name(o.gradient);
   p.asymmetry_interior_density = o.interior_density >= 0 ? o.interior_density : base.asymmetry_interior_density;
+  p.shifting = o.shifting >= 0 ? o.shifting : base.shifting;
   p.l0 = o.dx > 0 ? o.dx : base.l0;
   p.end_time = o.end_time > 0 ? o.end_time : base.end_time;
   if (!o.write_particles.empty()) {

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -171,11 +172,10 @@ std::vector<mps::Box> obstacle_boxes(const mps::Particles3& s, const mps::Box& t
             std::lround(std::floor(s.z[i] / l0))}] = i;
   std::vector<mps::Box> boxes;
   not_boxes = 0;
-  std::map<std::array<long, 3>, bool> seen;
+  std::set<std::array<long, 3>> seen;
   for (const auto& [start, first] : cell) {
-    if (seen[start]) continue;
+    if (!seen.insert(start).second) continue;
     std::vector<std::array<long, 3>> group{start}, todo{start};
-    seen[start] = true;
     while (!todo.empty()) {
       const std::array<long, 3> c = todo.back();
       todo.pop_back();
@@ -183,8 +183,7 @@ std::vector<mps::Box> obstacle_boxes(const mps::Particles3& s, const mps::Box& t
         for (long step : {-1L, 1L}) {
           std::array<long, 3> next = c;
           next[a] += step;
-          if (cell.count(next) && !seen[next]) {
-            seen[next] = true;
+          if (cell.count(next) && seen.insert(next).second) {
             group.push_back(next);
             todo.push_back(next);
           }
@@ -332,16 +331,8 @@ const Params& checked(const Params& p) {
 
 std::unique_ptr<mps::Simulation3> make_simulation(const Params& p, const BoxImpactGeometry& g,
                                                   const mps::Particles3& particles, std::optional<int> comm) {
-  // Widened where a file's particles reach beyond it (extra dummy layers); the experiment's lie inside.
-  mps::Domain3 domain = box_impact_domain(g, p.l0);
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    domain.xmin = std::min(domain.xmin, particles.x[i] - p.l0);
-    domain.xmax = std::max(domain.xmax, particles.x[i] + p.l0);
-    domain.ymin = std::min(domain.ymin, particles.y[i] - p.l0);
-    domain.ymax = std::max(domain.ymax, particles.y[i] + p.l0);
-    domain.zmin = std::min(domain.zmin, particles.z[i] - p.l0);
-    domain.zmax = std::max(domain.zmax, particles.z[i] + p.l0);
-  }
+  // A file's particles may reach beyond the experiment's domain (extra dummy layers); the experiment's lie inside.
+  const mps::Domain3 domain = widened_to_hold(box_impact_domain(g, p.l0), particles, p.l0);
   if (comm) {
     mps::DistributedOptions options;
     options.kind_weights = box_impact_kind_weights;
@@ -360,9 +351,9 @@ BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, std::optional<in
 BoxImpact::BoxImpact(const Params& p, BoxImpactSensors sensors, mps::Particles3 particles, BoxImpactGeometry geometry,
                      std::optional<int> comm)
     : params_(checked(p)), sensors_(std::move(sensors)), geometry_(std::move(geometry)) {
-  for (const Sensor& sensor : sensors_.pressure)
-    if (geometry_.boxes.empty())
-      throw std::invalid_argument("the pressure sensor " + sensor.name + " sits on a box, but the scene has none");
+  if (!sensors_.pressure.empty() && geometry_.boxes.empty())
+    throw std::invalid_argument("the pressure sensor " + sensors_.pressure.front().name +
+                                " sits on a box, but the scene has none");
   start(particles, comm);
 }
 

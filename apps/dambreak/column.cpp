@@ -205,14 +205,7 @@ double patch_pressure(const mps::Particles& s, double x, double y, double reach,
 }
 
 mps::Domain make_domain(const Params& p, const mps::Particles& particles) {
-  mps::Domain d = make_domain(p);
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    d.xmin = std::min(d.xmin, particles.x[i] - p.l0);
-    d.xmax = std::max(d.xmax, particles.x[i] + p.l0);
-    d.ymin = std::min(d.ymin, particles.y[i] - p.l0);
-    d.ymax = std::max(d.ymax, particles.y[i] + p.l0);
-  }
-  return d;
+  return widened_to_hold(make_domain(p), particles, p.l0);
 }
 
 double snapped(double length, double l0) {

@@ -4,6 +4,7 @@
 // - seed: 2H wide, H = 1 m high, in a tank 5.366H long and 3H high (Buchner 2002: downstream-wall pressure).
 // Or any tank, column and obstacles from a particle file (from_particles).
 // The scene samples the surge front, water levels at probe lines and wall pressures at probe patches as it runs.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -136,7 +137,22 @@ bool same_particles_at_rest(const mps::BasicParticles<D>& file, const mps::Basic
 template <int D>
 void check_initial_state(const mps::BasicParticles<D>& s, const Params& p);
 
-// The domain of a scene: make_domain(p), widened where the particles reach beyond it (a file's extra dummy layers).
+// `domain` widened to hold every particle a spacing inside its edges (a file's extra dummy layers).
+template <int D>
+mps::BasicDomain<D> widened_to_hold(mps::BasicDomain<D> domain, const mps::BasicParticles<D>& particles, double l0) {
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    domain.xmin = std::min(domain.xmin, particles.x[i] - l0);
+    domain.xmax = std::max(domain.xmax, particles.x[i] + l0);
+    domain.ymin = std::min(domain.ymin, particles.y[i] - l0);
+    domain.ymax = std::max(domain.ymax, particles.y[i] + l0);
+    if constexpr (D == 3) {
+      domain.zmin = std::min(domain.zmin, particles.z[i] - l0);
+      domain.zmax = std::max(domain.zmax, particles.z[i] + l0);
+    }
+  }
+  return domain;
+}
+// The domain of a scene: make_domain(p), widened where the particles reach beyond it.
 mps::Domain make_domain(const Params& p, const mps::Particles& particles);
 
 // On the ranks of an MPI communicator (comm: its Fortran handle) the scene runs with an mps::RankExchange; every

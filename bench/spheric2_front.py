@@ -28,9 +28,11 @@ GAP = 1.992 - 0.8245  # the column's face to the box's face towards the water [m
 P1_ARRIVAL = 0.394    # the experiment's P1 arrival [s] (docs/dambreak3d.md)
 
 
-def simulation(sps, dim, l0, collision, shifting=0.5):
+def simulation(sps, dim, l0, collision, shifting=0.5, **fields):
+    """The column in its tank; `fields` are SimulationConfig fields over the dam break's."""
     config = dict(l0=l0, gamma=0.01, cfl=0.2, dt_max=0.2 * l0 / math.sqrt(2 * G * HEIGHT), shifting=shifting,
                   shift_along_free_surface=True, higher_order_source=True, dt_option="--cfl")
+    config.update(fields)
     m = 6 * l0
     if dim == 2:
         p = sps.Particles().fill_rectangle((0, 0, LENGTH, HEIGHT), l0)

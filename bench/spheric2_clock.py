@@ -70,7 +70,7 @@ def collapse_2d(sps, l0, end_time=0.45, gradient="min-reference", **fields):
 
 def delay(t, h4, column_height=front.HEIGHT):
     """(delay [s], mean |H4 - record| after the shift [m], the same without it [m]). A run whose column stands higher
-    than 0.55 m on its lattice has its H4 lowered by the difference first."""
+    or lower than 0.55 m on its lattice has its H4 moved by the difference first."""
     rt, rh = record()
     h4 = h4 - (column_height - front.HEIGHT)
     inside = (t >= FIT_WINDOW[0]) & (t <= FIT_WINDOW[1])

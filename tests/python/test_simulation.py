@@ -9,7 +9,7 @@ import pytest
 import scipy.io
 
 import sparsemps
-from conftest import DAMBREAK_END, dambreak_simulation, read_vtp
+from conftest import DAMBREAK_END, SOURCE_DIR, dambreak_simulation, read_vtp
 
 
 def test_dambreak_from_python_matches_the_app_bitwise(dambreak_run):
@@ -252,8 +252,7 @@ def test_the_spheric_column_falls_as_the_record_once_its_clock_is_moved(gradient
     and 39 ms at H/88), and misses it by more than 8 mm on the record's own clock: the record starts after the
     release (docs/dambreak3d.md)."""
     import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+    sys.path.insert(0, str(SOURCE_DIR / "bench"))
     import spheric2_clock
 
     samples = spheric2_clock.collapse_2d(sparsemps, 0.025, end_time=0.4, gradient=gradient)

@@ -4,7 +4,9 @@
 mean pressure of the fluid and wall particles on the box's face within ALONG l0 of the sensor along it and ACROSS l0
 of it across, for ALONG and ACROSS in 0.5, 1, 1.5, 2 (the app's patch: 2 and 2). Each patch's arrival (P1 first at
 0.25 rho g 0.55 = 1,349 Pa) and first peak (the largest 0.024 s moving average within 0.118 s after it) are printed
-as the app defines them, here on the frames' times.
+as the app defines them, here on the frames' times. Then the app's patch read by kind (its fluid particles alone, its wall
+particles alone) and the share of its wall particles that read 0 (dry: left out of the pressure system) over the
+0.118 s after the arrival.
 
   bench/dambreak3d_patches.py BUILD_DIR RUN
 """
@@ -28,7 +30,8 @@ def main():
     parameters = json.loads((run / "summary.json").read_text())["parameters"]
     l0, box = parameters["dx_m"], parameters["box_m"]  # box: x0, x1, y0, y1, z1
     patches = [(a, c) for a in (0.5, 1, 1.5, 2) for c in (0.5, 1, 2)]
-    times, p1 = [], {k: [] for k in patches}
+    kinds = {"fluid and wall (the app)": (0, 1), "fluid alone": (0,), "wall alone": (1,)}
+    times, p1, by_kind, dry = [], {k: [] for k in patches}, {k: [] for k in kinds}, []
     for path in sorted(glob.glob(str(run / "frames" / "*.vtp"))):
         frame = read_vtp(path)
         if frame["TIME"] < 0.3:
@@ -40,18 +43,33 @@ def main():
         for a, c in patches:
             inside = on_face & (along < a * l0) & (np.abs(x[:, 0] - box[1]) < c * l0)
             p1[(a, c)].append(pressure[inside].mean() if inside.any() else 0.0)
+        app = on_face & (along < 2 * l0) & (np.abs(x[:, 0] - box[1]) < 2 * l0)
+        for name, chosen in kinds.items():
+            inside = app & np.isin(kind, chosen)
+            by_kind[name].append(pressure[inside].mean() if inside.any() else 0.0)
+        walls = app & (kind == 1)
+        dry.append(np.mean(pressure[walls] == 0.0) if walls.any() else np.nan)
     t = np.array(times)
     print(f"{run}: {len(t)} frames from 0.3 s, l0 = {l0} m")
     print("along [l0]  across [l0]  arrival [s]  first peak [Pa]  largest frame [Pa]")
     for a, c in patches:
-        p = np.array(p1[(a, c)])
-        if not (p >= THRESHOLD).any():
-            print(f"{a:9g}  {c:11g}  not reached")
-            continue
-        i = int(np.argmax(p >= THRESHOLD))
-        mean = np.array([p[np.abs(t - s) <= WINDOW / 2].mean() for s in t])
-        after = (t >= t[i]) & (t <= t[i] + AFTER)
-        print(f"{a:9g}  {c:11g}  {t[i]:11.4f}  {mean[after].max():15.0f}  {p[after].max():18.0f}")
+        print(f"{a:9g}  {c:11g}  " + impact(t, np.array(p1[(a, c)])))
+    print("the app's patch, by kind     arrival [s]  first peak [Pa]  largest frame [Pa]")
+    for name, p in by_kind.items():
+        print(f"{name:27s}  " + impact(t, np.array(p)))
+    i = int(np.argmax(np.array(by_kind["fluid and wall (the app)"]) >= THRESHOLD))
+    after = (t >= t[i]) & (t <= t[i] + AFTER)
+    print(f"its wall particles reading 0 (dry) over the {AFTER} s after the arrival: {np.nanmean(np.array(dry)[after]):.2f}")
+
+
+def impact(t, p):
+    """The arrival, first peak and largest frame after the arrival, as the app reads them."""
+    if not (p >= THRESHOLD).any():
+        return "not reached"
+    i = int(np.argmax(p >= THRESHOLD))
+    mean = np.array([p[np.abs(t - s) <= WINDOW / 2].mean() for s in t])
+    after = (t >= t[i]) & (t <= t[i] + AFTER)
+    return f"{t[i]:11.4f}  {mean[after].max():15.0f}  {p[after].max():18.0f}"
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ surge front against Martin & Moyce and Koshizuka & Oka (a/20 and a/40, to T = 2.
 0.2 H against Buchner (H/25 and the seed's H/50), for each setting. CSV (bench/results/dambreak_variants.csv).
 
   bench/dambreak_variants.py BUILD_DIR [--results bench/results] [--jobs 2]   (one thread per run; about 8 minutes)
+  bench/dambreak_variants.py BUILD_DIR --settings "LABEL;LABEL" --name NAME   (those settings only, to NAME.csv)
 """
 import argparse
 import csv
@@ -20,15 +21,20 @@ SETTINGS = {
     "gradient plain": ["--gradient", "plain", "--shifting", "0"],
     "gradient corrected": ["--gradient", "corrected", "--shifting", "0"],
     "gradient corrected-min-reference": ["--gradient", "corrected-min-reference", "--shifting", "0"],
+    "gradient corrected-min-reference, shifting 0.5": ["--gradient", "corrected-min-reference", "--shifting", "0.5"],
+    "gradient corrected-min-reference, shifting 0.5, wet walls": ["--gradient", "corrected-min-reference",
+                                                                  "--shifting", "0.5", "--wet-walls"],
     "shifting 0.5 (the default)": ["--shifting", "0.5"],
     "shifting 1": ["--shifting", "1"],
     "shifting 2": ["--shifting", "2"],
     "shifting 5": ["--shifting", "5"],
     "wet walls": ["--wet-walls", "--shifting", "0"],
     "wet walls, shifting 1": ["--wet-walls", "--shifting", "1"],
+    "wet walls, shifting 0.5": ["--wet-walls", "--shifting", "0.5"],
 }
-RUNS = [("classic", "a/20", []), ("classic", "a/40", ["--dx", str(0.146 / 40)]), ("seed", "H/25", []),
-        ("seed", "H/50", ["--dx", "0.02"])]
+# Each spacing given, not left to the app's default (the classic column's became a/40).
+RUNS = [("classic", "a/20", ["--dx", str(0.146 / 20)]), ("classic", "a/40", ["--dx", str(0.146 / 40)]),
+        ("seed", "H/25", ["--dx", "0.04"]), ("seed", "H/50", ["--dx", "0.02"])]
 
 
 def run(exe, column, extra):
@@ -43,12 +49,17 @@ def main():
     ap.add_argument("build")
     ap.add_argument("--results", default="bench/results")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--settings", help="labels of SETTINGS separated by ';' (default: all)")
+    ap.add_argument("--name", default="dambreak_variants", help="the CSV's name without .csv")
     args = ap.parse_args()
+    chosen = args.settings.split(";") if args.settings else list(SETTINGS)
+    unknown = [label for label in chosen if label not in SETTINGS]
+    if unknown:
+        ap.error(f"unknown setting {unknown}; the settings are {list(SETTINGS)}")
     results = Path(args.results)
     results.mkdir(parents=True, exist_ok=True)
     exe = Path(args.build) / "apps" / "dambreak" / "dambreak"
-    jobs = [(label, column, spacing, extra + more) for label, extra in SETTINGS.items()
-            for column, spacing, more in RUNS]
+    jobs = [(label, column, spacing, SETTINGS[label] + more) for label in chosen for column, spacing, more in RUNS]
     with ThreadPoolExecutor(args.jobs) as pool:
         summaries = list(pool.map(lambda j: run(exe, j[1], j[3]), jobs))
     rows = []
@@ -68,7 +79,7 @@ def main():
         row["spray_removed"] = c.get("fluid_removed_as_spray_count", "")
         rows.append(row)
         print(row, flush=True)
-    with open(results / "dambreak_variants.csv", "w", newline="") as f:
+    with open(results / f"{args.name}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)

@@ -81,10 +81,18 @@ void BasicRankExchange<D>::refresh(Field&& field) {
 }
 
 template <int D>
-void BasicRankExchange<D>::begin_step(Particles& particles, const BasicDomain<D>& domain, double reach) {
+void BasicRankExchange<D>::begin_step(Particles& particles, const BasicDomain<D>& domain, double reach,
+                                      double cell_size) {
   ++stats_.steps;
   migrate_to_partition(particles);
   const auto start = Clock::now();
+  // Kept in id order, a rank's rows came out of the cell search unsorted and sorting them took about a quarter of a
+  // 3-D step (docs/scaling.md).
+  if (cell_size > 0.0) {
+    BasicCellGrid<D> grid(domain, cell_size);
+    grid.bin(particles);
+    particles.permute(grid.cell_order());
+  }
   halo_radius_ = reach;
   halo_.emplace(particles, domain, halo_radius_, comm_);
   stats_.halo_copies += halo_->copies();
@@ -107,7 +115,24 @@ void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   stats_.kept_imbalance = placed.kept_imbalance;
   stats_.imbalance = placed.imbalance;
   stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
+  // migrate_particles leaves them by id; those that stayed take back their order, so that the PPE's numbering (and
+  // with it a reused AMG hierarchy) holds between reorderings as it does serially.
+  std::vector<std::pair<int, int>> before(particles.size());
+  for (std::size_t i = 0; i < particles.size(); ++i) before[i] = {particles.id[i], static_cast<int>(i)};
+  std::sort(before.begin(), before.end());
   const ExchangeStats moved = migrate_particles(particles, placed.destination, comm_);
+  std::vector<std::pair<long long, int>> key(particles.size());
+  auto was = before.begin();
+  for (std::size_t i = 0; i < particles.size(); ++i) {  // particles are by id now, as `before` is
+    while (was != before.end() && was->first < particles.id[i]) ++was;
+    const bool stayed = was != before.end() && was->first == particles.id[i];
+    key[i] = {stayed ? was->second : static_cast<long long>(before.size()) + static_cast<long long>(i),
+              static_cast<int>(i)};
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<int> order(key.size());
+  for (std::size_t i = 0; i < key.size(); ++i) order[i] = key[i].second;
+  particles.permute(order);
   stats_.migrated += moved.particles_sent;
   count(moved);
   stats_.migrate_seconds += seconds_since(start);

@@ -60,14 +60,14 @@ struct DistributedOptions {
 /// the ranks whose halo they fall in, appended after the other copies: a component keeping per-particle state from
 /// before_predictor must allow for them), after the free surface (flags), by the distributed PPE, after the pressure
 /// boundary values (pressures, carriers) and after the corrector (whole particles, for particle shifting). Between
-/// steps the simulation's particles() are this rank's own, sorted by id after each migration; gather() collects them
-/// all on rank 0. The step's special cases and failures are decided over all ranks: one rank's failure ends the step
-/// on every rank with that rank's message.
+/// steps the simulation's particles() are this rank's own: those that stayed in their order, those that arrived after
+/// them by id, and every config.reorder_every steps all in the neighbour grid's cell order; gather() collects them all
+/// on rank 0, sorted by id. The step's special cases and failures are decided over all ranks: one rank's failure ends
+/// the step on every rank with that rank's message.
 ///
 /// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve) and the
 /// initial reference density (a t = 0 mean over the domain); also a pressure solver that does not run on the
-/// communicator (the serial backends on more than one rank). config.reorder_every is not used (particles stay in id
-/// order).
+/// communicator (the serial backends on more than one rank).
 template <int D>
 class BasicRankExchange final : public BasicExchange<D> {
  public:
@@ -91,7 +91,7 @@ class BasicRankExchange final : public BasicExchange<D> {
   void check(const BasicSimulation<D>& sim) const override;
   void distribute(Particles& particles) override;
   [[nodiscard]] bool reorders() const override { return false; }
-  void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach) override;
+  void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach, double cell_size) override;
   void share_predicted(Particles& particles, std::vector<char>& prescribed) override;
   void share_flags(std::span<char> flags) override;
   PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held, std::span<const double> source,

@@ -47,14 +47,15 @@ class BasicExchange {
   virtual void check(const BasicSimulation<D>& sim) const = 0;
   /// Every process passes the same validated scene; keeps the particles this process owns.
   virtual void distribute(Particles& particles) = 0;
-  /// Whether the step may reorder particles by cell (on ranks they stay in id order).
+  /// Whether the step may reorder particles by cell (on ranks begin_step does it for a rank's own).
   [[nodiscard]] virtual bool reorders() const = 0;
   /// @}
 
   /// @{ Within a step, in this order
-  /// Before the step: particles move to the process that owns them now; copies of those within `reach` [m] of
-  /// this process's own (the halo) join after them.
-  virtual void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach) = 0;
+  /// Before the step: particles move to the process that owns them now, those staying keeping their order and those
+  /// arriving after them; with `cell_size` > 0 [m] a process's own are then put in the cell order of a neighbour
+  /// grid of that size. Copies of those within `reach` [m] of this process's own (the halo) join after them.
+  virtual void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach, double cell_size) = 0;
   /// After the predictor: copies take their owners' r*, u* (and `prescribed` flags for copies new in this step).
   virtual void share_predicted(Particles& particles, std::vector<char>& prescribed) = 0;
   /// Copies take their owners' entries of a per-particle flag.
@@ -102,7 +103,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void check(const BasicSimulation<D>&) const override {}    ///< runs everything
   void distribute(Particles&) override {}                    ///< keeps every particle
   [[nodiscard]] bool reorders() const override { return true; }  ///< reordering by cell allowed
-  void begin_step(Particles&, const BasicDomain<D>&, double) override {}            ///< nothing to move
+  void begin_step(Particles&, const BasicDomain<D>&, double, double) override {}    ///< nothing to move
   void share_predicted(Particles&, std::vector<char>&) override {}  ///< no copies
   void share_flags(std::span<char>) override {}              ///< no copies
   /// assemble_ppe into the kept system.

@@ -391,7 +391,9 @@ void BasicSimulation<D>::begin_exchange() {
   // max_displacement in the step.
   const double kernels = config_.l0 * config_.largest_radius();
   const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
-  exchange_->begin_step(particles_, domain_, reach);
+  // On ranks the exchange reorders a rank's own particles by cell, on find_neighbors_now's schedule.
+  const bool reorder = config_.reorder_every > 0 && info_.step % config_.reorder_every == 0;
+  exchange_->begin_step(particles_, domain_, reach, reorder ? grid_.cell_size() : 0.0);
 }
 
 template <int D>

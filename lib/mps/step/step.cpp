@@ -116,6 +116,11 @@ Kernel pressure_kernel_of(Kernel laplacian, bool higher_order) {
   laplacian.higher_order_laplacian = higher_order;
   return laplacian;
 }
+
+// The step at which particles are put in cell order: by the step serially, by the exchange on ranks.
+bool reorder_due(const SimulationConfig& config, int step) {
+  return config.reorder_every > 0 && step % config.reorder_every == 0;
+}
 }  // namespace
 
 template <int D>
@@ -391,9 +396,7 @@ void BasicSimulation<D>::begin_exchange() {
   // max_displacement in the step.
   const double kernels = config_.l0 * config_.largest_radius();
   const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
-  // On ranks the exchange reorders a rank's own particles by cell, on find_neighbors_now's schedule.
-  const bool reorder = config_.reorder_every > 0 && info_.step % config_.reorder_every == 0;
-  exchange_->begin_step(particles_, domain_, reach, reorder ? grid_.cell_size() : 0.0);
+  exchange_->begin_step(particles_, domain_, reach, reorder_due(config_, info_.step) ? grid_.cell_size() : 0.0);
 }
 
 template <int D>
@@ -416,7 +419,7 @@ void BasicSimulation<D>::choose_time_step() {
 template <int D>
 void BasicSimulation<D>::find_neighbors_now() {
   Particles& p = particles_;
-  if (config_.reorder_every > 0 && exchange_->reorders() && info_.step % config_.reorder_every == 0) {
+  if (exchange_->reorders() && reorder_due(config_, info_.step)) {
     grid_.bin(p);
     p.permute(grid_.cell_order());
   }

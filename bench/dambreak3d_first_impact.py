@@ -75,7 +75,7 @@ def main():
 
     serial = sorted((c for c in cases if ranks_at.get(c[2], 1) == 1), key=lambda c: c[2])  # the longest first
     with ThreadPoolExecutor(a.jobs) as pool:
-        summaries = dict(zip(map(tuple, [(c[0], c[2]) for c in serial]), pool.map(one, serial)))
+        summaries = {(c[0], c[2]): s for c, s in zip(serial, pool.map(one, serial))}
     for c in cases:
         if (c[0], c[2]) not in summaries:
             summaries[(c[0], c[2])] = one(c)

@@ -29,8 +29,8 @@ class AutoSolver final : public LinearSolver {
     // Eigen solves one rank's rows only: on ranks, Jacobi-CG is hypre's PCG with the diagonal.
     jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol, context)
                            : make_solver("eigen-cg:precond=jacobi," + tol);
-    amg_ = make_solver("hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol,
-                       context);
+    amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol;
+    context_ = context;
   }
 
   SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) override {
@@ -51,6 +51,8 @@ class AutoSolver final : public LinearSolver {
         steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_);
     if (always_amg_ || steady_and_slow) {
       on_amg_ = true;
+      // Made at its first solve: a run that never leaves Jacobi-CG (a free surface) then never starts MPI and hypre.
+      if (!amg_) amg_ = make_solver(amg_spec_, context_);
       return amg_->solve(a, b, x);
     }
     on_amg_ = false;
@@ -63,7 +65,8 @@ class AutoSolver final : public LinearSolver {
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_;
   int switch_iterations_, rebuild_iterations_, steady_solves_;
-  std::string spec_;
+  std::string spec_, amg_spec_;
+  SolverContext context_;
   bool distributed_ = false, on_amg_ = false, always_amg_ = false;
   MPI_Comm comm_ = MPI_COMM_SELF;
   int last_rows_ = -1, last_jacobi_iterations_ = 0;

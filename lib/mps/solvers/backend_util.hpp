@@ -1,9 +1,14 @@
 #pragma once
 // Small helpers shared by the solver backends (private to lib/mps/solvers/*.cpp).
+#include <mpi.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <mutex>
 #include <span>
+#include <stdexcept>
 #include <string>
 
 #include "mps/solvers/solver.hpp"
@@ -13,6 +18,29 @@ namespace mps::solver_detail {
 using Clock = std::chrono::steady_clock;
 
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// MPI for the backends that need it (hypre, PETSc), started once if the host program has not: a singleton MPI_Init
+// needs no mpirun. Its finaliser is registered before any backend's, so it runs after theirs at exit.
+inline void ensure_mpi(const std::string& backend) {
+  static std::once_flag once;
+  std::call_once(once, [&] {
+    int initialised = 0, finalized = 0;
+    MPI_Initialized(&initialised);
+    MPI_Finalized(&finalized);
+    if (finalized)
+      throw std::runtime_error(backend + ": MPI has already been finalised; create " + backend +
+                               " solvers before MPI_Finalize");
+    if (initialised) return;
+    int provided = 0;
+    if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS)
+      throw std::runtime_error(backend + ": MPI_Init_thread failed");
+    std::atexit([] {
+      int done = 0;
+      MPI_Finalized(&done);
+      if (!done) MPI_Finalize();
+    });
+  });
+}
 
 inline bool all_finite(std::span<const double> x) {
   for (double v : x)

@@ -2,8 +2,8 @@
 // (conjugate gradients preconditioned by one V-cycle).
 //
 // Process-wide runtime: MPI is initialised on first use if the host program has not done it (a singleton
-// MPI_Init needs no mpirun), HYPRE_Init runs once, and an atexit handler runs HYPRE_Finalize once and then
-// MPI_Finalize, the latter only if we were the ones who initialised MPI. hypre is not re-entrant, so every
+// MPI_Init needs no mpirun; finalised at exit only if we started it), HYPRE_Init runs once, and an atexit handler
+// runs HYPRE_Finalize once. hypre is not re-entrant, so every
 // call into it holds one process-wide mutex.
 //
 // Setup reuse (reuse=N): the AMG hierarchy built for one matrix preconditions up to N further solves while
@@ -45,35 +45,20 @@ std::mutex& hypre_mutex() {
   static auto* m = new std::mutex;  // never destroyed: solvers may be destroyed during static destruction
   return *m;
 }
-bool g_we_initialised_mpi = false;
 bool g_runtime_finalised = false;  // after the atexit handler: hypre objects are leaked, not destroyed
-
-void finalize_runtime() {
-  const std::lock_guard lock(hypre_mutex());
-  HYPRE_Finalize();
-  g_runtime_finalised = true;
-  int finalized = 0;
-  MPI_Finalized(&finalized);
-  if (g_we_initialised_mpi && !finalized) MPI_Finalize();
-}
 
 void ensure_runtime() {
   static std::once_flag once;
   std::call_once(once, [] {
-    int initialised = 0, finalized = 0;
-    MPI_Initialized(&initialised);
-    MPI_Finalized(&finalized);
-    if (finalized)
-      throw std::runtime_error("hypre: MPI has already been finalised; create hypre solvers before MPI_Finalize");
-    if (!initialised) {
-      int provided = 0;
-      if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS)
-        throw std::runtime_error("hypre: MPI_Init_thread failed");
-      g_we_initialised_mpi = true;
-    }
+    solver_detail::ensure_mpi("hypre");
     if (HYPRE_Init() != 0) throw std::runtime_error("hypre: HYPRE_Init failed");
-    // Registered after MPI/hypre are up, so it runs after the destructors of solvers created from now on.
-    std::atexit(finalize_runtime);
+    // Registered after MPI/hypre are up, so it runs after the destructors of solvers created from now on, and
+    // before MPI's finaliser.
+    std::atexit([] {
+      const std::lock_guard lock(hypre_mutex());
+      HYPRE_Finalize();
+      g_runtime_finalised = true;
+    });
   });
 }
 

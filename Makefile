@@ -3,12 +3,12 @@
 #   make test   build with warnings as errors and run the whole test suite
 # Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
 # bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make sample-ppes (the
-# sample PPEs of data/ppe/) and bench-samples (every backend on them); make test-sanitize;
-# make docs (the API reference); make install PREFIX=/opt/sparsemps.
+# sample PPEs of data/ppe/), bench-samples (every backend on them) and bench-petsc (PETSc beside ours on them);
+# make test-sanitize; make docs (the API reference); make install PREFIX=/opt/sparsemps.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -173,6 +173,13 @@ bench-samples: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --files-only --limit "eigen-bicgstab=200000" \
 	  --out bench/results/solvers_samples.csv data/ppe/*.mtx.gz
+
+# PETSc's methods (GAMG, hypre through PETSc, ICC, Jacobi) beside ours on the sample PPEs on disk, one thread
+# (bench/petsc_samples.py; docs/solvers.md#petsc): CSV and chart in bench/results/.
+bench-petsc: deps build/release/CMakeCache.txt
+	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
+	cmake --build build/release -j$(JOBS) --target bench_solvers
+	/usr/bin/python3 bench/petsc_samples.py build/release
 
 # The periodic channel in both modes at 50 across to 20 D/U (a few minutes each), with profile plots.
 poiseuille: deps build/release/CMakeCache.txt

@@ -344,7 +344,8 @@ int main(int argc, char** argv) {
                                  "cholmod",
                                  "hypre-amg",
                                  "hypre-pcg",
-                                 "hypre-pcg:reuse=10"};
+                                 "hypre-pcg:reuse=10",
+                                 "petsc"};
   std::vector<std::string> limits;  // "spec-prefix=N": skip that spec above N unknowns
   std::vector<std::string> files;
   std::string tol = "1e-8", out = "bench/results/solvers.csv", export_dir;

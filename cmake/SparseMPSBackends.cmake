@@ -1,4 +1,4 @@
-# hypre, CHOLMOD and Zoltan ship no usable CMake package on Debian 12 (Zoltan's imports its library under the
+# hypre, CHOLMOD, Zoltan and PETSc ship no usable CMake package on Debian 12 (Zoltan's imports its library under the
 # configuration NONE only), so they are found by library (and, for the build, by
 # header) and wrapped in imported targets: a static libsparsemps's exported link interface then names
 # SparseMPS::HYPRE etc. rather than this machine's paths, and the installed SparseMPSConfig.cmake of a static build
@@ -6,7 +6,8 @@
 #
 # In:  SPARSEMPS_BACKEND_HEADERS  ON in the build (headers wanted), OFF from the package config (only libraries)
 #      SPARSEMPS_BACKEND_HINTS    directories to search first (the config passes where the build found them)
-# Out: targets SparseMPS::HYPRE, SparseMPS::CHOLMOD, SparseMPS::suitesparseconfig, SparseMPS::Zoltan;
+# Out: targets SparseMPS::HYPRE, SparseMPS::CHOLMOD, SparseMPS::suitesparseconfig, SparseMPS::Zoltan (and, in the
+#      build, SparseMPS::PETSc);
 #      SPARSEMPS_BACKENDS_MISSING lists what was not found (empty when all were).
 set(SPARSEMPS_BACKENDS_MISSING "")
 
@@ -41,3 +42,8 @@ _sparsemps_import(SparseMPS::CHOLMOD CHOLMOD_LIBRARY cholmod cholmod.h CHOLMOD_I
 _sparsemps_import(SparseMPS::suitesparseconfig SUITESPARSECONFIG_LIBRARY suitesparseconfig "" "" "")
 # Zoltan (Debian: libtrilinos-zoltan-dev): the partitioner of mps/parallel/distributed.cpp; its headers under trilinos/.
 _sparsemps_import(SparseMPS::Zoltan ZOLTAN_LIBRARY trilinos_zoltan zoltan.h ZOLTAN_INCLUDE_DIR trilinos)
+# PETSc (Debian: libpetsc-real-dev): the petsc backend's module (lib/mps/solvers/petsc/), built with the library;
+# programs using the library never link it.
+if(SPARSEMPS_BACKEND_HEADERS)
+  _sparsemps_import(SparseMPS::PETSc PETSC_LIBRARY petsc_real petsc.h PETSC_INCLUDE_DIR petsc)
+endif()

@@ -104,11 +104,12 @@ void bind_solvers(py::module_& m) {
           for (const mps::SolverKey& key : entry.keys)
             keys[py::str(key.name)] = py::dict(py::arg("default") = key.default_value, py::arg("help") = key.help);
           out.append(py::dict(py::arg("name") = entry.name, py::arg("summary") = entry.summary,
-                              py::arg("keys") = keys));
+                              py::arg("keys") = keys, py::arg("passes_other_keys") = entry.passes_other_keys));
         }
         return out;
       },
-      "Every registered backend as a dict: name, summary (when to use it) and keys {key: {default, help}}.");
+      "Every registered backend as a dict: name, summary (when to use it), keys {key: {default, help}} and "
+      "passes_other_keys (True for petsc: any other key is one of PETSc's options).");
 }
 
 }  // namespace sparsemps

@@ -11,6 +11,7 @@ packages=(
   libhypre-dev           # BoomerAMG
   libopenmpi-dev openmpi-bin   # MPI for hypre and the distributed particles; mpirun runs the tests labelled mpi
   libtrilinos-zoltan-dev # Zoltan's RCB partition of particles over MPI ranks (mps/parallel/distributed.hpp)
+  libpetsc-real-dev      # PETSc's KSP behind the registry (the petsc solver)
   libgtest-dev
   libcli11-dev nlohmann-json3-dev
   zlib1g-dev             # the .vtp frames' compression

@@ -170,11 +170,13 @@ TEST(Fuzz, FrameReaderReadsOrRefusesEveryDamagedFrame) {
 
 // A spec is either a solver whose spec() rebuilds an equal solver, or std::invalid_argument.
 TEST(Fuzz, SolverSpecsBuildOrAreRefused) {
-  const std::vector<std::string> names{"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg", "cg", ""};
+  const std::vector<std::string> names{"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg", "petsc",
+                                       "cg", ""};
   const std::vector<std::string> keys{"tol", "max_iter", "precond", "reuse", "ordering", "droptol", "fill", "sweeps",
-                                      "p_max", "strong_threshold", "coarsen_type", "bogus", ""};
+                                      "p_max", "strong_threshold", "coarsen_type", "bogus", "", "ksp_type", "pc_type",
+                                      "pc_gamg_threshold", "-ksp_type"};
   const std::vector<std::string> values{"1e-8", "0", "-1", "ic", "jacobi", "ilut", "amd", "nan", "inf", "10", "1e6",
-                                        "0.5", "", "3", "99999999999"};
+                                        "0.5", "", "3", "99999999999", "cg", "gamg", "icc", "gmres"};
   std::mt19937 rng(7);
   int built = 0, refused = 0;
   for (int c = 0; c < 2000; ++c) {
@@ -202,7 +204,8 @@ TEST(Fuzz, SolverSpecsBuildOrAreRefused) {
 TEST(Fuzz, EveryBackendSolvesOrRefusesRandomSmallMatrices) {
   std::mt19937 rng(11);
   int solved = 0, refused = 0;
-  for (const std::string spec : {"eigen-cg", "eigen-cg:precond=jacobi", "eigen-bicgstab", "cholmod", "hypre-pcg"}) {
+  for (const std::string spec : {"eigen-cg", "eigen-cg:precond=jacobi", "eigen-bicgstab", "cholmod", "hypre-pcg",
+                                 "petsc", "petsc:pc_type=jacobi"}) {
     for (int c = 0; c < 300; ++c) {
       mps::CsrMatrix a;
       const int n = std::uniform_int_distribution<int>(0, 5)(rng);

@@ -96,6 +96,8 @@ const std::vector<std::string>& all_backends() {
       "hypre-pcg:tol=1e-13",
       "hypre-pcg:filter=0.2,tol=1e-13",
       "hypre-pcg:precond=jacobi,tol=1e-13",
+      "petsc:tol=1e-13",
+      "petsc:pc_type=icc,tol=1e-13",
   };
   return specs;
 }
@@ -147,7 +149,7 @@ TEST(SolverSpec, ParsesNameAndOptions) {
 
 TEST(SolverSpec, EverySolverIsRegisteredAndItsSpecRebuildsIt) {
   const std::vector<std::string> names = mps::solver_names();
-  for (const char* expected : {"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg"})
+  for (const char* expected : {"eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg", "petsc"})
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   const std::string listing = mps::describe_solvers();
   for (const auto& name : names) {
@@ -238,7 +240,7 @@ TEST(SolverAgreement, EveryBackendReportsTheResidualOfTheSolutionItReturns) {
   const mps::PpeSystem& ppe = tank().ppe;
   for (const char* spec : {"eigen-cg:precond=ic,tol=1e-5", "eigen-cg:precond=jacobi,tol=1e-5",
                            "eigen-bicgstab:precond=jacobi,tol=1e-5", "hypre-amg:tol=1e-5", "hypre-pcg:tol=1e-5",
-                           "hypre-pcg:tol=1e-5,reuse=5"}) {
+                           "hypre-pcg:tol=1e-5,reuse=5", "petsc:tol=1e-5", "petsc:tol=1e-5,reuse=5"}) {
     auto solver = mps::make_solver(spec);
     for (int solve = 0; solve < 2; ++solve) {  // the second reuses hypre's hierarchy where reuse is set
       std::vector<double> x(ppe.size(), 0.0);
@@ -284,7 +286,7 @@ TEST(SolverAgreement, EveryBackendGivesTheSamePressureLevelInAClosedBox) {
 TEST(SolverFailure, HittingMaxIterationsThrowsWithTheResidualHistory) {
   const mps::PpeSystem& ppe = tank().ppe;
   for (const char* spec : {"eigen-cg:max_iter=3", "eigen-bicgstab:precond=jacobi,max_iter=2", "hypre-pcg:max_iter=2",
-                           "hypre-amg:max_iter=1"}) {
+                           "hypre-amg:max_iter=1", "petsc:max_iter=2"}) {
     auto solver = mps::make_solver(spec);
     std::vector<double> x(ppe.size(), 0.0);
     try {
@@ -584,7 +586,8 @@ TEST(SolverWarmStart, IterativeBackendsStartFromTheGivenX) {
   const mps::PpeSystem& ppe = tank().ppe;
   const std::vector<double> exact = solve_with("cholmod", ppe.matrix, ppe.rhs);
   for (const char* spec :
-       {"eigen-cg:tol=1e-8", "eigen-bicgstab:precond=jacobi,tol=1e-8", "hypre-amg:tol=1e-8", "hypre-pcg:tol=1e-8"}) {
+       {"eigen-cg:tol=1e-8", "eigen-bicgstab:precond=jacobi,tol=1e-8", "hypre-amg:tol=1e-8", "hypre-pcg:tol=1e-8",
+        "petsc:tol=1e-8"}) {
     mps::SolveReport cold, warm;
     const std::vector<double> x_cold = solve_with(spec, ppe.matrix, ppe.rhs, &cold);
     auto solver = mps::make_solver(spec);
@@ -595,6 +598,79 @@ TEST(SolverWarmStart, IterativeBackendsStartFromTheGivenX) {
     EXPECT_LT(warm.iterations, cold.iterations / 2 + 1) << spec;
     EXPECT_LT(warm.residual_history.front(), 1e-5) << spec << ": the history starts at the guess's residual";
   }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// PETSc: every key besides tol, max_iter and reuse goes to PETSc, whose methods must then agree with CHOLMOD.
+
+TEST(SolverPetsc, PassedThroughOptionsChooseMethodsThatAgreeWithCholmod) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  const std::vector<double> exact = solve_with("cholmod", ppe.matrix, ppe.rhs);
+  for (const char* spec : {"petsc:tol=1e-12", "petsc:pc_type=jacobi,tol=1e-12", "petsc:pc_type=hypre,tol=1e-12",
+                           "petsc:pc_type=gamg,pc_gamg_threshold=0.02,mg_levels_ksp_type=richardson,tol=1e-12",
+                           "petsc:ksp_type=gmres,pc_type=ilu,tol=1e-12",
+                           "petsc:ksp_type=preonly,pc_type=cholesky"}) {
+    mps::SolveReport r;
+    const std::vector<double> x = solve_with(spec, ppe.matrix, ppe.rhs, &r);
+    EXPECT_LT(relative_difference(x, exact), 1e-8) << spec;
+    EXPECT_LT(r.relative_residual, 1e-10) << spec;
+    EXPECT_EQ(r.backend, "petsc");
+  }
+  // The options reach PETSc: Jacobi needs many more iterations than GAMG on the same system.
+  mps::SolveReport gamg, jacobi;
+  (void)solve_with("petsc:tol=1e-10", ppe.matrix, ppe.rhs, &gamg);
+  (void)solve_with("petsc:pc_type=jacobi,tol=1e-10", ppe.matrix, ppe.rhs, &jacobi);
+  EXPECT_GT(jacobi.iterations, 3 * gamg.iterations) << jacobi.iterations << " vs " << gamg.iterations;
+}
+
+TEST(SolverPetsc, OptionsPetscDoesNotReadOrRefusesAreNamed) {
+  // A key no type reads, and a value PETSc refuses: at make_solver, naming the key or PETSc's reason.
+  for (const auto& [spec, words] : std::vector<std::pair<std::string, std::string>>{
+           {"petsc:pc_typo=gamg", "pc_typo"},
+           {"petsc:pc_type=jacobi,pc_gamg_threshold=0.1", "pc_gamg_threshold"},
+           {"petsc:ksp_type=nonsense", "nonsense"},
+           {"petsc:pc_gamg_threshold=abc", "abc"},
+           {"petsc:tol=0", "tol"}}) {
+    try {
+      (void)mps::make_solver(spec);
+      ADD_FAILURE() << spec << ": no exception";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << spec << ": " << e.what();
+    }
+  }
+  // A sub-solver's option is read only at the first setup: a misspelt one is refused there, by the solve.
+  auto solver = mps::make_solver("petsc:mg_levels_ksp_typo=richardson");
+  const mps::PpeSystem& ppe = tank().ppe;
+  std::vector<double> x(ppe.size(), 0.0);
+  try {
+    (void)solver->solve(ppe.matrix, ppe.rhs, x);
+    ADD_FAILURE() << "no exception";
+  } catch (const mps::SolverError& e) {
+    EXPECT_NE(std::string(e.what()).find("mg_levels_ksp_typo"), std::string::npos) << e.what();
+  }
+  // Two solvers do not read each other's options.
+  auto gamg = mps::make_solver("petsc:tol=1e-10");
+  auto jacobi = mps::make_solver("petsc:pc_type=jacobi,tol=1e-10");
+  std::vector<double> xg(ppe.size(), 0.0), xj(ppe.size(), 0.0);
+  const int gamg_iterations = gamg->solve(ppe.matrix, ppe.rhs, xg).iterations;
+  EXPECT_GT(jacobi->solve(ppe.matrix, ppe.rhs, xj).iterations, 3 * gamg_iterations);
+}
+
+TEST(SolverPetsc, AKeptPreconditionerSolvesPerturbedSystemsAndIsRebuiltWhenTheCountChanges) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  auto kept = mps::make_solver("petsc:tol=1e-12,reuse=2");
+  std::vector<double> x(ppe.size(), 0.0);
+  std::vector<bool> reused;
+  for (int step = 0; step < 4; ++step) {
+    const mps::CsrMatrix a = perturbed(ppe.matrix, step, 0.02);
+    const mps::SolveReport r = kept->solve(a, ppe.rhs, x);
+    reused.push_back(r.setup_reused);
+    EXPECT_LT(relative_difference(x, solve_with("cholmod", a, ppe.rhs)), 1e-9) << "step " << step;
+  }
+  EXPECT_EQ(reused, (std::vector<bool>{false, true, true, false})) << "reuse=2: two reuses, then a fresh setup";
+  const mps::PpeSystem& other = box().ppe;  // another unknown count
+  std::vector<double> y(other.size(), 0.0);
+  EXPECT_FALSE(kept->solve(other.matrix, other.rhs, y).setup_reused);
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -349,7 +349,20 @@ TEST(Distributed, SerialBackendsRefuseMoreThanOneRank) {
       EXPECT_NE(what.find("hypre-pcg"), std::string::npos) << what;
     }
   }
-  for (const char* name : {"hypre-pcg", "hypre-amg", "auto"}) EXPECT_NO_THROW(mps::make_solver(name, context)) << name;
+  for (const char* name : {"hypre-pcg", "hypre-amg", "auto", "petsc"})
+    EXPECT_NO_THROW(mps::make_solver(name, context)) << name;
+}
+
+// PETSc's KSP on the communicator: GAMG and hypre through PETSc give the serial pressures too.
+TEST(Distributed, PetscOnRanksEqualsTheSerialSolveToTheSolverTolerance) {
+  for (const char* spec : {"petsc:tol=1e-10", "petsc:pc_type=hypre,tol=1e-10"}) {
+    const Comparison c = compare_with_serial(Scene(false), spec);
+    if (rank() != 0) continue;
+    std::printf("tank, %s: %lld unknowns on %d ranks, max |p - p_serial| / max |p_serial| = %.3g\n", spec, c.unknowns,
+                ranks(), c.relative_difference);
+    EXPECT_GT(c.unknowns, 1000);
+    EXPECT_LE(c.relative_difference, 1e-7) << spec;
+  }
 }
 
 // The kept cuts (RcbPartition): particles go to the boxes of the last repartition without communication, so only a

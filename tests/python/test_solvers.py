@@ -8,11 +8,11 @@ import scipy.sparse.linalg
 import sparsemps
 from conftest import SAMPLES, load_sample
 
-BACKENDS = ["auto", "eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg"]
+BACKENDS = ["auto", "eigen-cg", "eigen-bicgstab", "cholmod", "hypre-amg", "hypre-pcg", "petsc"]
 # Every backend and preconditioner, at a tolerance tighter than the default so that agreement is tested closely.
 SPECS = ["auto:tol=1e-10", "eigen-cg:tol=1e-10", "eigen-cg:precond=jacobi,tol=1e-10", "eigen-bicgstab:tol=1e-10",
          "eigen-bicgstab:precond=jacobi,tol=1e-10", "hypre-amg:tol=1e-10", "hypre-pcg:tol=1e-10",
-         "hypre-pcg:filter=0.2,tol=1e-10"]
+         "hypre-pcg:filter=0.2,tol=1e-10", "petsc:tol=1e-10", "petsc:pc_type=hypre,tol=1e-10"]
 
 
 def relative(x, reference):

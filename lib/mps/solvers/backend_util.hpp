@@ -42,6 +42,13 @@ inline void ensure_mpi(const std::string& backend) {
   });
 }
 
+// True on every rank if it is true on any rank (so that all ranks throw, rebuild or return together).
+inline bool any_rank(bool local, MPI_Comm comm) {
+  int in = local ? 1 : 0, out = 0;
+  MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, comm);
+  return out != 0;
+}
+
 inline bool all_finite(std::span<const double> x) {
   for (double v : x)
     if (!std::isfinite(v)) return false;

@@ -36,6 +36,7 @@ namespace mps {
 namespace {
 
 using solver_detail::Clock;
+using solver_detail::any_rank;
 using solver_detail::seconds_since;
 
 // ---------------------------------------------------------------------------------------------------------
@@ -143,13 +144,6 @@ struct Partition {
   HYPRE_BigInt global_rows = 0;
   [[nodiscard]] HYPRE_Int local_rows() const { return static_cast<HYPRE_Int>(iupper - ilower + 1); }
 };
-
-// True on every rank if it is true on any rank (so that all ranks throw, rebuild or return together).
-bool any_rank(bool local, MPI_Comm comm) {
-  int in = local ? 1 : 0, out = 0;
-  MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, comm);
-  return out != 0;
-}
 
 // ---------------------------------------------------------------------------------------------------------
 // BoomerAMG options shared by both backends.

@@ -8,7 +8,8 @@
 namespace mps {
 const std::vector<SolverEntry>& solver_registry() {
   static const std::vector<SolverEntry> entries = {auto_entry(),      eigen_cg_entry(),  eigen_bicgstab_entry(),
-                                                   cholmod_entry(),   hypre_amg_entry(), hypre_pcg_entry()};
+                                                   cholmod_entry(),   hypre_amg_entry(), hypre_pcg_entry(),
+                                                   petsc_entry()};
   return entries;
 }
 
@@ -39,7 +40,7 @@ void refuse_more_than_one_rank(const std::string& name, int fortran_comm) {
   MPI_Comm_size(MPI_Comm_f2c(fortran_comm), &ranks);
   if (ranks > 1)
     throw std::invalid_argument("solver '" + name + "' solves on one rank only, but the communicator has " +
-                                std::to_string(ranks) + " ranks; use hypre-pcg, hypre-amg or auto on more than one rank");
+                                std::to_string(ranks) + " ranks; use hypre-pcg, hypre-amg, petsc or auto on more than one rank");
 }
 
 }  // namespace
@@ -77,7 +78,7 @@ std::unique_ptr<LinearSolver> make_solver(std::string_view spec, const SolverCon
     std::map<std::string, std::string> values;
     for (const auto& key : entry.keys) values[key.name] = key.default_value;
     for (const auto& [key, value] : parsed.options) {
-      if (!values.contains(key)) {
+      if (!values.contains(key) && !entry.passes_other_keys) {
         std::vector<std::string> valid;
         for (const auto& k : entry.keys) valid.push_back(k.name);
         throw std::invalid_argument("solver '" + entry.name + "' has no key '" + key +
@@ -103,6 +104,7 @@ std::string describe_solvers() {
     out << entry.name << "\n    " << entry.summary << "\n";
     for (const auto& key : entry.keys)
       out << "    " << key.name << "=" << key.default_value << "  " << key.help << "\n";
+    if (entry.passes_other_keys) out << "    any other key=value  passed through to the library behind it (see its summary)\n";
   }
   return out.str();
 }

@@ -50,6 +50,9 @@ struct SolverEntry {
   /// Solves with rows spread over the ranks of SolverContext::mpi_comm; make_solver refuses the others a
   /// communicator of more than one rank.
   bool distributed = false;
+  /// Takes keys it does not declare as well, passed through to the library behind it (petsc: PETSc's options),
+  /// which must then refuse the ones it does not know.
+  bool passes_other_keys = false;
 };
 
 /// @{ The backends' registry entries, one function per backend file (named beside each); make_solver and
@@ -60,6 +63,7 @@ SolverEntry cholmod_entry();         // cholmod.cpp
 SolverEntry hypre_amg_entry();       // hypre.cpp
 SolverEntry hypre_pcg_entry();       // hypre.cpp
 SolverEntry auto_entry();            // auto.cpp
+SolverEntry petsc_entry();           // petsc.cpp
 /// @}
 
 /// Every registered backend in listing order, with its keys, defaults and help (what describe_solvers prints, as data

@@ -42,7 +42,7 @@ _sparsemps_import(SparseMPS::CHOLMOD CHOLMOD_LIBRARY cholmod cholmod.h CHOLMOD_I
 _sparsemps_import(SparseMPS::suitesparseconfig SUITESPARSECONFIG_LIBRARY suitesparseconfig "" "" "")
 # Zoltan (Debian: libtrilinos-zoltan-dev): the partitioner of mps/parallel/distributed.cpp; its headers under trilinos/.
 _sparsemps_import(SparseMPS::Zoltan ZOLTAN_LIBRARY trilinos_zoltan zoltan.h ZOLTAN_INCLUDE_DIR trilinos)
-# PETSc (Debian: libpetsc-real-dev): the petsc backend's module (lib/mps/solvers/petsc/), built with the library;
+# PETSc (Debian: libpetsc-real-dev): the petsc backend's module (lib/mps/solvers/petsc_ksp.cpp), built with the library;
 # programs using the library never link it.
 if(SPARSEMPS_BACKEND_HEADERS)
   _sparsemps_import(SparseMPS::PETSc PETSC_LIBRARY petsc_real petsc.h PETSC_INCLUDE_DIR petsc)

@@ -1,4 +1,4 @@
-// The petsc backend: the spec and the input checks here, PETSc itself in a module of its own (petsc/petsc_ksp.cpp,
+// The petsc backend: the spec and the input checks here, PETSc itself in a module of its own (petsc_ksp.cpp,
 // libsparsemps_petsc.so) opened at the first petsc solver. Linked into the library, PETSc and the ~70 libraries it
 // needs cost every program about 50 ms and 10 MB at start, used or not (docs/solvers.md#petsc).
 #include <dlfcn.h>
@@ -7,7 +7,7 @@
 #include <mutex>
 
 #include "mps/solvers/backend_util.hpp"
-#include "mps/solvers/petsc/petsc_module.hpp"
+#include "mps/solvers/petsc_module.hpp"
 #include "mps/solvers/registry.hpp"
 
 namespace mps {

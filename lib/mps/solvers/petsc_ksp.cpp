@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "mps/solvers/backend_util.hpp"
-#include "mps/solvers/petsc/petsc_module.hpp"
+#include "mps/solvers/petsc_module.hpp"
 
 namespace mps {
 namespace {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -103,6 +104,29 @@ TEST(PressureTreatments, NumberDensityRateIsTheExactTimeDerivativeOfTheNumberDen
     EXPECT_NEAR(rate[i], (ahead[i] - behind[i]) / (2 * h), 1e-5 * (1 + std::abs(rate[i]))) << "particle " << i;
   }
   EXPECT_GT(largest, 100.0);  // the field is not trivially zero
+}
+
+// The one-pass number_density_and_rate (what the step calls) gives the two operators' numbers bitwise, on a list
+// wider than the kernel (pairs beyond re skipped alike) and with a coincident pair (its rate term is 0 in both).
+TEST(PressureTreatments, NumberDensityAndRateInOnePassEqualTheTwoOperatorsBitwise) {
+  Cloud c;
+  c.p.x[5] = c.p.x[4];  // a coincident pair
+  c.p.y[5] = c.p.y[4];
+  for (const double radius : {2.1, 4.1}) {
+    const mps::Kernel k = mps::make_kernel(radius, c.l0);
+    const auto list = mps::find_neighbors(c.p, c.d, 4.3 * c.l0);
+    const mps::Stencil s{c.p, c.d, list, k};
+    std::vector<double> rate(c.p.size()), fused_rate(c.p.size(), -1.0), fused_n;
+    mps::number_density_rate<2>(s, {c.p.u, c.p.v}, rate);
+    const std::vector<double> n = mps::number_density(s);
+    mps::number_density_and_rate<2>(s, {c.p.u, c.p.v}, fused_n, fused_rate);
+    ASSERT_EQ(fused_n.size(), n.size());
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      EXPECT_EQ(std::memcmp(&fused_n[i], &n[i], sizeof(double)), 0) << "n at particle " << i;
+      EXPECT_EQ(std::memcmp(&fused_rate[i], &rate[i], sizeof(double)), 0) << "rate at particle " << i;
+    }
+    EXPECT_GT(*std::max_element(n.begin(), n.end()), k.n0 * 0.5);  // the sums are not trivially zero
+  }
 }
 
 // Rigid motion (a translation and a rotation) changes no distance: the rate is zero on any cloud, to round-off.

@@ -18,9 +18,9 @@ void check_size(std::size_t got, std::size_t want, const char* what) {
   if (got != want) throw std::invalid_argument(std::string("operator: ") + what + " has the wrong length");
 }
 
-// Calls f(j, d, r2, w) for every neighbour j of i with w > 0, d = r_j - r_i.
+// Calls f(j, d, r2, r, w) for every neighbour j of i with w > 0, d = r_j - r_i, r2 = |d|^2, r = sqrt(r2).
 template <int D, class F>
-void for_each_pair(const BasicStencil<D>& s, std::size_t i, F&& f) {
+void for_each_pair_at_distance(const BasicStencil<D>& s, std::size_t i, F&& f) {
   const BasicParticles<D>& p = s.particles;
   std::array<const double*, D> X;
   for (std::size_t a = 0; a < D; ++a) X[a] = p.positions()[a]->data();
@@ -33,9 +33,27 @@ void for_each_pair(const BasicStencil<D>& s, std::size_t i, F&& f) {
     for (std::size_t a = 0; a < D; ++a) rj[a] = X[a][jj];
     const Vec<D> d = displacement(ri, rj);
     const double r2 = norm2<D>(d);
-    const double w = s.kernel.w(std::sqrt(r2));
-    if (w > 0.0) f(jj, d, r2, w);
+    const double r = std::sqrt(r2);
+    const double w = s.kernel.w(r);
+    if (w > 0.0) f(jj, d, r2, r, w);
   }
+}
+
+// Calls f(j, d, r2, w) for every neighbour j of i with w > 0, d = r_j - r_i.
+template <int D, class F>
+void for_each_pair(const BasicStencil<D>& s, std::size_t i, F&& f) {
+  for_each_pair_at_distance(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double, double w) { f(j, d, r2, w); });
+}
+
+// One pair's term of number_density_rate: w'(r) (r_ij . u_ij) / r, or 0 for coincident particles, whose distance has
+// no direction to change along.
+template <int D>
+[[gnu::always_inline]] inline double rate_term(const BasicStencil<D>& s, const ConstComponents<D>& u, std::size_t i,
+                                               std::size_t j, const Vec<D>& d, double r) {
+  if (!(r > 0.0)) return 0.0;
+  double approach = (u[0][j] - u[0][i]) * d[0];
+  for (std::size_t a = 1; a < D; ++a) approach += (u[a][j] - u[a][i]) * d[a];
+  return s.kernel.dw(r) * approach / r;
 }
 
 template <int D>
@@ -335,14 +353,30 @@ void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, 
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     double sum = 0.0;
-    for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double) {
-      const double r = std::sqrt(r2);
-      if (!(r > 0.0)) return;  // coincident particles: the pair's distance has no direction to change along
-      double approach = (u[0][j] - u[0][i]) * d[0];
-      for (std::size_t a = 1; a < D; ++a) approach += (u[a][j] - u[a][i]) * d[a];
-      sum += s.kernel.dw(r) * approach / r;
+    for_each_pair_at_distance(s, i, [&](std::size_t j, const Vec<D>& d, double, double r, double) {
+      sum += rate_term<D>(s, u, i, j, d, r);
     });
     out[i] = sum;
+  }
+}
+
+template <int D>
+void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::vector<double>& n_out,
+                             std::span<double> rate) {
+  const Index n = count(s);
+  for (std::size_t a = 0; a < D; ++a) check_size(u[a].size(), s.particles.size(), "velocity");
+  check_size(rate.size(), s.particles.size(), "rate");
+  n_out.assign(static_cast<std::size_t>(n), 0.0);
+#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    double density = 0.0, sum = 0.0;
+    for_each_pair_at_distance(s, i, [&](std::size_t j, const Vec<D>& d, double, double r, double w) {
+      density += w;
+      sum += rate_term<D>(s, u, i, j, d, r);
+    });
+    n_out[i] = density;
+    rate[i] = sum;
   }
 }
 
@@ -510,6 +544,8 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
                                             std::span<const char>, std::span<const char>, const Components<D>&);     \
   template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);                    \
   template void number_density_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);           \
+  template void number_density_and_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::vector<double>&,    \
+                                           std::span<double>);                                                        \
   template void laplacian(const BasicStencil<D>&, std::span<const double>, std::span<double>);                       \
   template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&);                  \
   template CsrMatrix laplacian_matrix(const BasicStencil<D>&);                                                       \

@@ -113,6 +113,11 @@ inline void divergence(const Stencil& s, std::span<const double> u, std::span<co
 /// divergence of u, exact for linear fields on the perfect lattice and zero for any rigid motion.
 template <int D = 2>
 void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out);
+/// number_density and number_density_rate in one pass over the pairs, each pair's distance taken once: the same
+/// numbers, bitwise, as the two calls (the higher-order source needs both of the same stencil).
+template <int D = 2>
+void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::vector<double>& n,
+                             std::span<double> rate);
 
 /// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij; with kernel.higher_order_laplacian, (2d/n_higher_order) sum
 /// (phi_j - phi_i) f(r_ij) (Kernel::higher_order_weight)

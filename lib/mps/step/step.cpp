@@ -438,13 +438,11 @@ void BasicSimulation<D>::error_compensation() {
   if (!config_.error_compensating_source) return;
   const Particles& p = particles_;
   StepFields& f = fields_;
-  const BasicStencil<D> stencil{p, domain_, near_star_, k_density_};
-  mps::number_density<D>(stencil, f.n_start);
   f.ecs.assign(p.size(), 0.0);
   ConstComponents<D> u;
   const auto vel = p.velocities();
   for (std::size_t a = 0; a < D; ++a) u[a] = *vel[a];
-  number_density_rate<D>(stencil, u, f.ecs);
+  number_density_and_rate<D>({p, domain_, near_star_, k_density_}, u, f.n_start, f.ecs);
   const double n0 = k_density_.n0, scale = config_.rho / (f.dt * f.dt);
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double e = (f.n_start[i] - n0) / n0, delta = f.dt * f.ecs[i] / n0;
@@ -574,16 +572,17 @@ void BasicSimulation<D>::find_neighbors_at_star() {
 template <int D>
 void BasicSimulation<D>::number_density_and_divergence() {
   const Particles& p = particles_;
-  mps::number_density<D>({p, domain_, neighbors_at_star(k_density_), k_density_}, fields_.n_star);
+  const BasicStencil<D> density{p, domain_, neighbors_at_star(k_density_), k_density_};
   fields_.div.assign(p.size(), 0.0);
   ConstComponents<D> u;
   const auto vel = p.velocities();
   for (std::size_t a = 0; a < D; ++a) u[a] = *vel[a];
   if (!config_.higher_order_source) {
+    mps::number_density<D>(density, fields_.n_star);
     divergence<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, u, fields_.div);
     return;
   }
-  number_density_rate<D>({p, domain_, neighbors_at_star(k_density_), k_density_}, u, fields_.div);
+  number_density_and_rate<D>(density, u, fields_.n_star, fields_.div);  // one pass over the pairs for both
   const double scale = -static_cast<double>(D) / k_density_.n_rate;
   for (double& d : fields_.div) d *= scale;
 }

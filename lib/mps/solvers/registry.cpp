@@ -40,7 +40,8 @@ void refuse_more_than_one_rank(const std::string& name, int fortran_comm) {
   MPI_Comm_size(MPI_Comm_f2c(fortran_comm), &ranks);
   if (ranks > 1)
     throw std::invalid_argument("solver '" + name + "' solves on one rank only, but the communicator has " +
-                                std::to_string(ranks) + " ranks; use hypre-pcg, hypre-amg, petsc or auto on more than one rank");
+                                std::to_string(ranks) +
+                                " ranks; use hypre-pcg, hypre-amg, petsc or auto on more than one rank");
 }
 
 }  // namespace
@@ -104,7 +105,8 @@ std::string describe_solvers() {
     out << entry.name << "\n    " << entry.summary << "\n";
     for (const auto& key : entry.keys)
       out << "    " << key.name << "=" << key.default_value << "  " << key.help << "\n";
-    if (entry.passes_other_keys) out << "    any other key=value  passed through to the library behind it (see its summary)\n";
+    if (entry.passes_other_keys)
+      out << "    any other key=value  passed through to the library behind it (see its summary)\n";
   }
   return out.str();
 }

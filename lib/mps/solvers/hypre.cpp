@@ -3,8 +3,7 @@
 //
 // Process-wide runtime: MPI is initialised on first use if the host program has not done it (a singleton
 // MPI_Init needs no mpirun; finalised at exit only if we started it), HYPRE_Init runs once, and an atexit handler
-// runs HYPRE_Finalize once. hypre is not re-entrant, so every
-// call into it holds one process-wide mutex.
+// runs HYPRE_Finalize once. hypre is not re-entrant, so every call into it holds one process-wide mutex.
 //
 // Setup reuse (reuse=N): the AMG hierarchy built for one matrix preconditions up to N further solves while
 // the number of unknowns stays the same; the finest level always smooths with the current matrix (BoomerAMG

@@ -1,11 +1,6 @@
-// The PETSc module: PETSc's KSP for the petsc backend ("petsc:ksp_type=cg,pc_type=gamg,pc_gamg_threshold=0.02"),
-// opened by the library at the first petsc solver (mps/solvers/petsc.cpp, which reads the spec and checks every
-// input first). Every option but tol, max_iter and reuse is one of PETSc's, handed to it under a prefix of this
-// solver's own (so two solvers never read each other's); a key PETSc never reads is refused by name.
-//
-// Process-wide runtime as for hypre: MPI started on first use if the host program has not, PetscInitialize once
-// without PETSc's signal handlers (the host's SIGSEGV and SIGTERM stay the host's), PetscFinalize as MPI ends. PETSc's
-// error messages are caught by an error handler of ours and thrown as SolverError, never printed by PETSc.
+// PETSc's KSP for the petsc backend, a module the library opens at the first petsc solver (petsc.cpp reads the spec
+// and checks every input). PETSc's options live under a prefix of this solver's own, so solvers never read each
+// other's; PETSc's errors come back as exceptions, never printed, and its signal handlers stay off.
 #include <petscksp.h>
 
 #include <algorithm>

@@ -3,12 +3,13 @@
 #   make test   build with warnings as errors and run the whole test suite
 # Further: make bench (every benchmark, quick) and make bench-full (at full size; or one of bench-core,
 # bench-solvers, bench-pareto, bench-scaling, bench-stability), CSV + PNG in bench/results/; make sample-ppes (the
-# sample PPEs of data/ppe/), bench-samples (every backend on them) and bench-petsc (PETSc beside ours on them);
+# sample PPEs of data/ppe/), bench-samples (every backend on them), bench-petsc (PETSc beside ours on them) and
+# bench-mps-basic MPS_BASIC=DIR (MPS-Basic beside ours on its dam break);
 # make test-sanitize; make docs (the API reference); make install PREFIX=/opt/sparsemps.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -180,6 +181,16 @@ bench-petsc: deps build/release/CMakeCache.txt
 	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	/usr/bin/python3 bench/petsc_samples.py build/release
+
+# MPS-Basic (a public C++ MPS code) beside ours on its own dam break, one thread each (bench/mps_basic.py;
+# docs/benchmarks.md): MPS_BASIC is a checkout of github.com/MPS-Basic/MPS-Basic, built from its sources for the
+# measurement with Debian's Eigen, yaml-cpp and fast-cpp-csv-parser. About 20 minutes.
+MPS_BASIC ?=
+bench-mps-basic: deps build/release/CMakeCache.txt
+	@test -n "$(MPS_BASIC)" || { echo "give MPS_BASIC=path/to/a/checkout/of/MPS-Basic"; exit 2; }
+	dpkg -s libyaml-cpp-dev libfccp-dev >/dev/null 2>&1 || apt-get install -y --no-install-recommends libyaml-cpp-dev libfccp-dev
+	cmake --build build/release -j$(JOBS) --target dambreak
+	/usr/bin/python3 bench/mps_basic.py --mps-basic $(MPS_BASIC) --ours build/release
 
 # The periodic channel in both modes at 50 across to 20 D/U (a few minutes each), with profile plots.
 poiseuille: deps build/release/CMakeCache.txt

@@ -509,6 +509,9 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   const auto n = static_cast<Index>(p.size());
   for (auto& c : change) c.assign(p.size(), 0.0);
   const auto vel = p.velocities();
+  // Most of a list lies far beyond the reach: a pair whose squared distance clears reach^2 by far more than rounding
+  // is skipped without the square root (std::hypot cost 5 % of a dam break's step); the others decide as before.
+  const double clearly_out2 = reach * reach * (1.0 + 1e-12);
   long pairs = 0;
 #pragma omp parallel for schedule(static) reduction(+ : pairs) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
@@ -518,6 +521,7 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
       const auto j = static_cast<std::size_t>(jn);
       if (p.kind[j] == Kind::ghost) continue;
       const Vec<D> d = domain.displacement(p.position(i), p.position(j));
+      if (norm2<D>(d) > clearly_out2) continue;
       const double r = norm<D>(d);
       if (r >= reach || r == 0.0) continue;
       Vec<D> unit;

@@ -256,10 +256,12 @@ bench-default-solver: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS)
 	/usr/bin/python3 bench/default_solver.py build/release
 
-# cost per particle of each phase against N, one and two threads, peak RSS (~4 min; needs an idle machine)
+# cost per particle of each phase against N, one and two threads, peak RSS: the 2-D channel, then the 3-D dam break
+# (~10 min; needs an idle machine)
 bench-phase-cost: deps build/release/CMakeCache.txt
-	cmake --build build/release -j$(JOBS) --target bench_scaling
+	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
 	/usr/bin/python3 bench/phase_cost.py build/release
+	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5
 
 # one thread against two with OpenMP's active and passive wait policies, idle and beside a busy process (~5 min)
 bench-thread-wait: deps build/release/CMakeCache.txt

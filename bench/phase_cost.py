@@ -54,12 +54,15 @@ def run_dambreak3d(build, size, threads, solver, cold):
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [str(Path(build) / "apps" / "dambreak" / "dambreak"), "--dim", "3", "--dx", f"{dx:.6g}", "--end-time",
                f"{end:.6g}", "--frames", "0", "--solver", solver, "--out", tmp] + (["--cold-start"] if cold else [])
-        proc = subprocess.Popen(cmd, env=dict(os.environ, OMP_NUM_THREADS=str(threads)), stdout=subprocess.DEVNULL,
-                                stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        if not (Path(tmp) / "summary.json").exists():
-            raise SystemExit(f"{' '.join(cmd)} wrote no summary (exit {os.waitstatus_to_exitcode(status)}): "
-                             f"{proc.stderr.read().decode().strip()}")
+        # A file, not a pipe, for its errors: nothing reads a pipe while wait4 waits (wait4 gives this run's own RSS).
+        with open(Path(tmp) / "stderr.txt", "w+") as err:
+            proc = subprocess.Popen(cmd, env=dict(os.environ, OMP_NUM_THREADS=str(threads)),
+                                    stdout=subprocess.DEVNULL, stderr=err)
+            _, status, usage = os.wait4(proc.pid, 0)
+            err.seek(0)
+            if not (Path(tmp) / "summary.json").exists():
+                raise SystemExit(f"{' '.join(cmd)} wrote no summary (exit {os.waitstatus_to_exitcode(status)}): "
+                                 f"{err.read().strip()}")
         summary = json.loads((Path(tmp) / "summary.json").read_text())
     t = summary["timings"]
     steps, fluid, total = summary["steps"], summary["particles"]["fluid"], summary["particles"]["total"]

@@ -510,7 +510,7 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   for (auto& c : change) c.assign(p.size(), 0.0);
   const auto vel = p.velocities();
   // Most of a list lies far beyond the reach: a pair whose squared distance clears reach^2 by far more than rounding
-  // is skipped without the square root (std::hypot cost 5 % of a dam break's step); the others decide as before.
+  // is skipped without the square root (docs/benchmarks.md); the others decide as before.
   const double clearly_out2 = reach * reach * (1.0 + 1e-12);
   long pairs = 0;
 #pragma omp parallel for schedule(static) reduction(+ : pairs) if (detail::worth_threads(n))

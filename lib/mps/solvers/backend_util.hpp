@@ -19,9 +19,8 @@ using Clock = std::chrono::steady_clock;
 
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Open MPI's singleton start costs 0.45 s with its defaults, 0.05 s with these: no runtime daemon (a lone process
-// spawns none) and the ob1 messaging layer instead of UCX's device probe. Only without a launcher, never over a
-// setting of the user's.
+// A lone process needs neither Open MPI's runtime daemon nor UCX's device probe, which made most of a singleton's
+// start (docs/solvers.md). Only without a launcher, never over a setting of the user's.
 inline void quick_singleton_start() {
   for (const char* launcher : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_SIZE"})
     if (std::getenv(launcher) != nullptr) return;

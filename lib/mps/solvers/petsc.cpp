@@ -1,6 +1,6 @@
 // The petsc backend: the spec and the input checks here, PETSc itself in a module of its own (petsc_ksp.cpp,
-// libsparsemps_petsc.so) opened at the first petsc solver. Linked into the library, PETSc and the 69 more libraries it
-// needs cost every program 50 ms and 18 MiB at start, used or not (docs/solvers.md#petsc).
+// libsparsemps_petsc.so) opened at the first petsc solver: linked into the library, PETSc and the libraries it needs
+// would load with every program, used or not (docs/solvers.md#petsc).
 #include <dlfcn.h>
 #include <mpi.h>
 

@@ -558,7 +558,8 @@ TEST(SolverAuto, JacobiWhileTheUnknownsChangeThenReusedAmgOnceTheyStayAndJacobiW
   used.clear();
   for (int k = 0; k < 4; ++k) step(c, k);
   EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "eigen-cg", "eigen-cg", "eigen-cg"}));
-  // Jacobi slower than rebuild_iterations: AMG-PCG from then on, set up afresh when the unknowns change.
+  // Jacobi not converged in rebuild_iterations: AMG-PCG finishes that solve from Jacobi's iterate and solves from
+  // then on, set up afresh when the unknowns change.
   solver = mps::make_solver("auto:switch_iterations=20,rebuild_iterations=20,tol=1e-12");
   used.clear();
   reused.clear();
@@ -566,8 +567,65 @@ TEST(SolverAuto, JacobiWhileTheUnknownsChangeThenReusedAmgOnceTheyStayAndJacobiW
   step(c, 0);
   step(t, 1);
   step(t, 2);
-  EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "hypre-pcg", "hypre-pcg", "hypre-pcg"}));
+  EXPECT_EQ(used, (std::vector<std::string>{"hypre-pcg", "hypre-pcg", "hypre-pcg", "hypre-pcg"}));
   EXPECT_EQ(reused, (std::vector<bool>{false, false, false, true}));
+  // Jacobi converged within rebuild_iterations keeps its answer and the next solve is Jacobi's too.
+  solver = mps::make_solver("auto:switch_iterations=100000,rebuild_iterations=100000,tol=1e-12");
+  used.clear();
+  step(t, 0);
+  step(c, 0);
+  EXPECT_EQ(used, (std::vector<std::string>{"eigen-cg", "eigen-cg"}));
+}
+
+// The unknowns renumbered with each even one swapped with the next: P A P^T.
+int swapped(int i, int n) { return i % 2 == 0 ? (i + 1 < n ? i + 1 : i) : i - 1; }
+mps::CsrMatrix pairs_swapped(const mps::CsrMatrix& a) {
+  mps::CsrMatrix m;
+  m.rows = m.cols = a.rows;
+  for (int r = 0; r < a.rows; ++r) {
+    const auto old = static_cast<std::size_t>(swapped(r, a.rows));
+    std::vector<std::pair<int, double>> row;
+    for (int k = a.row_ptr[old]; k < a.row_ptr[old + 1]; ++k)
+      row.emplace_back(swapped(a.col[static_cast<std::size_t>(k)], a.rows), a.val[static_cast<std::size_t>(k)]);
+    std::sort(row.begin(), row.end());
+    for (const auto& [c, v] : row) m.col.push_back(c), m.val.push_back(v);
+    m.row_ptr.push_back(static_cast<int>(m.col.size()));
+  }
+  return m;
+}
+
+// A hierarchy kept across a renumbering maps coarse to fine rows by their old numbers: renumbered() makes the next
+// solve set one up afresh, which then needs a fresh hierarchy's iterations; the kept one needs more.
+TEST(SolverReuse, ARenumberingSetsTheHierarchyUpAfresh) {
+  const mps::PpeSystem& t = tank().ppe;
+  const mps::CsrMatrix r = pairs_swapped(t.matrix);
+  std::vector<double> rb(t.rhs.size());
+  for (int i = 0; i < t.matrix.rows; ++i)
+    rb[static_cast<std::size_t>(i)] = t.rhs[static_cast<std::size_t>(swapped(i, t.matrix.rows))];
+  // auto on AMG from its first solve (Jacobi stops after one iteration), so that it has a hierarchy to keep; each
+  // beside a fresh solver of the AMG it runs.
+  const std::pair<const char*, const char*> specs[] = {{"hypre-pcg:reuse=10,tol=1e-10", "hypre-pcg:tol=1e-10"},
+                                                       {"auto:rebuild_iterations=0,tol=1e-10",
+                                                        "hypre-pcg:filter=0.2,tol=1e-10"}};
+  for (const auto& [spec, amg] : specs) {
+    mps::SolveReport fresh;
+    const std::vector<double> exact = solve_with(amg, r, rb, &fresh);
+    for (const bool told : {false, true}) {
+      auto solver = mps::make_solver(spec);
+      std::vector<double> x(t.size(), 0.0);
+      solver->solve(t.matrix, t.rhs, x);
+      if (told) solver->renumbered();
+      std::vector<double> y(t.size(), 0.0);
+      const mps::SolveReport after = solver->solve(r, rb, y);
+      EXPECT_EQ(after.setup_reused, !told) << spec << (told ? ", renumbered" : "");
+      if (told) {
+        EXPECT_EQ(after.iterations, fresh.iterations) << spec;
+      } else {
+        EXPECT_GT(after.iterations, fresh.iterations) << spec << ": the kept hierarchy is the worse one";
+      }
+      EXPECT_LT(relative_difference(y, exact), 1e-7) << spec;
+    }
+  }
 }
 
 TEST(SolverReuse, CholmodReusesItsSymbolicAnalysisWhileThePatternHolds) {

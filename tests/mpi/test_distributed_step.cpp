@@ -151,7 +151,10 @@ struct Comparison {
   double max_imbalance = 0;       // the largest rank's particles over the mean, worst step
   double max_kept_imbalance = 0;  // the same had the cuts been kept every step
   int wrong_decisions = 0;        // steps that repartitioned at or below the threshold, or kept the cuts above it
+  int steps_placed_off_schedule = 0;    // steps that placed the particles though not due, or did not though due
+  int steps_migrated_off_schedule = 0;  // steps between placements that moved particles between ranks
   std::size_t activated_copies = 0;  // copies sent within a step of particles turned from ghosts to fluid, all ranks
+  std::size_t ghosts_moved = 0;   // ghosts sent to their box's rank between placements, all ranks
   bool same_ids = false;          // the gathered ids are exactly the serial run's
 };
 
@@ -180,13 +183,19 @@ Comparison run_both(const BasicScene<D>& scene, const mps::BasicParticles<D>& re
   if (scene.add_components) scene.add_components(distributed, scene);
   const long long total = static_cast<long long>(scene.particles.size());
   for (int s = 0; s < kSteps; ++s) {
-    const std::size_t repartitions = exchange.stats().repartitions;
+    const std::size_t repartitions = exchange.stats().repartitions, placements = exchange.stats().placements;
+    const std::size_t migrated_before = exchange.stats().migrated;
     const double dt = distributed.step().dt;
     const mps::DistributedStepStats& stats = exchange.stats();
-    const bool renewed = stats.repartitions > repartitions;
-    const bool above = stats.kept_imbalance > options.rebalance_threshold || options.rebalance_threshold <= 1.0;
-    out.wrong_decisions += renewed != above || (!renewed && stats.imbalance != stats.kept_imbalance);
-    out.max_kept_imbalance = std::max(out.max_kept_imbalance, stats.kept_imbalance);
+    const bool due = s % options.migrate_every == 0;
+    out.steps_placed_off_schedule += (stats.placements > placements) != due;
+    out.steps_migrated_off_schedule += !due && stats.migrated != migrated_before;
+    if (due) {
+      const bool renewed = stats.repartitions > repartitions;
+      const bool above = stats.kept_imbalance > options.rebalance_threshold || options.rebalance_threshold <= 1.0;
+      out.wrong_decisions += renewed != above || (!renewed && stats.imbalance != stats.kept_imbalance);
+      out.max_kept_imbalance = std::max(out.max_kept_imbalance, stats.kept_imbalance);
+    }
     double lo = dt, hi = dt;
     MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_DOUBLE, MPI_MIN, kComm);
     MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_DOUBLE, MPI_MAX, kComm);
@@ -203,6 +212,9 @@ Comparison run_both(const BasicScene<D>& scene, const mps::BasicParticles<D>& re
   unsigned long long activated = exchange.stats().activated_copies;
   MPI_Allreduce(MPI_IN_PLACE, &activated, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
   out.activated_copies = activated;
+  unsigned long long ghosts = exchange.stats().ghosts_moved;
+  MPI_Allreduce(MPI_IN_PLACE, &ghosts, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, kComm);
+  out.ghosts_moved = ghosts;
   const mps::BasicParticles<D> gathered = exchange.gather(distributed.particles());
   if (rank() != 0) return out;
   out.same_ids = gathered.id == ref.id;
@@ -224,18 +236,20 @@ Comparison expect_same_answer(const char* name, const BasicScene<D>& scene, bool
   EXPECT_EQ(c.steps_with_unequal_dt, 0) << "every rank must take the same dt every step";
   EXPECT_EQ(c.steps_with_lost_particles, 0) << "the ranks together must hold every particle after every step";
   EXPECT_EQ(c.wrong_decisions, 0) << "new cuts exactly when the kept cuts' imbalance exceeds the threshold";
+  EXPECT_EQ(c.steps_placed_off_schedule, 0) << "a placement every migrate_every-th step, counted from the first";
+  EXPECT_EQ(c.steps_migrated_off_schedule, 0) << "no particle changes rank between placements";
   if (ranks() > 1 && particles_cross_cuts) {
     EXPECT_GT(c.migrated, 0U) << "the scene should move particles between ranks (else migration goes untested)";
   }
   if (rank() != 0) return c;
   EXPECT_TRUE(c.same_ids) << "the gathered particles must be the serial run's, each once, sorted by id";
   if (!c.same_ids) return c;
-  std::printf("[ %s on %d ranks, %d steps, rebalance threshold %g ] max |r - r_serial| = %.3g l0 (bound %.0e), max |p "
-              "- p_serial| = %.3g of the largest %.4g Pa (bound %.0e), particles migrated %zu, repartitions %zu, max "
-              "imbalance %.4f (%.4f with the cuts kept)\n",
-              name, ranks(), kSteps, options.rebalance_threshold, c.max_position_l0, kPositionBound,
-              c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions, c.max_imbalance,
-              c.max_kept_imbalance);
+  std::printf("[ %s on %d ranks, %d steps, migrations every %d, rebalance threshold %g ] max |r - r_serial| = %.3g l0 "
+              "(bound %.0e), max |p - p_serial| = %.3g of the largest %.4g Pa (bound %.0e), particles migrated %zu, "
+              "repartitions %zu, max imbalance %.4f (%.4f with the cuts kept)\n",
+              name, ranks(), kSteps, options.migrate_every, options.rebalance_threshold, c.max_position_l0,
+              kPositionBound, c.max_pressure_rel, c.largest_pressure, kPressureBound, c.migrated, c.repartitions,
+              c.max_imbalance, c.max_kept_imbalance);
   EXPECT_GT(c.largest_pressure, 0.0);
   EXPECT_LE(c.max_position_l0, kPositionBound);
   EXPECT_LE(c.max_pressure_rel, kPressureBound);
@@ -298,8 +312,9 @@ TEST(DistributedStep, HydrostaticTankGivesTheSerialAnswer) {
 // The cuts are kept while the imbalance stays at or below the threshold, and renewed when it exceeds it (every step's
 // decision is checked in run_both). At 1.05 the dam break's 100 steps on 2 ranks keep the cuts throughout (measured
 // 1.0324 at most, at the start; on 3 ranks 1.0508 once); at the default 1.01 a few steps renew them (the count is
-// printed); at 1 every step does, as before the cuts were kept. Every run gives the serial answer: the partition does
-// not enter the results.
+// printed); at 1 every step does, as before the cuts were kept. The first two place and migrate every 20th step (the
+// default), a particle that crossed a cut staying with its rank in between; the third every step. Every run gives the
+// serial answer: neither the partition nor the owner enters the results.
 TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
   const Scene scene = dam_break(1e-6, 0.5);
   const mps::Particles ref = reference(scene);
@@ -314,6 +329,7 @@ TEST(DistributedStep, DamBreakGivesTheSerialAnswerWithKeptAndWithNewCuts) {
   }
   mps::DistributedOptions every_step;
   every_step.rebalance_threshold = 1.0;
+  every_step.migrate_every = 1;
   const Comparison renewed = expect_same_answer("dam break", scene, true, ref, every_step);
   EXPECT_EQ(renewed.repartitions, static_cast<std::size_t>(kSteps));
 }
@@ -325,7 +341,8 @@ TEST(DistributedStep, ViscousDamBreakWithStrongShiftingGivesTheSerialAnswer) {
 }
 
 // Ghosts recycled across ranks: the columns come from the pool parked behind the plate (the lowest ids, as serially),
-// and each particle leaving through the outlet is counted once, by its owner.
+// and each particle leaving through the outlet is counted once, by its owner. Its ghosts reach the pool's rank at the
+// next step, though particles migrate every 20th.
 TEST(DistributedStep, InletChannelGivesTheSerialAnswer) {
   const Channel channel = inlet_channel_params();
   const Scene scene = inlet_channel(channel);
@@ -338,12 +355,15 @@ TEST(DistributedStep, InletChannelGivesTheSerialAnswer) {
   MPI_Allreduce(MPI_IN_PLACE, &removed, 1, MPI_LONG_LONG, MPI_SUM, kComm);
   if (rank() == 0)
     std::printf("[ inlet channel on %d ranks ] columns added %d, particles out through the outlet %lld, copies of new "
-                "fluid sent within a step %zu\n",
-                ranks(), plate.columns_added(), removed, c.activated_copies);
+                "fluid sent within a step %zu, ghosts sent to the pool's rank between placements %zu\n",
+                ranks(), plate.columns_added(), removed, c.activated_copies, c.ghosts_moved);
   EXPECT_GE(plate.columns_added(), 10) << "the plate should add a column every 7.5 steps";
   EXPECT_GE(removed, 100) << "the outlet should drain about as much as the plate adds";
   if (ranks() == 3) {
     EXPECT_GT(c.activated_copies, 0U) << "a cut should fall within the halo of the new columns";
+  }
+  if (ranks() > 1) {
+    EXPECT_GT(c.ghosts_moved, 0U) << "between placements the outlet's ghosts must still reach the pool's rank";
   }
   if (rank() != 0) return;
   EXPECT_EQ(plates.front()->columns_added(), plate.columns_added());
@@ -494,6 +514,17 @@ TEST(DistributedStep, RefusesWhatDoesNotRunDistributedYet) {
     }
     EXPECT_NE(refused.find("InitialReferenceDensity"), std::string::npos) << refused;
     EXPECT_EQ(sim.last_step().step, 0);
+  }
+  for (const int every : {0, -3}) {
+    mps::DistributedOptions options;
+    options.migrate_every = every;
+    std::string refused;
+    try {
+      mps::RankExchange exchange(comm(), options);
+    } catch (const std::invalid_argument& e) {
+      refused = e.what();
+    }
+    EXPECT_NE(refused.find("migrate_every is " + std::to_string(every)), std::string::npos) << refused;
   }
   if (ranks() > 1) {
     Scene serial_solver = scene;

@@ -258,12 +258,22 @@ std::vector<int> RcbPartition::assign(const BasicParticles<D>& particles) const 
     throw std::invalid_argument("RcbPartition: cut for " + std::to_string(zoltan_->dim) + "-D particles, given " +
                                 std::to_string(D) + "-D ones");
   std::vector<int> destination(particles.size());
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    Vec<D> r = particles.position(i);
-    if (Zoltan_LB_Point_Assign(zoltan_->zz, r.data(), &destination[i]) != ZOLTAN_OK)
-      throw std::runtime_error("RcbPartition::assign: Zoltan_LB_Point_Assign failed");
-  }
+  for (std::size_t i = 0; i < particles.size(); ++i) destination[i] = assign<D>(particles.position(i));
   return destination;
+}
+
+template <int D>
+int RcbPartition::assign(const Vec<D>& r) const {
+  if (!has_cuts_)
+    throw std::logic_error("RcbPartition::assign: no cuts yet; call repartition() (or place()) first");
+  if (zoltan_->dim != D)
+    throw std::invalid_argument("RcbPartition: cut for " + std::to_string(zoltan_->dim) + "-D particles, given a " +
+                                std::to_string(D) + "-D point");
+  Vec<D> point = r;  // Zoltan takes a non-const pointer
+  int rank = 0;
+  if (Zoltan_LB_Point_Assign(zoltan_->zz, point.data(), &rank) != ZOLTAN_OK)
+    throw std::runtime_error("RcbPartition::assign: Zoltan_LB_Point_Assign failed");
+  return rank;
 }
 
 template <int D>
@@ -848,6 +858,7 @@ SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe,
   template std::vector<int> partition_particles(const BasicParticles<D>&, int);                                      \
   template std::vector<int> RcbPartition::repartition(const BasicParticles<D>&);                                     \
   template std::vector<int> RcbPartition::assign(const BasicParticles<D>&) const;                                    \
+  template int RcbPartition::assign<D>(const Vec<D>&) const;                                                         \
   template RcbPartition::Placement RcbPartition::place(const BasicParticles<D>&, double);                            \
   template ExchangeStats migrate_particles(BasicParticles<D>&, std::span<const int>, int);                            \
   template ExchangeStats distribute_particles(BasicParticles<D>&, int);                                               \

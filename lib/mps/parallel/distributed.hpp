@@ -66,6 +66,9 @@ class RcbPartition {
   /// Each particle's rank under the kept cuts. Local. Throws std::logic_error before the first repartition().
   template <int D>
   [[nodiscard]] std::vector<int> assign(const BasicParticles<D>& particles) const;
+  /// The rank of the kept box holding point `r`. Local. Throws as assign().
+  template <int D>
+  [[nodiscard]] int assign(const Vec<D>& r) const;
   [[nodiscard]] bool has_cuts() const { return has_cuts_; }  ///< a repartition() has been made
   [[nodiscard]] int comm() const { return comm_; }            ///< the communicator's Fortran handle
 

@@ -29,6 +29,9 @@ BasicRankExchange<D>::BasicRankExchange(int comm, DistributedOptions options) : 
   if (std::isnan(options_.rebalance_threshold))
     throw std::invalid_argument("distributed simulation: rebalance_threshold is NaN; give the largest rank's particle "
                                 "count over the mean to tolerate before new cuts (default 1.01)");
+  if (options_.migrate_every < 1)
+    throw std::invalid_argument("distributed simulation: migrate_every is " + std::to_string(options_.migrate_every) +
+                                "; give the steps between migrations, at least 1 (1: every step; default 20)");
 }
 
 template <int D>
@@ -84,7 +87,10 @@ template <int D>
 void BasicRankExchange<D>::begin_step(Particles& particles, const BasicDomain<D>& domain, double reach,
                                       double cell_size) {
   ++stats_.steps;
-  migrate_to_partition(particles);
+  if ((stats_.steps - 1) % static_cast<std::size_t>(options_.migrate_every) == 0)
+    migrate_to_partition(particles);
+  else
+    send_ghosts_home(particles);
   const auto start = Clock::now();
   // Kept in id order, a rank's rows came out of the cell search unsorted and sorting them took about a quarter of a
   // 3-D step (docs/scaling.md).
@@ -104,6 +110,7 @@ void BasicRankExchange<D>::begin_step(Particles& particles, const BasicDomain<D>
 template <int D>
 void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   const auto start = Clock::now();
+  ++stats_.placements;
   const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
   const double placing = seconds_since(start);
   if (placed.repartitioned) {
@@ -115,12 +122,37 @@ void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   stats_.kept_imbalance = placed.kept_imbalance;
   stats_.imbalance = placed.imbalance;
   stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
-  // migrate_particles leaves them by id; those that stayed take back their order, so that the PPE's numbering (and
-  // with it a reused AMG hierarchy) holds between reorderings as it does serially.
+  const ExchangeStats moved = migrate_keeping_order(particles, placed.destination);
+  // A rank that sent as many as it received keeps its count, not its rows: the solver must know either way.
+  renumbered_ = !all(moved.particles_sent == 0 && moved.particles_received == 0);
+  stats_.migrated += moved.particles_sent;
+  stats_.migrate_seconds += seconds_since(start);
+}
+
+// Between placements only ghosts go to the rank of their box: an outlet parks them beside the inlet, whose plate
+// draws its columns from one rank's ghosts (PushingPlate). They are no unknowns: the PPE's rows stay as they were.
+template <int D>
+void BasicRankExchange<D>::send_ghosts_home(Particles& particles) {
+  const auto start = Clock::now();
+  std::vector<int> destination(particles.size(), rank_);
+  bool any = false;
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.kind[i] == Kind::ghost) {
+      destination[i] = partition_->assign<D>(particles.position(i));
+      any = any || destination[i] != rank_;
+    }
+  if (!all(!any)) stats_.ghosts_moved += migrate_keeping_order(particles, destination).particles_sent;
+  stats_.migrate_seconds += seconds_since(start);
+}
+
+// migrate_particles leaves them by id; those that stayed take back their order, so that the PPE's numbering (and with
+// it a reused AMG hierarchy) holds between reorderings as it does serially.
+template <int D>
+ExchangeStats BasicRankExchange<D>::migrate_keeping_order(Particles& particles, const std::vector<int>& destination) {
   std::vector<std::pair<int, int>> before(particles.size());
   for (std::size_t i = 0; i < particles.size(); ++i) before[i] = {particles.id[i], static_cast<int>(i)};
   std::sort(before.begin(), before.end());
-  const ExchangeStats moved = migrate_particles(particles, placed.destination, comm_);
+  const ExchangeStats moved = migrate_particles(particles, destination, comm_);
   std::vector<std::pair<long long, int>> key(particles.size());
   auto was = before.begin();
   for (std::size_t i = 0; i < particles.size(); ++i) {  // particles are by id now, as `before` is
@@ -133,9 +165,8 @@ void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   std::vector<int> order(key.size());
   for (std::size_t i = 0; i < key.size(); ++i) order[i] = key[i].second;
   particles.permute(order);
-  stats_.migrated += moved.particles_sent;
   count(moved);
-  stats_.migrate_seconds += seconds_since(start);
+  return moved;
 }
 
 // A ghost turned fluid after the predictor (a pushing plate's column) was in no halo: its copies join now, and the
@@ -177,6 +208,8 @@ SolveReport BasicRankExchange<D>::solve(LinearSolver& solver, Particles& particl
       const auto i = static_cast<std::size_t>(ppe_.local.particle[r]);
       particles.p[i] = offset.empty() ? 0.0 : offset[i];
     }
+  if (renumbered_) solver.renumbered();
+  renumbered_ = false;
   return solve_distributed_ppe(*halo_, ppe_, solver, particles, clamp_negative, offset);
 }
 

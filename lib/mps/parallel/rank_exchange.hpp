@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "mps/parallel/distributed.hpp"
 #include "mps/step/exchange.hpp"
@@ -30,6 +31,8 @@ struct DistributedStepStats {
   double kept_imbalance = 1;        ///< this step's load imbalance had the cuts been kept (before any repartition)
   double imbalance = 1;             ///< this step's load imbalance (largest rank's particles / mean), all ranks alike
   double max_imbalance = 1;         ///< the largest `imbalance` over the steps so far
+  std::size_t placements = 0;       ///< steps that placed and migrated the particles (every migrate_every-th)
+  std::size_t ghosts_moved = 0;     ///< ghosts this rank sent to the rank of their box between placements
 };
 
 /// How the rank exchange spreads its particles.
@@ -44,6 +47,11 @@ struct DistributedOptions {
   /// alike balances the particle count, right where fluid dominates (the 2-D scenes); the 3-D dam break's walls and
   /// dummies outnumber its fluid and it weighs them by their estimated cost (docs/scaling.md).
   RcbPartition::KindWeights kind_weights = {1.0, 1.0, 1.0, 1.0};
+  /// Steps between placements and migrations (1: every step). In between, a particle that crossed a cut stays with
+  /// its rank (the halo follows where each rank's particles are, not the cuts), so no rank's unknowns change by
+  /// migration and `auto` keeps its AMG hierarchy; only ghosts go to their box's rank every step. 20: the default of
+  /// SimulationConfig::reorder_every, so that the PPE's rows are renumbered on the same steps (docs/scaling.md).
+  int migrate_every = 20;
 };
 
 /// A step's exchange over the ranks of `comm` (MPI_Comm_c2f of the communicator), given to a Simulation:
@@ -52,22 +60,22 @@ struct DistributedOptions {
 ///     mps::RankExchange& exchange = *ranks;
 ///     mps::Simulation sim(scene, domain, config, std::move(ranks));  // every rank passes the same scene
 ///
-/// Rank 0's copy of the scene is distributed by RCB. Each step starts by placing the particles in the kept RCB boxes
-/// (RcbPartition::place: new cuts when the load imbalance exceeds options.rebalance_threshold) and the migration of
-/// those that crossed a cut, then a halo out to the step's reach (the largest kernel radius or StepComponent::reach,
-/// plus twice the guard's max_displacement). The copies are refreshed after the predictor (whole particles;
-/// particles the predictor's components turned from ghosts to fluid, a pushing plate's column, are first copied to
-/// the ranks whose halo they fall in, appended after the other copies: a component keeping per-particle state from
-/// before_predictor must allow for them), after the free surface (flags), by the distributed PPE, after the pressure
-/// boundary values (pressures, carriers) and after the corrector (whole particles, for particle shifting). Between
-/// steps the simulation's particles() are this rank's own: those that stayed in their order, those that arrived after
-/// them by id, and every config.reorder_every steps all in the neighbour grid's cell order; gather() collects them all
-/// on rank 0, sorted by id. The step's special cases and failures are decided over all ranks: one rank's failure ends
-/// the step on every rank with that rank's message.
+/// Rank 0's copy of the scene is distributed by RCB. Every options.migrate_every-th step starts by placing the
+/// particles in the kept RCB boxes (RcbPartition::place: new cuts when the load imbalance exceeds
+/// options.rebalance_threshold) and the migration of those that crossed a cut; every step then builds a halo out to the
+/// step's reach (the largest kernel radius or StepComponent::reach, plus twice the guard's max_displacement). The
+/// copies are refreshed after the predictor (whole particles; particles the predictor's components turned from ghosts
+/// to fluid, a pushing plate's column, are first copied to the ranks whose halo they fall in, appended after the other
+/// copies: a component keeping per-particle state from before_predictor must allow for them), after the free surface
+/// (flags), by the distributed PPE, after the pressure boundary values (pressures, carriers) and after the corrector
+/// (whole particles, for particle shifting). Between steps the simulation's particles() are this rank's own: those that
+/// stayed in their order, those that arrived after them by id, and every config.reorder_every steps all in the
+/// neighbour grid's cell order; gather() collects them all on rank 0, sorted by id. The step's special cases and
+/// failures are decided over all ranks: one rank's failure ends the step on every rank with that rank's message.
 ///
-/// Refused (std::invalid_argument, naming the cause): periodic domains, implicit viscosity (its global solve) and the
-/// initial reference density (a t = 0 mean over the domain); also a pressure solver that does not run on the
-/// communicator (the serial backends on more than one rank).
+/// Refused (std::invalid_argument, naming the cause): options.migrate_every below 1, a NaN rebalance threshold,
+/// periodic domains, implicit viscosity (its global solve) and the initial reference density (a t = 0 mean over the
+/// domain); also a pressure solver that does not run on the communicator (the serial backends on more than one rank).
 template <int D>
 class BasicRankExchange final : public BasicExchange<D> {
  public:
@@ -117,9 +125,12 @@ class BasicRankExchange final : public BasicExchange<D> {
   template <class Field>
   void refresh(Field&& field);  // the halo's refresh of a field or of whole particles, counted
   void migrate_to_partition(Particles& particles);
+  void send_ghosts_home(Particles& particles);
+  ExchangeStats migrate_keeping_order(Particles& particles, const std::vector<int>& destination);
 
   int comm_ = 0, rank_ = 0, ranks_ = 1;
   double halo_radius_ = 0;
+  bool renumbered_ = false;  // a migration moved particles since the last solve
   std::optional<BasicHalo<D>> halo_;
   DistributedPpe ppe_;
   DistributedStepStats stats_;

@@ -4,6 +4,7 @@
 // iteration counts, so a run repeats bitwise; docs/solvers.md has the measurements behind it.
 #include <mpi.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -20,6 +21,8 @@ class AutoSolver final : public LinearSolver {
         steady_solves_(o.integer("steady_solves", 1, 1000000)),
         spec_(o.spec()) {
     const std::string tol = "tol=" + o.values().at("tol");
+    // A Jacobi solve stops at rebuild_iterations: past it AMG-PCG is the faster method and finishes the solve.
+    const std::string jacobi_max_iter = ",max_iter=" + std::to_string(std::clamp(rebuild_iterations_, 1, 100000));
     // Validated here, passed on as written.
     static_cast<void>(o.number("tol", 1e-16, 1e-1));
     static_cast<void>(o.integer("reuse", 0, 1000000));
@@ -27,8 +30,8 @@ class AutoSolver final : public LinearSolver {
     distributed_ = context.mpi_comm.has_value();
     if (distributed_) comm_ = MPI_Comm_f2c(*context.mpi_comm);
     // Eigen solves one rank's rows only: on ranks, Jacobi-CG is hypre's PCG with the diagonal.
-    jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol, context)
-                           : make_solver("eigen-cg:precond=jacobi," + tol);
+    jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol + jacobi_max_iter, context)
+                           : make_solver("eigen-cg:precond=jacobi," + tol + jacobi_max_iter);
     amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol;
     context_ = context;
   }
@@ -56,11 +59,22 @@ class AutoSolver final : public LinearSolver {
       return amg_->solve(a, b, x);
     }
     on_amg_ = false;
-    SolveReport report = jacobi_->solve(a, b, x);
-    last_jacobi_iterations_ = report.iterations;
-    return report;
+    try {
+      SolveReport report = jacobi_->solve(a, b, x);
+      last_jacobi_iterations_ = report.iterations;
+      return report;
+    } catch (const SolverError&) {
+      // Not converged in rebuild_iterations (a first solve of 1e6 unknowns from rest would take thousands): AMG-PCG
+      // goes on from where Jacobi got to, and solves for good. Decided alike on every rank (the residual is global).
+      always_amg_ = on_amg_ = true;
+      if (!amg_) amg_ = make_solver(amg_spec_, context_);
+      return amg_->solve(a, b, x);
+    }
   }
   [[nodiscard]] std::string spec() const override { return spec_; }
+  void renumbered() override {
+    if (amg_) amg_->renumbered();
+  }
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_;
@@ -80,11 +94,13 @@ SolverEntry auto_entry() {
           "The default: Jacobi-CG (eigen-cg:precond=jacobi; on MPI ranks hypre-pcg:precond=jacobi) while it needs few "
           "iterations or the unknowns change from step to step; hypre-pcg with its AMG hierarchy reused once the "
           "unknowns (on ranks, every rank's) stay the same and Jacobi needed more than switch_iterations, or for good once a "
-          "Jacobi solve needed more than rebuild_iterations. Each solve's report names the backend it used.",
+          "Jacobi solve reached rebuild_iterations without converging (AMG-PCG then finishes that solve from "
+          "Jacobi's iterate). Each solve's report names the backend that finished it.",
           {{"tol", "1e-8", "relative residual ||b-Ax||/||b|| to reach, for either backend"},
            {"switch_iterations", "50", "Jacobi iterations above which an unchanged system moves to AMG-PCG"},
            {"rebuild_iterations", "150",
-            "Jacobi iterations above which AMG-PCG takes over for good, set up afresh whenever the unknowns change"},
+            "Jacobi iterations after which AMG-PCG finishes the solve and takes over for good, set up afresh whenever "
+            "the unknowns change"},
            {"steady_solves", "3", "solves in a row with the same unknown count before AMG-PCG is set up"},
            {"reuse", "20", "hypre-pcg: solves one AMG hierarchy serves while the unknowns stay the same"},
            {"filter", "0.2",

@@ -319,6 +319,9 @@ class HypreSolver final : public LinearSolver {
   }
 
   [[nodiscard]] std::string spec() const override { return spec_; }
+  // A hierarchy's interpolation maps rows by number: kept across a renumbering it costs tens of times the
+  // iterations of a fresh one (docs/scaling.md).
+  void renumbered() override { rebuild_pending_ = true; }
 
  private:
   Partition partition(const CsrMatrix& a, std::span<const double> b, std::span<double> x, SolveReport& report) const {

@@ -96,6 +96,7 @@ class PetscSolver final : public LinearSolver {
     return ksp_->solve(a, b, x);
   }
   [[nodiscard]] std::string spec() const override { return ksp_->spec(); }
+  void renumbered() override { ksp_->renumbered(); }
 
  private:
   std::unique_ptr<LinearSolver> ksp_;

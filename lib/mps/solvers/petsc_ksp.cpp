@@ -197,6 +197,7 @@ class KspSolver final : public LinearSolver {
   }
 
   [[nodiscard]] std::string spec() const override { return spec_; }
+  void renumbered() override { rebuild_pending_ = true; }  // a kept preconditioner is tied to the rows' order
 
  private:
   // A KSP reading the spec's options (under this solver's prefix), with our defaults beneath them.

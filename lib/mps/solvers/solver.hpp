@@ -54,6 +54,9 @@ class LinearSolver {
   virtual SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) = 0;
   /// The spec that rebuilds this solver, every key spelled out with its value.
   [[nodiscard]] virtual std::string spec() const = 0;
+  /// The unknowns are in another order from the next solve on (the step's reordering by cell, a migration between
+  /// ranks): state tied to their order (a reused AMG hierarchy) is set up afresh then. On ranks, called on every rank.
+  virtual void renumbered() {}
 };
 
 /// A spec string taken apart: "name:key=value,..." -> name and options.

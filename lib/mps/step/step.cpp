@@ -396,7 +396,9 @@ void BasicSimulation<D>::begin_exchange() {
   // max_displacement in the step.
   const double kernels = config_.l0 * config_.largest_radius();
   const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
-  exchange_->begin_step(particles_, domain_, reach, reorder_due(config_, info_.step) ? grid_.cell_size() : 0.0);
+  const bool reorder = reorder_due(config_, info_.step);
+  exchange_->begin_step(particles_, domain_, reach, reorder ? grid_.cell_size() : 0.0);
+  if (reorder) solver_->renumbered();  // the particles, and with them the PPE's rows, are put in cell order
 }
 
 template <int D>

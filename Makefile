@@ -9,7 +9,7 @@
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-migration bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -135,6 +135,26 @@ bench-distributed-3d: deps build/release/CMakeCache.txt
 	done
 	/usr/bin/python3 bench/scaling_model.py --dim 3
 
+# AMG kept across migrations (docs/scaling.md): the dam break (MIGRATION_DIM 2: the classic column, 3: SPHERIC Test 2)
+# at about MIGRATION_FLUID fluid particles with `auto`, on 1 rank and on 2 ranks migrating every step and every 20th,
+# MIGRATION_STEPS timed steps each: rows appended to bench/results/migration_<dim>d.csv, the step-by-step traces
+# into bench/results/migration_trace_<dim>d.csv and its figure. About 8 minutes at the 2-D defaults.
+MIGRATION_DIM ?= 2
+MIGRATION_FLUID ?= 1e6
+MIGRATION_STEPS ?= 40
+bench-migration: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target bench_distributed_step
+	for run in "1 20" "2 1" "2 20"; do set -- $$run; \
+	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
+	    ./build/release/bench/bench_distributed_step --dim $(MIGRATION_DIM) --fluid $(MIGRATION_FLUID) \
+	    --steps $(MIGRATION_STEPS) --solver auto --migrate-every $$2 --trace build/release/migration_trace_$$1_$$2.csv \
+	    --out bench/results/migration_$(MIGRATION_DIM)d.csv || exit 1; \
+	done
+	(head -1 build/release/migration_trace_1_20.csv; for run in 1_20 2_1 2_20; do \
+	  tail -n +2 build/release/migration_trace_$$run.csv; done) > bench/results/migration_trace_$(MIGRATION_DIM)d.csv
+	/usr/bin/python3 bench/plot_migration.py bench/results/migration_trace_$(MIGRATION_DIM)d.csv \
+	  bench/results/migration_trace_$(MIGRATION_DIM)d.png $(MIGRATION_DIM)
+
 # The dam break's load imbalance on 2 ranks against time, one trace per rebalance threshold (docs/scaling.md, "Keeping
 # the cuts"): concatenated into bench/results/rebalance_trace.csv, the runs' rows appended to rebalance.csv, the figure.
 REBALANCE_THRESHOLDS ?= inf 1.10 1.05 1.02 1.01 1
@@ -142,7 +162,7 @@ bench-rebalance: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_distributed_step
 	for t in $(REBALANCE_THRESHOLDS); do \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np 2 \
-	    ./build/release/bench/bench_distributed_step --fluid 800 --steps 2000 --threshold $$t \
+	    ./build/release/bench/bench_distributed_step --fluid 800 --steps 2000 --threshold $$t --migrate-every 1 \
 	    --trace build/release/rebalance_trace_$$t.csv --out bench/results/rebalance.csv || exit 1; \
 	done
 	t0=$(firstword $(REBALANCE_THRESHOLDS)); (head -1 build/release/rebalance_trace_$$t0.csv; \

@@ -66,6 +66,9 @@ int run(int argc, char** argv) {
   std::vector<double> weights;
   app.add_option("--kind-weights", weights, "the load of a fluid, wall, dummy and ghost particle the cuts balance "
                  "(default: the app's: every kind 1 in 2-D, dambreak::box_impact_kind_weights in 3-D)")->expected(4);
+  app.add_option("--migrate-every", set.options.migrate_every,
+                 "steps between placements and migrations (1: every step; default the library's)")
+      ->check(CLI::Range(1, 1000000));
   app.add_option("--trace", set.trace, "CSV file to write one row per step to (imbalance, repartitions, migrations)");
   try {
     app.parse(argc, argv);
@@ -118,9 +121,14 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
   if (rank == 0 && !trace.empty()) {
     trace_csv.open(trace);
     trace_csv << "ranks,fluid_target,rebalance_threshold,step,time_s,imbalance,fluid_imbalance,repartitioned,"
-                 "migrated,place_s,step_s\n";
+                 "migrated,place_s,step_s,migrate_every,hierarchy_built,setup_s,solve_s,iterations\n";
   }
   double max_fluid_imbalance = 0.0;
+  // The last solve set an AMG hierarchy up (Jacobi has none).
+  auto hierarchy_built = [&sim] {
+    const mps::SolveReport& solve = sim.last_step().solve;
+    return !solve.setup_reused && solve.backend.find("precond=jacobi") == std::string::npos;
+  };
   // One row of the trace: this step's imbalance (by particles, as the partition balances, and by fluid alone).
   auto record = [&](const mps::DistributedStepStats& before, double step_seconds) {
     const mps::DistributedStepStats& now = exchange.stats();
@@ -133,7 +141,9 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
       trace_csv << ranks << ',' << fluid << ',' << options.rebalance_threshold << ',' << now.steps << ','
                 << sim.time() << ',' << now.imbalance << ',' << fluid_imbalance << ','
                 << (now.repartitions - before.repartitions) << ',' << migrated << ',' << place << ','
-                << step_seconds << '\n';
+                << step_seconds << ',' << options.migrate_every << ',' << hierarchy_built() << ','
+                << sim.last_step().solve.setup_seconds << ',' << sim.last_step().solve.solve_seconds << ','
+                << sim.last_step().solve.iterations << '\n';
   };
   {
     const mps::DistributedStepStats before = exchange.stats();
@@ -144,6 +154,7 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
   const mps::PhaseTimes t0 = sim.times();
   const mps::DistributedStepStats s0 = exchange.stats();
   double wall = 0.0;
+  int hierarchy_builds = 0;  // timed solves that set an AMG hierarchy up (Jacobi has none)
   for (int k = 0; k < steps; ++k) {
     const mps::DistributedStepStats before = exchange.stats();
     MPI_Barrier(comm);
@@ -152,6 +163,7 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
     const double step_seconds = slowest(comm, MPI_Wtime() - start);
     wall += step_seconds;
     record(before, step_seconds);
+    hierarchy_builds += hierarchy_built();
   }
   // The two placements alone on the last step's particles, between barriers, the slowest rank's, best of 5: new RCB
   // cuts, and the assignment of every particle to kept cuts (the step adds one MPI_Allreduce of P counts to either).
@@ -188,7 +200,7 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
   const double owned_max = slowest(comm, static_cast<double>(sim.particles().size()));
   const double fluid_count = total(comm, static_cast<double>(sim.particles().count(mps::Kind::fluid)));
   const std::size_t repartitions = s.repartitions - s0.repartitions;
-  const std::size_t assignments = static_cast<std::size_t>(steps) - repartitions;
+  const std::size_t assignments = (s.placements - s0.placements) - repartitions;
   // Per placement, of the steps that made one: an assignment to the kept boxes, and new cuts.
   const double assign_total = slowest(comm, s.assign_seconds - s0.assign_seconds);
   const double repartition_total = slowest(comm, s.repartition_seconds - s0.repartition_seconds);
@@ -204,14 +216,15 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
             << " migrated a step, " << sim.last_step().solve.iterations << " iterations; threshold "
             << options.rebalance_threshold << ": " << repartitions << " repartitions (" << repartition
             << " s each), assignment to the kept cuts " << assign << " s, largest imbalance " << s.max_imbalance
-            << " (fluid alone " << max_fluid_imbalance << "); alone, new cuts " << repartition_alone
+            << " (fluid alone " << max_fluid_imbalance << "); migrations every " << options.migrate_every << " steps, "
+            << hierarchy_builds << " AMG set-ups in " << steps << " steps; alone, new cuts " << repartition_alone
             << " s, assignment to kept cuts " << assign_alone << " s\n";
   if (!out.empty()) {
     const std::string header =
         "ranks,omp_threads,loadavg_1min,particles,fluid,owned_max,solver,steps,step_s,migrate_s,halo_s,"
         "neighbors_s,predict_s,assemble_s,setup_s,solve_s,correct_s,iterations,halo_copies_max,halo_copies_sum,"
         "messages_per_step,bytes_per_step,migrated_per_step,rebalance_threshold,repartitions,max_imbalance,assign_s,"
-        "repartition_s,dimensions,kind_weights";
+        "repartition_s,dimensions,kind_weights,migrate_every,hierarchy_builds";
     const bool fresh = !std::filesystem::exists(out);
     if (!fresh) {
       std::string existing;
@@ -228,7 +241,8 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
         << sim.last_step().solve.iterations << ',' << copies_max << ',' << copies_sum << ',' << messages_sum << ','
         << bytes_sum << ',' << migrated_sum << ',' << options.rebalance_threshold << ',' << repartitions << ','
         << s.max_imbalance << ',' << assign << ',' << repartition << ',' << D << ',' << options.kind_weights[0] << ' '
-        << options.kind_weights[1] << ' ' << options.kind_weights[2] << ' ' << options.kind_weights[3] << '\n';
+        << options.kind_weights[1] << ' ' << options.kind_weights[2] << ' ' << options.kind_weights[3] << ','
+        << options.migrate_every << ',' << hierarchy_builds << '\n';
   }
   return 0;
 }

@@ -22,7 +22,8 @@ class AutoSolver final : public LinearSolver {
         spec_(o.spec()) {
     const std::string tol = "tol=" + o.values().at("tol");
     // A Jacobi solve stops at rebuild_iterations: past it AMG-PCG is the faster method and finishes the solve.
-    const std::string jacobi_max_iter = ",max_iter=" + std::to_string(std::clamp(rebuild_iterations_, 1, 100000));
+    jacobi_max_iter_ = std::clamp(rebuild_iterations_, 1, 100000);
+    const std::string jacobi_max_iter = ",max_iter=" + std::to_string(jacobi_max_iter_);
     // Validated here, passed on as written.
     static_cast<void>(o.number("tol", 1e-16, 1e-1));
     static_cast<void>(o.integer("reuse", 0, 1000000));
@@ -63,9 +64,11 @@ class AutoSolver final : public LinearSolver {
       SolveReport report = jacobi_->solve(a, b, x);
       last_jacobi_iterations_ = report.iterations;
       return report;
-    } catch (const SolverError&) {
+    } catch (const SolverError& e) {
       // Not converged in rebuild_iterations (a first solve of 1e6 unknowns from rest would take thousands): AMG-PCG
       // goes on from where Jacobi got to, and solves for good. Decided alike on every rank (the residual is global).
+      // Bad input stops Jacobi before its last iteration and is the caller's to hear.
+      if (e.report().iterations < jacobi_max_iter_) throw;
       always_amg_ = on_amg_ = true;
       if (!amg_) amg_ = make_solver(amg_spec_, context_);
       return amg_->solve(a, b, x);
@@ -78,7 +81,7 @@ class AutoSolver final : public LinearSolver {
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_;
-  int switch_iterations_, rebuild_iterations_, steady_solves_;
+  int switch_iterations_, rebuild_iterations_, steady_solves_, jacobi_max_iter_ = 1;
   std::string spec_, amg_spec_;
   SolverContext context_;
   bool distributed_ = false, on_amg_ = false, always_amg_ = false;

@@ -12,6 +12,7 @@
 #include "mps/core/errors.hpp"
 #include "mps/core/neighbors.hpp"
 #include "mps/core/particles.hpp"
+#include "mps/core/state.hpp"
 #include "mps/core/vec.hpp"
 
 namespace mps {
@@ -215,6 +216,14 @@ class BasicPushingPlate {
   [[nodiscard]] long particles_removed() const { return removed_; }
   /// Where a ghost is parked: one spacing behind the plate's rearmost particle at the start [m].
   [[nodiscard]] double parking_x() const { return parking_x_; }
+  /// @{ The counts a checkpoint holds (the rest follows from the particles and the time); a scene keeps the plate
+  /// and saves it beside Simulation::checkpoint().
+  [[nodiscard]] nlohmann::json save_state() const { return {{"columns", columns_}, {"removed", removed_}}; }
+  void restore_state(const nlohmann::json& state) {
+    columns_ = unpack_value<int>(state, "columns");
+    removed_ = unpack_value<long>(state, "removed");
+  }
+  /// @}
 
  private:
   int fluid_group_;

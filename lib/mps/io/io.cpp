@@ -375,6 +375,43 @@ void write_json(const fs::path& path, const nlohmann::json& value) {
   write_atomically(path, [&](std::ofstream& out) { out << value.dump(2) << '\n'; });
 }
 
+namespace {
+constexpr const char* kCheckpointFormat = "sparsemps-checkpoint";
+constexpr int kCheckpointVersion = 1;
+}  // namespace
+
+void write_checkpoint(const fs::path& path, const nlohmann::json& state) {
+  static_assert(std::endian::native == std::endian::little, "checkpoints store arrays in little-endian byte order");
+  const nlohmann::json file = {{"format", kCheckpointFormat}, {"version", kCheckpointVersion}, {"state", state}};
+  const std::vector<std::uint8_t> bytes = nlohmann::json::to_cbor(file);
+  write_atomically(path, [&](std::ofstream& out) {
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  });
+}
+
+nlohmann::json read_checkpoint(const fs::path& path) {
+  const std::string what = "checkpoint " + path.string() + ": ";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(what + "cannot open it" + system_reason());
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  nlohmann::json file;
+  try {
+    file = nlohmann::json::from_cbor(bytes, true, true, nlohmann::json::cbor_tag_handler_t::store);  // arrays' types
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(what + "not a SparseMPS checkpoint, or truncated or damaged (" + e.what() + ")");
+  }
+  const auto format = file.is_object() ? file.find("format") : file.end();
+  if (format == file.end() || *format != kCheckpointFormat)
+    throw std::runtime_error(what + "not a SparseMPS checkpoint (no \"format\": \"" + kCheckpointFormat + "\")");
+  const auto version = file.find("version");
+  if (version == file.end() || *version != kCheckpointVersion)
+    throw std::runtime_error(what + "format version " + (version == file.end() ? "missing" : version->dump()) +
+                             "; this SparseMPS reads version " + std::to_string(kCheckpointVersion));
+  const auto state = file.find("state");
+  if (state == file.end() || !state->is_object()) throw std::runtime_error(what + "no state in it (a damaged file?)");
+  return std::move(*state);
+}
+
 void write_text(const fs::path& path, const std::string& text) {
   write_atomically(path, [&](std::ofstream& out) { out << text; });
 }

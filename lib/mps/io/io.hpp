@@ -63,6 +63,13 @@ void write_csv(const std::filesystem::path& path, const std::vector<std::string>
                const std::vector<std::vector<double>>& columns);
 
 void write_json(const std::filesystem::path& path, const nlohmann::json& value);  ///< indented, as a whole file
+/// A checkpoint file (docs/restart.md): `state` (Simulation::checkpoint() and whatever else the caller adds) as
+/// CBOR (RFC 8949), its arrays as byte strings, under a header naming the format and its version. Written through a
+/// temporary file renamed over the target, so that a stop mid-write leaves the previous checkpoint whole.
+void write_checkpoint(const std::filesystem::path& path, const nlohmann::json& state);
+/// The state of a checkpoint file; throws std::runtime_error naming the file and what is wrong with it (missing,
+/// not a checkpoint, truncated or damaged, another format version).
+nlohmann::json read_checkpoint(const std::filesystem::path& path);
 /// Every field of the config from its schema (for_each_parameter), each key ending in its unit as the summaries'
 /// naming rule has it ("l0_m", "radius_density_l0", "nu_m2_per_s", "gamma"): what an app's summary records. The guard's
 /// max_speed, infinite when off, is written "max_speed": "off".

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "mps/core/state.hpp"
 #include "mps/solvers/registry.hpp"
 
 namespace mps {
@@ -78,6 +79,20 @@ class AutoSolver final : public LinearSolver {
   void renumbered() override {
     if (amg_) amg_->renumbered();
   }
+  // The rule's inputs; the hierarchy is set up afresh after a restart (keeps_setup says when that differs).
+  [[nodiscard]] nlohmann::json save_state() const override {
+    return {{"on_amg", on_amg_},     {"always_amg", always_amg_},
+            {"last_rows", last_rows_}, {"last_jacobi_iterations", last_jacobi_iterations_},
+            {"steady", steady_}};
+  }
+  void restore_state(const nlohmann::json& state) override {
+    on_amg_ = unpack_value<bool>(state, "on_amg");
+    always_amg_ = unpack_value<bool>(state, "always_amg");
+    last_rows_ = unpack_value<int>(state, "last_rows");
+    last_jacobi_iterations_ = unpack_value<int>(state, "last_jacobi_iterations");
+    steady_ = unpack_value<int>(state, "steady");
+  }
+  [[nodiscard]] bool keeps_setup() const override { return amg_ && amg_->keeps_setup(); }
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_;

@@ -322,6 +322,7 @@ class HypreSolver final : public LinearSolver {
   // A hierarchy's interpolation maps rows by number: kept across a renumbering it costs tens of times the
   // iterations of a fresh one (docs/scaling.md).
   void renumbered() override { rebuild_pending_ = true; }
+  [[nodiscard]] bool keeps_setup() const override { return amg_ != nullptr && !rebuild_pending_ && reuses_ < reuse_; }
 
  private:
   Partition partition(const CsrMatrix& a, std::span<const double> b, std::span<double> x, SolveReport& report) const {

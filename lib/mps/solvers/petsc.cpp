@@ -97,6 +97,7 @@ class PetscSolver final : public LinearSolver {
   }
   [[nodiscard]] std::string spec() const override { return ksp_->spec(); }
   void renumbered() override { ksp_->renumbered(); }
+  [[nodiscard]] bool keeps_setup() const override { return ksp_->keeps_setup(); }
 
  private:
   std::unique_ptr<LinearSolver> ksp_;

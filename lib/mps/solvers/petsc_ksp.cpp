@@ -198,6 +198,7 @@ class KspSolver final : public LinearSolver {
 
   [[nodiscard]] std::string spec() const override { return spec_; }
   void renumbered() override { rebuild_pending_ = true; }  // a kept preconditioner is tied to the rows' order
+  [[nodiscard]] bool keeps_setup() const override { return setup_rows_ >= 0 && !rebuild_pending_ && reuses_ < reuse_; }
 
  private:
   // A KSP reading the spec's options (under this solver's prefix), with our defaults beneath them.

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "mps/core/csr.hpp"
 
 namespace mps {
@@ -57,6 +59,14 @@ class LinearSolver {
   /// The unknowns are in another order from the next solve on (the step's reordering by cell, a migration between
   /// ranks): state tied to their order (a reused AMG hierarchy) is set up afresh then. On ranks, called on every rank.
   virtual void renumbered() {}
+  /// What a checkpoint must hold for the solves after a restart to repeat this solver's bitwise: its modes and
+  /// counters (auto), never a setup (default: nothing). restore_state() takes it back on a solver of the same spec.
+  [[nodiscard]] virtual nlohmann::json save_state() const { return nullptr; }
+  virtual void restore_state(const nlohmann::json& state) { (void)state; }  ///< see save_state()
+  /// Whether the next solve would reuse a setup made from an earlier matrix (a kept AMG hierarchy or PETSc
+  /// preconditioner). No checkpoint holds one: a run restored from here sets it up afresh, and its solves then agree
+  /// with the uninterrupted run's within the tolerance, not bitwise (docs/restart.md).
+  [[nodiscard]] virtual bool keeps_setup() const { return false; }
 };
 
 /// A spec string taken apart: "name:key=value,..." -> name and options.

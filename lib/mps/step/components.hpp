@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mps/boundaries/boundary.hpp"
+#include "mps/core/state.hpp"
 #include "mps/step/step.hpp"
 
 namespace mps {
@@ -191,6 +192,8 @@ class BasicRemoveEscaped : public BasicStepComponent<D> {
       : inside_([inside = std::move(inside)](const Vec<2>& r) { return inside(r[0], r[1]); }) {}
   void after_corrector(StepContext& c) override;
   [[nodiscard]] long removed() const { return removed_; }  ///< fluid particles removed so far
+  [[nodiscard]] nlohmann::json save_state() const override { return {{"removed", removed_}}; }  ///< the count
+  void restore_state(const nlohmann::json& state) override { removed_ = unpack_value<long>(state, "removed"); }  ///< same
 
  private:
   Region inside_;
@@ -217,6 +220,8 @@ class BasicWallBackstop : public BasicStepComponent<D> {
   BasicWallBackstop(AxisBox tank, std::vector<AxisBox> obstacles) : tank_(tank), obstacles_(std::move(obstacles)) {}
   void after_corrector(StepContext& c) override;
   [[nodiscard]] long returned() const { return returned_; }  ///< fluid particles put back so far (one per step each)
+  [[nodiscard]] nlohmann::json save_state() const override { return {{"returned", returned_}}; }  ///< the count
+  void restore_state(const nlohmann::json& state) override { returned_ = unpack_value<long>(state, "returned"); }  ///< same
 
  private:
   AxisBox tank_;

@@ -1,4 +1,5 @@
 #include "mps/step/step.hpp"
+#include "mps/core/state.hpp"
 #include "mps/core/threads.hpp"
 #include "mps/core/vec.hpp"
 
@@ -776,6 +777,96 @@ void BasicSimulation<D>::check_guard() const {
          fmt(config_.max_speed) + " m/s");
   fail("particle " + std::to_string(i) + " moved " + fmt(info_.dt * speed / config_.l0) +
        " l0 in one step, above the limit of " + fmt(config_.max_displacement) + " l0: velocity blow-up");
+}
+
+template <int D>
+bool BasicSimulation<D>::checkpoint_exact() const {
+  return !solver_->keeps_setup() || reorder_due(config_, info_.step);
+}
+
+template <int D>
+nlohmann::json BasicSimulation<D>::checkpoint() const {
+  if (next_stage_ != 0)
+    throw std::logic_error("simulation: checkpoint() between steps only; step " + std::to_string(info_.step + 1) +
+                           " is open at stage " + to_string(next_stage()));
+  nlohmann::json particles = nlohmann::json::object();
+  particles_.for_each_field([&](const char* name, const auto& values) { particles[name] = pack_array(values); });
+  nlohmann::json components = nlohmann::json::array();
+  for (const auto& component : components_)
+    components.push_back({{"type", component_name(*component)}, {"state", component->save_state()}});
+  const SolveReport& r = info_.solve;
+  return {{"dim", D},
+          {"step", info_.step},
+          {"time", info_.time},
+          {"dt", info_.dt},
+          {"dt_limit", info_.dt_limit},
+          {"viscosity_iterations", info_.viscosity_iterations},
+          {"unknowns", info_.unknowns},
+          {"free_surface", info_.free_surface},
+          {"floating_groups", info_.floating_groups},
+          {"max_speed", info_.max_speed},
+          {"solve", {{"backend", r.backend}, {"iterations", r.iterations}, {"relative_residual", r.relative_residual},
+                     {"setup_seconds", r.setup_seconds}, {"solve_seconds", r.solve_seconds},
+                     {"setup_reused", r.setup_reused}}},
+          {"phase_seconds", {times_.neighbors, times_.predict, times_.assemble, times_.solver_setup, times_.solve,
+                             times_.correct}},
+          {"exact", checkpoint_exact()},
+          {"particles", std::move(particles)},
+          {"components", std::move(components)},
+          {"solver", {{"spec", solver_->spec()}, {"state", solver_->save_state()}}}};
+}
+
+template <int D>
+void BasicSimulation<D>::restore(const nlohmann::json& state) {
+  if (next_stage_ != 0)
+    throw std::logic_error("simulation: restore() between steps only; step " + std::to_string(info_.step + 1) +
+                           " is open at stage " + to_string(next_stage()));
+  if (dynamic_cast<const BasicSerialExchange<D>*>(exchange_.get()) == nullptr)
+    throw std::logic_error("simulation: restoring a checkpoint on MPI ranks is not built yet; restart on one process");
+  const int dim = unpack_value<int>(state, "dim");
+  if (dim != D)
+    throw std::runtime_error("checkpoint: of a " + std::to_string(dim) + "-D run; this simulation is " +
+                             std::to_string(D) + "-D");
+  // Everything is read and checked before anything is changed: a checkpoint that does not fit leaves the run as it was.
+  const nlohmann::json& saved = state_part(state, "components");
+  if (!saved.is_array()) throw std::runtime_error("checkpoint: 'components' is not a list (a damaged file?)");
+  std::string ours, theirs;
+  for (const auto& component : components_) ours += (ours.empty() ? "" : ", ") + component_name(*component);
+  for (const auto& component : saved) theirs += (theirs.empty() ? "" : ", ") + unpack_value<std::string>(component, "type");
+  if (ours != theirs)
+    throw std::runtime_error("checkpoint: its run had the components [" + theirs + "], this simulation has [" + ours +
+                             "]; build the scene as the checkpointed run did");
+  Particles restored;
+  restored.for_each_field([&](const char* name, auto& values) { unpack_array(state_part(state, "particles"), name, values); });
+  bool same_length = true;
+  restored.for_each_field([&](const char*, const auto& values) { same_length &= values.size() == restored.size(); });
+  if (!same_length) throw std::runtime_error("checkpoint: its particle fields differ in length (a damaged file?)");
+  const nlohmann::json& solver = state_part(state, "solver");
+  const bool same_solver = unpack_value<std::string>(solver, "spec") == solver_->spec();
+
+  particles_ = std::move(restored);
+  info_.step = unpack_value<int>(state, "step");
+  info_.time = unpack_value<double>(state, "time");
+  info_.dt = unpack_value<double>(state, "dt");
+  info_.dt_limit = unpack_value<std::string>(state, "dt_limit");
+  info_.viscosity_iterations = unpack_value<int>(state, "viscosity_iterations");
+  info_.unknowns = unpack_value<std::size_t>(state, "unknowns");
+  info_.free_surface = unpack_value<std::size_t>(state, "free_surface");
+  info_.floating_groups = unpack_value<std::size_t>(state, "floating_groups");
+  info_.max_speed = unpack_value<double>(state, "max_speed");
+  const nlohmann::json& r = state_part(state, "solve");
+  info_.solve = {};
+  info_.solve.backend = unpack_value<std::string>(r, "backend");
+  info_.solve.iterations = unpack_value<int>(r, "iterations");
+  info_.solve.relative_residual = unpack_value<double>(r, "relative_residual");
+  info_.solve.setup_seconds = unpack_value<double>(r, "setup_seconds");
+  info_.solve.solve_seconds = unpack_value<double>(r, "solve_seconds");
+  info_.solve.setup_reused = unpack_value<bool>(r, "setup_reused");
+  const auto phases = unpack_value<std::vector<double>>(state, "phase_seconds");
+  if (phases.size() == 6) times_ = {phases[0], phases[1], phases[2], phases[3], phases[4], phases[5]};
+  for (std::size_t c = 0; c < components_.size(); ++c) components_[c]->restore_state(state_part(saved[c], "state"));
+  // Another solver than the checkpointed run's (a restart that changes it) starts afresh.
+  if (same_solver) solver_->restore_state(state_part(solver, "state"));
 }
 
 template double max_fluid_speed_squared(const BasicParticles<2>&);

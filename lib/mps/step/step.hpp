@@ -117,6 +117,11 @@ class BasicStepComponent {
   /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
   /// [m] (0: within them): a distributed step's halo must reach as far.
   [[nodiscard]] virtual double reach(const BasicSimulation<D>&) const { return 0.0; }
+  /// What a checkpoint must hold of this component for a restored run to continue bitwise: what changes from step to
+  /// step (counters, a structure's deformation), not what it was made with (default: nothing). restore_state() takes
+  /// it back into the component of a simulation built as this one was (Simulation::restore).
+  [[nodiscard]] virtual nlohmann::json save_state() const { return nullptr; }
+  virtual void restore_state(const nlohmann::json& state) { (void)state; }  ///< see save_state()
   /// Whether this component reads what `other` writes at a hook they share, and so must run after it: the order
   /// Simulation::add checks (the configuration's own components come first).
   [[nodiscard]] virtual bool runs_after(const BasicStepComponent& other) const {
@@ -180,6 +185,18 @@ class BasicSimulation {
   /// open there: its fields, last_ppe() and the particles are as that stage left them; step() completes it. A
   /// failure rolls back as step() does. Throws std::logic_error for a stage this step has passed.
   void advance_to(Stage last);
+  /// The run's state between steps for a checkpoint (write_checkpoint, docs/restart.md): the particles, the step
+  /// count, time and last step's record, the phase times, each component's save_state() and the solver's. Throws
+  /// std::logic_error while a step is open. On ranks each process's own part; the caller gathers.
+  [[nodiscard]] nlohmann::json checkpoint() const;
+  /// Continues from `state`, a checkpoint() of a simulation built as this one was (the same scene, components in the
+  /// same order, the same configuration): the steps that follow repeat the checkpointed run's bitwise when it was
+  /// taken at a checkpoint_exact() step. Throws std::runtime_error naming what does not match (dimension, particle
+  /// fields, components) and std::logic_error while a step is open.
+  void restore(const nlohmann::json& state);
+  /// Whether a checkpoint taken now continues bitwise: the solver keeps no setup made from an earlier matrix, or the
+  /// next step renumbers the unknowns (reorder_every), which sets it up afresh anyway.
+  [[nodiscard]] bool checkpoint_exact() const;
   /// The stage the open step runs next (Stage::exchange when no step is open).
   [[nodiscard]] Stage next_stage() const { return static_cast<Stage>(next_stage_); }
 

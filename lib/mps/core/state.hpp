@@ -1,0 +1,75 @@
+#pragma once
+/// \file
+/// A run's state as data, for checkpoints (mps/io/io.hpp write_checkpoint, docs/restart.md): a JSON tree whose arrays
+/// are byte strings of their values, so that they round-trip bitwise and cost their size in the CBOR file.
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace mps {
+
+namespace state_detail {
+// The byte string's subtype names the element type, so that an array is never read back as another type.
+template <class T>
+constexpr std::uint8_t subtype() {
+  if constexpr (std::is_same_v<T, double>) return 1;
+  else if constexpr (std::is_same_v<T, int>) return 2;
+  else if constexpr (std::is_same_v<T, long> || std::is_same_v<T, long long>) return 3;
+  else if constexpr (sizeof(T) == 1) return 4;  // char, bool-like flags, Kind
+  else static_assert(sizeof(T) == 0, "no checkpoint type for this element");
+}
+}  // namespace state_detail
+
+/// The values of `values` as a byte string tagged with their type.
+template <class T>
+nlohmann::json pack_array(const std::vector<T>& values) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  std::vector<std::uint8_t> bytes(values.size() * sizeof(T));
+  if (!bytes.empty()) std::memcpy(bytes.data(), values.data(), bytes.size());
+  return nlohmann::json::binary(std::move(bytes), state_detail::subtype<T>());
+}
+
+/// `state[key]` read back into `out` (replacing its contents); throws std::runtime_error naming the key when it is
+/// missing, of another type or of a length that is no whole number of values.
+template <class T>
+void unpack_array(const nlohmann::json& state, std::string_view key, std::vector<T>& out) {
+  const std::string name(key);
+  const auto found = state.find(name);
+  if (found == state.end() || !found->is_binary())
+    throw std::runtime_error("checkpoint: no array '" + name + "' (a checkpoint of another scene or version?)");
+  const auto& bin = found->get_binary();
+  if (!bin.has_subtype() || bin.subtype() != state_detail::subtype<T>() || bin.size() % sizeof(T) != 0)
+    throw std::runtime_error("checkpoint: array '" + name + "' holds another type of value");
+  out.resize(bin.size() / sizeof(T));
+  if (!out.empty()) std::memcpy(out.data(), bin.data(), bin.size());
+}
+
+/// `state[key]`, a part of the tree; throws std::runtime_error naming the key when it is missing.
+inline const nlohmann::json& state_part(const nlohmann::json& state, std::string_view key) {
+  const auto found = state.find(std::string(key));
+  if (found == state.end())
+    throw std::runtime_error("checkpoint: no part '" + std::string(key) + "' (a checkpoint of another scene or version?)");
+  return *found;
+}
+
+/// `state[key]` as a T; throws std::runtime_error naming the key when it is missing or of another type.
+template <class T>
+T unpack_value(const nlohmann::json& state, std::string_view key) {
+  const std::string name(key);
+  const auto found = state.find(name);
+  if (found == state.end())
+    throw std::runtime_error("checkpoint: no value '" + name + "' (a checkpoint of another scene or version?)");
+  try {
+    return found->get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error("checkpoint: value '" + name + "' is of another type");
+  }
+}
+
+}  // namespace mps

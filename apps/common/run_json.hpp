@@ -38,6 +38,12 @@ class FrameSeries {
     series_.add(time, dir_ / name);
   }
   [[nodiscard]] const std::filesystem::path& path() const { return series_.path(); }
+  // For a checkpoint: the frames written so far.
+  [[nodiscard]] nlohmann::json save_state() const { return {{"next", next_}, {"series", series_.save_state()}}; }
+  void restore_state(const nlohmann::json& state) {
+    next_ = state.at("next").get<int>();
+    series_.restore_state(state.at("series"));
+  }
 
  private:
   std::filesystem::path dir_;
@@ -62,10 +68,11 @@ inline void record_run(const std::string& app, int argc, char** argv) {
 }
 
 // Every app's summary.json. One status vocabulary: "passed" (its check passed, exit 0), "check failed" (exit 2),
-// "completed" (a run with no check, exit 0), "failed" (stopped by the guard or an error, exit 1); `pass` is true
+// "completed" (a run with no check, exit 0), "failed" (stopped by the guard or an error, exit 1), "stopped" (by
+// SIGTERM or SIGINT after writing its checkpoint, exit 128 + the signal); `pass` is true
 // exactly when the exit status is 0.
 inline void write_summary(const std::filesystem::path& dir, nlohmann::json summary) {
-  static const std::set<std::string> vocabulary = {"passed", "check failed", "completed", "failed"};
+  static const std::set<std::string> vocabulary = {"passed", "check failed", "completed", "failed", "stopped"};
   const std::string status = summary.at("status").get<std::string>();
   if (vocabulary.count(status) == 0) throw std::logic_error("summary status '" + status + "' is not in the vocabulary");
   summary["pass"] = status == "passed" || status == "completed";

@@ -34,6 +34,9 @@ class BasicSolveLog final : public mps::BasicStepComponent<D> {
   }
 
   [[nodiscard]] const std::set<int>& export_steps() const { return export_steps_; }
+  // A restarted run's solves.csv lists the solves before its checkpoint too.
+  [[nodiscard]] nlohmann::json save_state() const override { return rows_; }
+  void restore_state(const nlohmann::json& state) override { rows_ = state.get<std::vector<std::string>>(); }
 
   // solves.csv: one row per solve, in step order (a step the guard undid keeps its row).
   void write(const std::filesystem::path& dir) const {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
@@ -37,7 +38,7 @@ nlohmann::json params_json(const tank::Params& p, const mps::BasicSimulation<D>&
 // The run once the options are read: the scene in D dimensions, its frames, pressure.csv and summary.json.
 template <int D>
 int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
-        const std::vector<int>& export_ppe);
+        const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options);
 
 }  // namespace
 
@@ -78,12 +79,14 @@ int main(int argc, char** argv) {
       ->check(whole_in(0, 100000))->group("Output");
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
+  CheckpointOptions checkpoint_options;
+  add_checkpoint_options(app, checkpoint_options);
   if (const auto status = parse_options(app, argc, argv)) return *status;
 
   p.l0 = dx > 0 ? dx : dim == 2 ? 0.01 : 0.04;
   try {
-    return dim == 2 ? run<2>(p, app, out, frames, tolerance, export_ppe)
-                    : run<3>(p, app, out, frames, tolerance, export_ppe);
+    return dim == 2 ? run<2>(p, app, out, frames, tolerance, export_ppe, checkpoint_options)
+                    : run<3>(p, app, out, frames, tolerance, export_ppe, checkpoint_options);
   } catch (const std::exception& e) {
     std::cerr << "error: " << error_message(e) << "\n";
     return 1;
@@ -94,7 +97,7 @@ namespace {
 
 template <int D>
 int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
-        const std::vector<int>& export_ppe) {
+        const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options) {
   const double across = p.width / p.l0 + 10.0;
   check_run_size((D == 2 ? across : across * across) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,
                  "raise --dx", "shorten --end-time or raise --dt");
@@ -110,15 +113,29 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
        {"solver", {"solver"}},
        {"run", {"end_time_s", "window_s", "band_l0"}}});
   const fs::path dir(out);
-  clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp",
-                      "config.toml", "solves.csv", "ppe"});
+  Checkpoints checkpoints(checkpoint_options, dir, "hydrostatic", params, {"/end_time_s"}, false);
+  if (!checkpoints.restart())
+    clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp", "config.toml",
+                        "solves.csv", "ppe", "checkpoint.cbor"});
   scene.sim().template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()),
                                              "hydrostatic tank, " + std::to_string(D) + "-D");
   write_run_config(app, "hydrostatic", dir);
   fs::create_directories(dir / "frames");
   FrameSeries series(dir, "tank", frames, p.end_time);
-  series.write_if_due(sim);
   double next_report = 0.1;
+  auto save = [&]() -> nlohmann::json {
+    return {{"tank", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
+  };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    scene.sim().restore(restart->at("simulation"));
+    scene.restore_state(restart->at("scene").at("tank"));
+    series.restore_state(restart->at("scene").at("frames"));
+    next_report = restart->at("scene").at("next_report").get<double>();
+    std::printf("restarted from %s at step %d, t = %.4g s\n", checkpoint_options.restart.c_str(),
+                sim.last_step().step, sim.time());
+  } else {
+    series.write_if_due(sim);
+  }
   Progress progress(p.end_time, "s");
   try {
     while (!scene.done()) {
@@ -133,9 +150,14 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
                     s.max_speed);
         next_report += 0.1;
       }
+      checkpoints.after_step(sim, save, progress);
     }
+  } catch (const RunStopped& stop) {
+    progress.finish(sim.time(), sim.last_step().step);
+    return report_stop(dir, stop, params, sim, checkpoints);
   } catch (const mps::SimulationError& e) {
     progress.finish(sim.time(), sim.last_step().step);
+    checkpoints.write(sim, save);  // the last good state, to restart from
     return report_guard_stop(dir, e, params, sim);
   }
   progress.finish(sim.time(), sim.last_step().step);

@@ -1,5 +1,7 @@
 #include "tank.hpp"
 
+#include "mps/core/state.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -94,6 +96,24 @@ void BasicTank<D>::step() {
     sum_[b] += s.p[i];
     ++samples_[b];
   }
+}
+
+template <int D>
+nlohmann::json BasicTank<D>::save_state() const {
+  return {{"sum", mps::pack_array(sum_)}, {"samples", mps::pack_array(samples_)}};
+}
+
+template <int D>
+void BasicTank<D>::restore_state(const nlohmann::json& state) {
+  std::vector<double> sum;
+  std::vector<int> samples;
+  mps::unpack_array(state, "sum", sum);
+  mps::unpack_array(state, "samples", samples);
+  if (sum.size() != sum_.size() || samples.size() != samples_.size())
+    throw std::runtime_error("checkpoint: " + std::to_string(sum.size()) + " pressure bands, this tank has " +
+                             std::to_string(sum_.size()));
+  sum_ = std::move(sum);
+  samples_ = std::move(samples);
 }
 
 template <int D>

@@ -4,6 +4,7 @@
 // rho g (H - height) and the particles must stay where they are.
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
 
 #include "mps/step/step.hpp"
 
@@ -56,6 +57,9 @@ class BasicTank {
   [[nodiscard]] const mps::BasicSimulation<D>& sim() const { return sim_; }
   [[nodiscard]] mps::BasicSimulation<D>& sim() { return sim_; }  // to add components of one's own
   [[nodiscard]] const Params& params() const { return params_; }
+  // For a checkpoint: the band sums so far (the simulation's own state is Simulation::checkpoint()).
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
 
  private:
   Params params_;

@@ -211,13 +211,14 @@ std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Pa
   return plate;
 }
 
-mps::Simulation make_simulation(const Params& p, std::optional<int> comm) {
+mps::Simulation make_simulation(const Params& p, std::optional<int> comm, std::shared_ptr<mps::PushingPlate>* plate) {
   mps::Particles particles = make_particles(p);
   const mps::Particles initial = particles;
   mps::Simulation sim = comm ? mps::Simulation(std::move(particles), make_domain(p), make_config(p),
                                                std::make_unique<mps::RankExchange>(*comm))
                              : mps::Simulation(std::move(particles), make_domain(p), make_config(p));
-  add_components(p, initial, sim);
+  const std::shared_ptr<mps::PushingPlate> added = add_components(p, initial, sim);
+  if (plate != nullptr) *plate = added;
   return sim;
 }
 
@@ -229,6 +230,25 @@ void ProfileSampler::clear() {
   std::fill(count_.begin(), count_.end(), 0);
   samples_ = 0;
   max_abs_v_ = 0.0;
+}
+
+nlohmann::json ProfileSampler::save_state() const {
+  return {{"sum", mps::pack_array(sum_)}, {"count", mps::pack_array(count_)}, {"samples", samples_},
+          {"max_abs_v", max_abs_v_}};
+}
+
+void ProfileSampler::restore_state(const nlohmann::json& state) {
+  std::vector<double> sum;
+  std::vector<long> count;
+  mps::unpack_array(state, "sum", sum);
+  mps::unpack_array(state, "count", count);
+  if (sum.size() != sum_.size() || count.size() != count_.size())
+    throw std::runtime_error("checkpoint: the profile sampler has " + std::to_string(sum.size()) + " rows, this channel " +
+                             std::to_string(sum_.size()));
+  sum_ = std::move(sum);
+  count_ = std::move(count);
+  samples_ = mps::unpack_value<int>(state, "samples");
+  max_abs_v_ = mps::unpack_value<double>(state, "max_abs_v");
 }
 
 void ProfileSampler::add(const mps::Simulation& sim) {

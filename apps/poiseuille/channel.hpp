@@ -12,6 +12,7 @@
 // channel's outlet is free surface (P = 0).
 #include <memory>
 #include <optional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -73,7 +74,9 @@ std::shared_ptr<mps::PushingPlate> add_components(const Params& p, const mps::Pa
                                                   mps::Simulation& sim);
 // The three above together; on the ranks of an MPI communicator (comm: its Fortran handle) with an mps::RankExchange,
 // every rank passing the same parameters.
-mps::Simulation make_simulation(const Params& p, std::optional<int> comm = {});
+// plate: where the inlet's plate goes (a checkpoint saves its counts); null for the periodic channels.
+mps::Simulation make_simulation(const Params& p, std::optional<int> comm = {},
+                                std::shared_ptr<mps::PushingPlate>* plate = nullptr);
 // Before anything is built: about how many particles the scene holds, and the time step at the developed speed (for
 // refusing runs too large to be meant).
 double estimated_particles(const Params& p);
@@ -102,6 +105,9 @@ class ProfileSampler {
   [[nodiscard]] Profile result(double time) const;  // compared with the exact solution at `time`
   [[nodiscard]] int samples() const { return samples_; }
   void clear();
+  // For a checkpoint: the sums so far.
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
 
  private:
   Params p_;

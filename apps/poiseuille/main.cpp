@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "channel.hpp"
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
@@ -66,6 +67,7 @@ struct Options {
   double average = 1.0;  // inlet: profiles averaged over the last AVERAGE D/U before their time
   double tolerance = 0.02;
   std::vector<int> export_ppe;
+  CheckpointOptions checkpoints;
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -114,6 +116,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   add_export_ppe_option(app, o.export_ppe);
+  add_checkpoint_options(app, o.checkpoints);
 }
 
 // profile.csv's columns: y / D, then the measured and exact u / U of each profile.
@@ -136,37 +139,81 @@ struct ProfileTable {
       columns.back().push_back(profile.exact[k] / p.U());
     }
   }
+  [[nodiscard]] nlohmann::json save_state() const {
+    nlohmann::json saved = {{"header", header}, {"columns", nlohmann::json::array()}};
+    for (const auto& column : columns) saved["columns"].push_back(mps::pack_array(column));
+    return saved;
+  }
+  void restore_state(const nlohmann::json& state) {
+    header = state.at("header").get<std::vector<std::string>>();
+    columns.assign(state.at("columns").size(), {});
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      mps::unpack_array(nlohmann::json{{"c", state.at("columns")[c]}}, "c", columns[c]);
+  }
+};
+
+nlohmann::json profile_json(const poiseuille::Profile& profile) {
+  return {{"time", profile.time}, {"samples", profile.samples}, {"y", mps::pack_array(profile.y)},
+          {"u", mps::pack_array(profile.u)}, {"exact", mps::pack_array(profile.exact)}, {"l2_error", profile.l2_error},
+          {"peak_error", profile.peak_error}, {"flow_rate_error", profile.flow_rate_error},
+          {"max_abs_v", profile.max_abs_v}};
+}
+
+poiseuille::Profile profile_from(const nlohmann::json& state) {
+  poiseuille::Profile profile;
+  profile.time = state.at("time").get<double>();
+  profile.samples = state.at("samples").get<int>();
+  mps::unpack_array(state, "y", profile.y);
+  mps::unpack_array(state, "u", profile.u);
+  mps::unpack_array(state, "exact", profile.exact);
+  profile.l2_error = state.at("l2_error").get<double>();
+  profile.peak_error = state.at("peak_error").get<double>();
+  profile.flow_rate_error = state.at("flow_rate_error").get<double>();
+  profile.max_abs_v = state.at("max_abs_v").get<double>();
+  return profile;
+}
+
+// What the run keeps beside the simulation from step to step: the profiles measured, the one being averaged, and
+// the frames written (all of it goes into a checkpoint).
+struct RunState {
+  explicit RunState(const poiseuille::Params& p) : sampler(p) {}
+  ProfileTable table;
+  poiseuille::ProfileSampler sampler;
+  int profiles_done = 0;
+  poiseuille::Profile last;
+  int frames_written = 0;
 };
 
 // Steps to the end, measuring `o.profiles` profiles evenly spaced in time (each averaged over the last `o.average`
-// D/U on the inlet channel) and writing frames; returns the last profile. A SimulationError goes to the caller.
-poiseuille::Profile run(mps::Simulation& sim, const Options& o, ProfileTable& table, Progress& progress,
-                        const std::function<void()>& frame_if_due, bool on_ranks, int comm) {
+// D/U on the inlet channel) and writing frames; state.last is the last profile. A SimulationError goes to the caller,
+// and so does RunStopped once a signal's checkpoint is written.
+void run(mps::Simulation& sim, const Options& o, RunState& state, Progress& progress,
+         const std::function<void()>& frame_if_due, bool on_ranks, int comm, Checkpoints& checkpoints,
+         const std::function<nlohmann::json()>& save) {
   const poiseuille::Params& p = o.p;
   const double t_end = o.end_time * p.convective_time();
   const double window = p.periodic() ? 0.0 : o.average * p.convective_time();
-  poiseuille::ProfileSampler sampler(p);
-  poiseuille::Profile last;
-  for (int profile = 0; profile < o.profiles; ++profile) {
-    const double t_profile = t_end * (profile + 1) / o.profiles;
-    sampler.clear();
+  for (; state.profiles_done < o.profiles; ++state.profiles_done) {
+    const double t_profile = t_end * (state.profiles_done + 1) / o.profiles;
     while (sim.time() < t_profile - 1e-9 * t_end) {
       sim.step();
       progress.update(sim.time() / p.convective_time(), sim.last_step().step);
       frame_if_due();
-      if (sim.time() > t_profile - window) sampler.add(sim);
+      if (sim.time() > t_profile - window) state.sampler.add(sim);
+      checkpoints.after_step(sim, save, progress);
     }
-    if (sampler.samples() == 0) sampler.add(sim);
-    if (on_ranks) sampler.sum_over_ranks(comm);
-    last = sampler.result(sim.time());
+    if (state.sampler.samples() == 0) state.sampler.add(sim);
+    if (on_ranks) state.sampler.sum_over_ranks(comm);
+    state.last = state.sampler.result(sim.time());
+    state.sampler.clear();
+    const poiseuille::Profile& last = state.last;
     const double tu = sim.time() / p.convective_time();
-    table.add(last, p, tu);
+    state.table.add(last, p, tu);
     progress.clear();
     std::printf("t = %7.3f D/U  step %6d  dt %.2e s (%s)  profile L2 error %.3f %%  peak %.3f %%  flow rate %.3f %%\n",
                 tu, sim.last_step().step, sim.last_step().dt, sim.last_step().dt_limit.c_str(), 100 * last.l2_error,
                 100 * last.peak_error, 100 * last.flow_rate_error);
   }
-  return last;
 }
 
 // Rank 0, after the run: profile.csv, centerline.csv, the check and the summary; returns the exit status.
@@ -236,8 +283,9 @@ int main(int argc, char** argv) {
     p.validate();
     check_run_size(poiseuille::estimated_particles(p), o.end_time * p.convective_time() / poiseuille::initial_dt(p),
                    "use fewer --across or a shorter channel", "shorten --end-time or raise --dt-factor");
-    mps::Simulation sim =
-        poiseuille::make_simulation(p, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+    std::shared_ptr<mps::PushingPlate> plate;
+    mps::Simulation sim = poiseuille::make_simulation(
+        p, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt, &plate);
     const auto* distributed = dynamic_cast<const mps::RankExchange*>(&sim.exchange());
     // Every particle, on rank 0 (on ranks gathered there: for frames and the axis; the profile is summed instead).
     mps::Particles gathered;
@@ -261,19 +309,21 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "initial_guess"}},
          {"run", {"end_time_D_over_U", "average_D_over_U"}}});
     const fs::path dir(o.out);
-    // Rank 0 writes every output; the others step with it and join its gathers.
+    Checkpoints checkpoints(o.checkpoints, dir, "poiseuille", params, {"/end_time_D_over_U"}, ranks.distributed());
+    // Rank 0 writes every output; the others step with it and join its gathers. A restart keeps what is there.
     if (ranks.root()) {
-      clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json", "last_good.vtp",
-                          "config.toml", "solves.csv", "ppe"});
+      if (!checkpoints.restart())
+        clear_outputs(dir, {"frames", "channel.pvd", "profile.csv", "centerline.csv", "summary.json",
+                            "last_good.vtp", "config.toml", "solves.csv", "ppe", "checkpoint.cbor"});
       sim.add<SolveLog>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()), "poiseuille --mode " + o.mode);
       write_run_config(app, "poiseuille", dir);
       fs::create_directories(dir / "frames");
     }
     mps::PvdSeries series(dir / "channel.pvd");
     const double t_end = o.end_time * p.convective_time();
-    int frame = 0;
+    RunState state(p);
     auto write_frame = [&] {  // on every rank: the gather is collective, and each rank counts the frames
-      const int k = frame++;
+      const int k = state.frames_written++;
       const mps::Particles& all = all_particles();
       if (!ranks.root()) return;
       char name[32];
@@ -281,17 +331,43 @@ int main(int argc, char** argv) {
       mps::write_vtp(dir / name, all, sim.time());
       series.add(sim.time(), dir / name);
     };
-    if (o.frames > 0) write_frame();
-    auto frame_if_due = [&] {
-      if (o.frames > 0 && sim.time() >= t_end * frame / o.frames - 1e-9 * t_end) write_frame();
+    auto save = [&]() -> nlohmann::json {
+      return {{"plate", plate ? plate->save_state() : nlohmann::json()},
+              {"table", state.table.save_state()},
+              {"sampler", state.sampler.save_state()},
+              {"profiles_done", state.profiles_done},
+              {"last", profile_json(state.last)},
+              {"frames_written", state.frames_written},
+              {"frames", series.save_state()}};
     };
-    ProfileTable table;
+    if (const nlohmann::json* restart = checkpoints.restart()) {
+      sim.restore(restart->at("simulation"));
+      const nlohmann::json& scene = restart->at("scene");
+      if (plate) plate->restore_state(scene.at("plate"));
+      state.table.restore_state(scene.at("table"));
+      state.sampler.restore_state(scene.at("sampler"));
+      state.profiles_done = scene.at("profiles_done").get<int>();
+      state.last = profile_from(scene.at("last"));
+      state.frames_written = scene.at("frames_written").get<int>();
+      series.restore_state(scene.at("frames"));
+      std::printf("restarted from %s at step %d, t = %.4g D/U\n", o.checkpoints.restart.c_str(),
+                  sim.last_step().step, sim.time() / p.convective_time());
+    } else if (o.frames > 0) {
+      write_frame();
+    }
+    auto frame_if_due = [&] {
+      if (o.frames > 0 && sim.time() >= t_end * state.frames_written / o.frames - 1e-9 * t_end) write_frame();
+    };
     Progress progress(o.end_time, "D/U");
-    poiseuille::Profile last;
     try {
-      last = run(sim, o, table, progress, frame_if_due, distributed != nullptr, distributed ? ranks.comm() : 0);
+      run(sim, o, state, progress, frame_if_due, distributed != nullptr, distributed ? ranks.comm() : 0, checkpoints,
+          save);
+    } catch (const RunStopped& stop) {
+      progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
+      return report_stop(dir, stop, params, sim, checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
+      if (!ranks.distributed()) checkpoints.write(sim, save);  // the last good state, to restart from
       // The step stops every rank at the same stage, each holding the last good state; the scene's own checks
       // between steps may be one rank's alone.
       if (!ranks.every_rank_failed())
@@ -302,7 +378,7 @@ int main(int argc, char** argv) {
     progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
     const mps::Particles& s = all_particles();
     if (!ranks.root()) return 0;
-    return report(dir, sim, s, o, last, table, params, series.path());
+    return report(dir, sim, s, o, state.last, state.table, params, series.path());
   } catch (const std::exception& e) {
     if (!ranks.every_rank_failed()) ranks.end_alone(error_message(e));
     ranks.say_error(error_message(e));

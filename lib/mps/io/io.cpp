@@ -1,4 +1,5 @@
 #include "mps/io/io.hpp"
+#include "mps/core/state.hpp"
 #include "mps/core/vec.hpp"
 
 #include <algorithm>
@@ -345,6 +346,23 @@ PvdSeries::PvdSeries(fs::path pvd_path) : path_(std::move(pvd_path)) {}
 void PvdSeries::add(double time, const fs::path& frame_path) {
   // Paths relative to the .pvd, so the output folder can be moved as a whole.
   frames_.emplace_back(time, fs::relative(fs::absolute(frame_path), fs::absolute(path_).parent_path()).string());
+  write();
+}
+
+nlohmann::json PvdSeries::save_state() const {
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& [t, file] : frames_) frames.push_back({{"time", t}, {"file", file}});
+  return frames;
+}
+
+void PvdSeries::restore_state(const nlohmann::json& state) {
+  std::vector<std::pair<double, std::string>> frames;
+  for (const auto& frame : state) frames.emplace_back(unpack_value<double>(frame, "time"), unpack_value<std::string>(frame, "file"));
+  frames_ = std::move(frames);
+  if (!frames_.empty()) write();
+}
+
+void PvdSeries::write() const {
   write_atomically(path_, [&](std::ofstream& out) {
     out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
         << "<Collection>\n";

@@ -52,8 +52,13 @@ class PvdSeries {
   /// rewrites the index.
   void add(double time, const std::filesystem::path& frame_path);
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }  ///< the .pvd file
+  /// @{ The frames listed so far, for a checkpoint; restore_state() takes them back and rewrites the index.
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
+  /// @}
 
  private:
+  void write() const;
   std::filesystem::path path_;
   std::vector<std::pair<double, std::string>> frames_;
 };

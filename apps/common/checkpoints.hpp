@@ -1,0 +1,161 @@
+#pragma once
+// Checkpoints for every app (docs/restart.md): --checkpoint-every STEPS and --checkpoint-wall SECONDS write
+// OUT/checkpoint.cbor as the run goes, SIGTERM and SIGINT write it and stop the run, a guard stop writes its last good
+// state there, and --restart FILE continues a run from one. A checkpoint holds the simulation's state
+// (Simulation::checkpoint), the scene's own (its samplers, tables, frame count) and the run's parameters, which a
+// restart must repeat.
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+#include <nlohmann/json.hpp>
+
+#include "checks.hpp"
+#include "console.hpp"
+#include "mps/io/io.hpp"
+#include "mps/step/step.hpp"
+#include "run_json.hpp"
+
+struct CheckpointOptions {
+  int every = 0;        // steps between checkpoints (0: none)
+  double wall = 0.0;    // wall seconds between checkpoints (0: none)
+  std::string restart;  // the checkpoint to continue from
+};
+
+inline void add_checkpoint_options(CLI::App& app, CheckpointOptions& o) {
+  app.add_option("--checkpoint-every", o.every,
+                 "write OUT/checkpoint.cbor every this many steps, at the first step from there that continues "
+                 "bitwise (at most reorder_every steps later; 0: only when stopped)")
+      ->capture_default_str()->check(whole_in(0, 1e9))->group("Run");
+  app.add_option("--checkpoint-wall", o.wall, "... and every this many seconds of wall time (0: not by time) [s]")
+      ->capture_default_str()->check(number_in(0.0, 1e9))->group("Run");
+  app.add_option("--restart", o.restart,
+                 "continue the run a checkpoint holds; give the run's own options again (--end-time, --out and the "
+                 "checkpoint options may change)")
+      ->group("Run");
+}
+
+// A run stopped by SIGTERM or SIGINT after its checkpoint was written: the app reports it and exits 128 + signal.
+struct RunStopped {
+  int signal;
+};
+
+namespace checkpoint_detail {
+inline volatile std::sig_atomic_t stop_signal = 0, signals_seen = 0;
+extern "C" inline void on_stop_signal(int signal) {
+  stop_signal = signal;
+  signals_seen = signals_seen + 1;
+}
+inline const char* signal_name(int signal) { return signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "a signal"; }
+}  // namespace checkpoint_detail
+
+class Checkpoints {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `params`: the run's parameters as its summary records them; `may_change`: their flattened keys (JSON pointers,
+  // e.g. "/end_time_s") that a restart may give otherwise. On MPI ranks the options are refused (not built yet).
+  Checkpoints(const CheckpointOptions& o, std::filesystem::path dir, std::string app, nlohmann::json params,
+              std::set<std::string> may_change, bool on_ranks)
+      : options_(o), path_(std::move(dir) / "checkpoint.cbor"), app_(std::move(app)), params_(std::move(params)),
+        last_write_(Clock::now()) {
+    if (on_ranks && (o.every > 0 || o.wall > 0.0 || !o.restart.empty()))
+      throw std::invalid_argument("--checkpoint-every, --checkpoint-wall and --restart run on one process only so "
+                                  "far; run without mpirun");
+    if (!o.restart.empty()) {
+      const nlohmann::json state = mps::read_checkpoint(o.restart);
+      const std::string app_of = state.value("app", "");
+      if (app_of != app_)
+        throw std::invalid_argument("--restart " + o.restart + ": a checkpoint of " +
+                                    (app_of.empty() ? "no app" : app_of) + ", not of " + app_);
+      check_same_parameters(state.at("parameters"), may_change);
+      restart_ = state;
+    }
+    if (!on_ranks) {
+      struct sigaction action {};
+      action.sa_handler = checkpoint_detail::on_stop_signal;
+      sigemptyset(&action.sa_mask);
+      sigaction(SIGTERM, &action, nullptr);
+      sigaction(SIGINT, &action, nullptr);
+    }
+  }
+
+  // The checkpoint --restart names, or nullptr.
+  [[nodiscard]] const nlohmann::json* restart() const { return restart_.is_null() ? nullptr : &restart_; }
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+  // After each step: writes the checkpoint when one is due and the step continues bitwise (or at once on a second
+  // signal, or where reorder_every is 0 and no step would). Throws RunStopped after the write a signal asked for.
+  template <int D>
+  void after_step(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene, Progress& progress) {
+    using checkpoint_detail::signals_seen;
+    const int step = sim.last_step().step;
+    if (options_.every > 0 && step % options_.every == 0) due_ = true;
+    if (options_.wall > 0.0 && std::chrono::duration<double>(Clock::now() - last_write_).count() >= options_.wall)
+      due_ = true;
+    const bool stopping = signals_seen > 0;
+    if (!due_ && !stopping) return;
+    if (!(sim.checkpoint_exact() || signals_seen > 1 || sim.config().reorder_every == 0)) return;
+    write(sim, scene);
+    progress.clear();
+    std::printf("checkpoint: step %d, t = %.6g s, written to %s%s\n", step, sim.time(), path_.string().c_str(),
+                sim.checkpoint_exact() ? "" : " (not at a step that continues bitwise)");
+    if (stopping) throw RunStopped{checkpoint_detail::stop_signal};
+  }
+
+  // The state now (a guard stop's last good state, or a checkpoint due); says where on stdout.
+  template <int D>
+  void write(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene) {
+    mps::write_checkpoint(path_, {{"app", app_},
+                                  {"parameters", params_},
+                                  {"simulation", sim.checkpoint()},
+                                  {"scene", scene ? scene() : nlohmann::json()}});
+    due_ = false;
+    last_write_ = Clock::now();
+  }
+
+ private:
+  // A restart repeats the run: any parameter but those it may change must be the checkpointed run's.
+  void check_same_parameters(const nlohmann::json& saved, const std::set<std::string>& may_change) const {
+    const nlohmann::json before = saved.flatten(), now = params_.flatten();
+    std::string differ;
+    auto add = [&](const std::string& key) {
+      if (may_change.count(key) == 0) differ += (differ.empty() ? "" : ", ") + key;
+    };
+    for (const auto& [key, value] : before.items())
+      if (!now.contains(key) || now.at(key) != value) add(key);
+    for (const auto& [key, value] : now.items())
+      if (!before.contains(key)) add(key);
+    if (!differ.empty())
+      throw std::invalid_argument("--restart " + options_.restart + ": the checkpointed run had other parameters (" +
+                                  differ + "); give its own options again (its summary.json lists them)");
+  }
+
+  CheckpointOptions options_;
+  std::filesystem::path path_;
+  std::string app_;
+  nlohmann::json params_, restart_;
+  bool due_ = false;
+  Clock::time_point last_write_;
+};
+
+// A run stopped by a signal: solves.csv and summary.json as far as it got, and where its checkpoint is. Returns the
+// exit status, 128 + the signal, as a shell reports a process the signal ended.
+template <int D>
+int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const nlohmann::json& params,
+                const mps::BasicSimulation<D>& sim, const Checkpoints& checkpoints) {
+  const std::string reason = std::string("stopped by ") + checkpoint_detail::signal_name(stop.signal) +
+                             " at step " + std::to_string(sim.last_step().step) + "; continue it with --restart " +
+                             checkpoints.path().string();
+  std::fprintf(stderr, "%s\n", reason.c_str());
+  write_solves(dir, sim);
+  write_summary(dir, {{"status", "stopped"}, {"error", reason}, {"parameters", params}, {"time_s", sim.time()},
+                      {"steps", sim.last_step().step}, {"checkpoint", checkpoints.path().string()}});
+  return 128 + stop.signal;
+}

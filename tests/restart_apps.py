@@ -1,0 +1,117 @@
+#!/usr/bin/python3
+"""Checkpoint and restart of the apps (docs/restart.md). For each app, a run stopped by SIGTERM writes its checkpoint
+and exits 128 + 15; restarted from it, it must write what the uninterrupted run writes, bit for bit: every frame,
+table and index, solves.csv but for its timings, summary.json but for its timings and run record. A run with
+--checkpoint-every restarted from its last checkpoint must match too, and a restart with other parameters, or from
+a file that is no checkpoint, is refused naming why.
+
+  tests/restart_apps.py BUILD_DIR
+"""
+import csv
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+# app, its options for a run of a few seconds, and those options with one a restart may not change changed.
+APPS = [
+    ("poiseuille", "--across 10 --end-time 6 --frames 12", "--across 12 --end-time 6 --frames 12"),
+    ("hydrostatic", "--end-time 0.5 --frames 10", "--dx 0.02 --end-time 0.5 --frames 10"),
+    ("hydrostatic", "--dim 3 --end-time 0.15 --window 0.05 --frames 6",
+     "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --gamma 0.5"),
+]
+ENV = dict(os.environ, OMP_NUM_THREADS="1")
+TIMING_COLUMNS = {"setup_s", "solve_s"}
+SUMMARY_SKIP = {"timings", "run", "particle_steps_per_s"}
+
+
+def command(build, app, args, out, *extra):
+    return [str(Path(build) / "apps" / app / app), *args.split(), "--out", str(out), *extra]
+
+
+def comparable(path):
+    if path.name == "solves.csv":
+        rows = list(csv.DictReader(io.StringIO(path.read_text())))
+        return [{k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in rows]
+    if path.name == "summary.json":
+        return {k: v for k, v in json.loads(path.read_text()).items() if k not in SUMMARY_SKIP}
+    return path.read_bytes()
+
+
+def differences(whole, resumed):
+    skip = {"config.toml", "checkpoint.cbor"}
+    names = sorted({p.relative_to(whole) for p in whole.rglob("*") if p.is_file() and p.name not in skip})
+    found = []
+    for name in names:
+        if not (resumed / name).exists():
+            found.append(f"{name} missing")
+        elif comparable(whole / name) != comparable(resumed / name):
+            found.append(f"{name} differs")
+    return found
+
+
+def main():
+    build = sys.argv[1]
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for app, args, other in APPS:
+            case = app + "_" + str(abs(hash(args)))
+            whole, stopped, every = tmp / f"{case}_whole", tmp / f"{case}_stopped", tmp / f"{case}_every"
+            code = subprocess.run(command(build, app, args, whole), env=ENV, capture_output=True).returncode
+            if code not in (0, 2):
+                failures.append(f"{app}: the uninterrupted run exited {code}")
+                continue
+
+            # Stopped by SIGTERM a few frames into the run, then restarted.
+            run = subprocess.Popen(command(build, app, args, stopped), env=ENV, stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True)
+            while len(list((stopped / "frames").glob("*.vtp"))) < 3 and run.poll() is None:
+                time.sleep(0.02)
+            run.send_signal(signal.SIGTERM)
+            out, err = run.communicate()
+            if run.returncode != 128 + signal.SIGTERM or "continue it with --restart" not in err:
+                failures.append(f"{app}: SIGTERM gave exit {run.returncode}, stderr {err.strip()[-300:]!r}")
+                continue
+            summary = json.loads((stopped / "summary.json").read_text())
+            if summary["status"] != "stopped" or summary["pass"]:
+                failures.append(f"{app}: the stopped run's summary says {summary['status']}, pass {summary['pass']}")
+            done = subprocess.run(command(build, app, args, stopped, "--restart", str(stopped / "checkpoint.cbor")),
+                                  env=ENV, capture_output=True, text=True)
+            if done.returncode != code:
+                failures.append(f"{app}: the restart exited {done.returncode} ({done.stderr.strip()[-300:]})")
+            failures += [f"{app} after SIGTERM at step {summary['steps']}: {d}" for d in differences(whole, stopped)]
+
+            # --checkpoint-every: restarted from the last one, into a folder of its own.
+            subprocess.run(command(build, app, args, every, "--checkpoint-every", "40"), env=ENV, capture_output=True)
+            saved = tmp / f"{case}.cbor"
+            (every / "checkpoint.cbor").rename(saved)
+            done = subprocess.run(command(build, app, args, every, "--restart", str(saved)), env=ENV,
+                                  capture_output=True, text=True)
+            if done.returncode != code:
+                failures.append(f"{app}: the restart from --checkpoint-every exited {done.returncode}")
+            failures += [f"{app} from --checkpoint-every 40: {d}" for d in differences(whole, every)]
+
+            # Refusals: other parameters, and a file that is no checkpoint.
+            bad = subprocess.run(command(build, app, other, tmp / "bad", "--restart", str(saved)), env=ENV,
+                                 capture_output=True, text=True)
+            if bad.returncode != 1 or "other parameters (/" not in bad.stderr:
+                failures.append(f"{app}: a restart with {other} gave exit {bad.returncode}: {bad.stderr[-300:]!r}")
+            bad = subprocess.run(command(build, app, args, tmp / "bad", "--restart", str(whole / "summary.json")),
+                                 env=ENV, capture_output=True, text=True)
+            if bad.returncode != 1 or "not a SparseMPS checkpoint" not in bad.stderr:
+                failures.append(f"{app}: a restart from summary.json gave exit {bad.returncode}: {bad.stderr[-300:]!r}")
+            print(f"{app} {args}: stopped at step {summary['steps']} and restarted: same outputs"
+                  if not failures else f"{app} {args}: checked")
+    for f in failures:
+        print("FAIL", f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -24,6 +24,8 @@ APPS = [
     ("hydrostatic", "--end-time 0.5 --frames 10", "--dx 0.02 --end-time 0.5 --frames 10"),
     ("hydrostatic", "--dim 3 --end-time 0.15 --window 0.05 --frames 6",
      "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --gamma 0.5"),
+    ("dambreak", "--end-time 0.1 --frames 6", "--end-time 0.1 --frames 6 --cfl 0.1"),
+    ("dambreak", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6 --gamma 0.1"),
 ]
 ENV = dict(os.environ, OMP_NUM_THREADS="1")
 TIMING_COLUMNS = {"setup_s", "solve_s"}
@@ -88,14 +90,14 @@ def main():
             failures += [f"{app} after SIGTERM at step {summary['steps']}: {d}" for d in differences(whole, stopped)]
 
             # --checkpoint-every: restarted from the last one, into a folder of its own.
-            subprocess.run(command(build, app, args, every, "--checkpoint-every", "40"), env=ENV, capture_output=True)
+            subprocess.run(command(build, app, args, every, "--checkpoint-every", "10"), env=ENV, capture_output=True)
             saved = tmp / f"{case}.cbor"
             (every / "checkpoint.cbor").rename(saved)
             done = subprocess.run(command(build, app, args, every, "--restart", str(saved)), env=ENV,
                                   capture_output=True, text=True)
             if done.returncode != code:
                 failures.append(f"{app}: the restart from --checkpoint-every exited {done.returncode}")
-            failures += [f"{app} from --checkpoint-every 40: {d}" for d in differences(whole, every)]
+            failures += [f"{app} from --checkpoint-every 10: {d}" for d in differences(whole, every)]
 
             # Refusals: other parameters, and a file that is no checkpoint.
             bad = subprocess.run(command(build, app, other, tmp / "bad", "--restart", str(saved)), env=ENV,

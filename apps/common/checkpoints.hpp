@@ -64,7 +64,7 @@ class Checkpoints {
   Checkpoints(const CheckpointOptions& o, std::filesystem::path dir, std::string app, nlohmann::json params,
               std::set<std::string> may_change, bool on_ranks)
       : options_(o), path_(std::move(dir) / "checkpoint.cbor"), app_(std::move(app)), params_(std::move(params)),
-        last_write_(Clock::now()) {
+        on_ranks_(on_ranks), last_write_(Clock::now()) {
     if (on_ranks && (o.every > 0 || o.wall > 0.0 || !o.restart.empty()))
       throw std::invalid_argument("--checkpoint-every, --checkpoint-wall and --restart run on one process only so "
                                   "far; run without mpirun");
@@ -89,6 +89,7 @@ class Checkpoints {
   // The checkpoint --restart names, or nullptr.
   [[nodiscard]] const nlohmann::json* restart() const { return restart_.is_null() ? nullptr : &restart_; }
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  [[nodiscard]] bool on_ranks() const { return on_ranks_; }  // no checkpoints there (yet)
 
   // After each step: writes the checkpoint when one is due and the step continues bitwise (or at once on a second
   // signal, or where reorder_every is 0 and no step would). Throws RunStopped after the write a signal asked for.
@@ -141,6 +142,7 @@ class Checkpoints {
   std::filesystem::path path_;
   std::string app_;
   nlohmann::json params_, restart_;
+  bool on_ranks_;
   bool due_ = false;
   Clock::time_point last_write_;
 };

@@ -382,6 +382,29 @@ void BoxImpact::step() {
                                " s): every fluid particle has left the tank as spray; the flow blew up: lower --cfl");
 }
 
+nlohmann::json BoxImpact::save_state() const {
+  std::vector<double> time;
+  std::vector<std::vector<double>> pressures, heights;
+  for (const BoxImpactSample& s : samples_) {
+    time.push_back(s.time);
+    pressures.push_back(s.pressures);
+    heights.push_back(s.heights);
+  }
+  return {{"time", mps::pack_array(time)}, {"pressures", pack_rows(pressures)}, {"heights", pack_rows(heights)},
+          {"most_inside_walls", most_inside_walls_}, {"deepest_past_wall", deepest_past_wall_}};
+}
+
+void BoxImpact::restore_state(const nlohmann::json& state) {
+  std::vector<double> time;
+  mps::unpack_array(state, "time", time);
+  const auto pressures = unpack_rows(mps::state_part(state, "pressures"), time.size());
+  const auto heights = unpack_rows(mps::state_part(state, "heights"), time.size());
+  samples_.clear();
+  for (std::size_t k = 0; k < time.size(); ++k) samples_.push_back({time[k], pressures[k], heights[k]});
+  most_inside_walls_ = mps::unpack_value<long>(state, "most_inside_walls");
+  deepest_past_wall_ = mps::unpack_value<double>(state, "deepest_past_wall");
+}
+
 void BoxImpact::sample() {
   if (distributed_) {
     gathered_ = distributed_->gather(sim_->particles());

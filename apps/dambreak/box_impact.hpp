@@ -116,6 +116,9 @@ class BoxImpact {
   // Fluid particles inside a wall or a box (past its first layer's centres, l0/2 beyond its surface): the most at any
   // sample; and the deepest any fluid went past a wall's or the box's surface [m] (<= 0: never).
   [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
+  // For a checkpoint: the samples and wall counts so far (the simulation's own state is Simulation::checkpoint()).
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
   [[nodiscard]] double deepest_past_wall() const { return deepest_past_wall_; }
   // The patch over which each sensor's pressure is averaged: its radius along the face and its reach across it [m].
   [[nodiscard]] double patch_radius() const { return 2.0 * params_.l0; }

@@ -17,6 +17,23 @@
 
 namespace dambreak {
 
+nlohmann::json pack_rows(const std::vector<std::vector<double>>& rows) {
+  std::vector<double> flat;
+  for (const auto& row : rows) flat.insert(flat.end(), row.begin(), row.end());
+  return {{"width", rows.empty() ? 0 : rows.front().size()}, {"values", mps::pack_array(flat)}};
+}
+
+std::vector<std::vector<double>> unpack_rows(const nlohmann::json& state, std::size_t count) {
+  std::vector<double> flat;
+  mps::unpack_array(state, "values", flat);
+  const auto width = mps::unpack_value<std::size_t>(state, "width");
+  if (flat.size() != width * count) throw std::runtime_error("checkpoint: the samples' probe values do not add up");
+  std::vector<std::vector<double>> rows(count);
+  for (std::size_t k = 0; k < count; ++k) rows[k].assign(flat.begin() + static_cast<std::ptrdiff_t>(k * width),
+                                                        flat.begin() + static_cast<std::ptrdiff_t>((k + 1) * width));
+  return rows;
+}
+
 Column column_from_name(const std::string& name) {
   if (name == "classic") return Column::classic;
   if (name == "seed") return Column::seed;
@@ -412,6 +429,33 @@ void Scene::step() {
     throw mps::SimulationError("step " + std::to_string(sim_->last_step().step) + " (t = " + fmt(sim_->time()) +
                                " s): every fluid particle (" + std::to_string(initial_fluid_) +
                                ") has left the tank as spray; the flow blew up: lower --cfl");
+}
+
+nlohmann::json Scene::save_state() const {
+  std::vector<double> time, front;
+  std::vector<std::vector<double>> levels, pressures;
+  for (const Sample& s : samples_) {
+    time.push_back(s.time);
+    front.push_back(s.front);
+    levels.push_back(s.levels);
+    pressures.push_back(s.pressures);
+  }
+  return {{"time", mps::pack_array(time)}, {"front", mps::pack_array(front)}, {"levels", pack_rows(levels)},
+          {"pressures", pack_rows(pressures)}, {"most_inside_walls", most_inside_walls_},
+          {"deepest_past_wall_line", deepest_past_wall_line_}};
+}
+
+void Scene::restore_state(const nlohmann::json& state) {
+  std::vector<double> time, front;
+  mps::unpack_array(state, "time", time);
+  mps::unpack_array(state, "front", front);
+  if (front.size() != time.size()) throw std::runtime_error("checkpoint: the samples' series differ in length");
+  const auto levels = unpack_rows(mps::state_part(state, "levels"), time.size());
+  const auto pressures = unpack_rows(mps::state_part(state, "pressures"), time.size());
+  samples_.clear();
+  for (std::size_t k = 0; k < time.size(); ++k) samples_.push_back({time[k], front[k], levels[k], pressures[k]});
+  most_inside_walls_ = mps::unpack_value<long>(state, "most_inside_walls");
+  deepest_past_wall_line_ = mps::unpack_value<double>(state, "deepest_past_wall_line");
 }
 
 void Scene::sample() {

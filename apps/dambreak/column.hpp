@@ -70,6 +70,10 @@ Params defaults(Column c);
 // Sets p's column and what comes with it (tank, probes, end time) to column c's, keeping the numerics.
 void take_column_geometry(Params& p, Column c);
 
+// A series of samples' probe values (one row per sample, one value per probe) for a checkpoint, and back.
+nlohmann::json pack_rows(const std::vector<std::vector<double>>& rows);
+std::vector<std::vector<double>> unpack_rows(const nlohmann::json& state, std::size_t count);
+
 struct Sample {
   double time;
   double front;                  // surge front's distance from the upstream wall [m]
@@ -178,6 +182,9 @@ class Scene {
   // most there were at any sample. And the deepest any fluid went past a wall line [m] (<= 0: never reached it).
   [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
   [[nodiscard]] double deepest_past_wall_line() const { return deepest_past_wall_line_; }
+  // For a checkpoint: the samples and wall counts so far (the simulation's own state is Simulation::checkpoint()).
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
 
  private:
   void sample();

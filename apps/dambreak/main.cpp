@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "box_impact.hpp"
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "column.hpp"
 #include "console.hpp"
@@ -80,6 +81,7 @@ struct Options {
   int frames = 20;
   std::string particles_file, write_particles;
   std::vector<int> export_ppe;
+  CheckpointOptions checkpoints;
   double interior_density = -1.0;  // the asymmetry test's; negative: the scene's default
   double shifting = -1.0;          // negative: the scene's default
   dambreak::Params p;
@@ -163,6 +165,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   add_export_ppe_option(app, o.export_ppe);
+  add_checkpoint_options(app, o.checkpoints);
   app.add_option("--write-particles", o.write_particles,
                  "write the scene's initial particles to this CSV file (a start for --particles) and exit")
       ->check(output_file())->group("Output");
@@ -259,14 +262,13 @@ Experiments read_experiments(const std::string& data) {
   return e;
 }
 
-// Steps to the end, writing frames and a line every tenth of the run ending with what `sampled` says of the scene
-// (the front in 2-D, P1 in 3-D); a SimulationError goes to the caller.
+// The steps of run() below, from where the run starts or restarts.
 template <class Scene>
-void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
-         const std::function<std::string(const Scene&)>& sampled) {
+void steps(Scene& scene, FrameSeries& series, Progress& progress, bool root,
+           const std::function<std::string(const Scene&)>& sampled, Checkpoints& checkpoints,
+           const std::function<nlohmann::json()>& save, double& next_report) {
   const auto& sim = scene.sim();
   const double end = scene.params().end_time;
-  double next_report = end / 10;
   while (!scene.done()) {
     scene.step();
     progress.update(sim.time(), sim.last_step().step);
@@ -280,8 +282,40 @@ void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
                   s.solve.iterations, s.max_speed, sampled(scene).c_str());
       next_report += end / 10;
     }
+    checkpoints.after_step(sim, save, progress);
   }
 }
+
+// Steps to the end, writing frames and a line every tenth of the run ending with what `sampled` says of the scene
+// (the front in 2-D, P1 in 3-D), and checkpoints when due; a SimulationError goes to the caller, and so does
+// RunStopped once a signal's checkpoint is written. A restart (--restart) continues from its checkpoint.
+template <class Scene>
+void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
+         const std::function<std::string(const Scene&)>& sampled, Checkpoints& checkpoints) {
+  const auto& sim = scene.sim();
+  const double end = scene.params().end_time;
+  double next_report = end / 10;
+  const std::function<nlohmann::json()> save = [&]() -> nlohmann::json {
+    return {{"scene", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
+  };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    scene.sim().restore(restart->at("simulation"));
+    const nlohmann::json& saved = restart->at("scene");
+    scene.restore_state(saved.at("scene"));
+    series.restore_state(saved.at("frames"));
+    next_report = saved.at("next_report").template get<double>();
+    std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
+  } else {
+    series.write_if_due(sim.time(), scene.all_particles());
+  }
+  try {
+    steps(scene, series, progress, root, sampled, checkpoints, save, next_report);
+  } catch (const mps::SimulationError&) {
+    if (!checkpoints.on_ranks()) checkpoints.write(sim, save);  // the last good state, to restart from
+    throw;
+  }
+}
+
 
 // The sampled series in the experiments' units: T = t sqrt(2g/a) for the front, t sqrt(g/H) and rho g H for the rest.
 struct Series {
@@ -646,9 +680,10 @@ int report_box_impact_file(const fs::path& dir, const dambreak::BoxImpact& scene
 // config.toml and the frames' folder.
 template <int D>
 void start_outputs(const fs::path& dir, const CLI::App& app, const std::vector<int>& export_ppe, const std::string& scene,
-                   mps::BasicSimulation<D>& sim) {
-  clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                      "last_good.vtp", "config.toml", "solves.csv", "ppe"});
+                   mps::BasicSimulation<D>& sim, bool restart) {
+  if (!restart)  // a restart keeps what the run wrote before its checkpoint
+    clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
+                        "last_good.vtp", "config.toml", "solves.csv", "ppe", "checkpoint.cbor"});
   sim.template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), scene);
   write_run_config(app, "dambreak", dir);
   fs::create_directories(dir / "frames");
@@ -742,12 +777,12 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
+  Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"}, ranks.distributed());
   // Rank 0 writes every output; the others step with it and join its gathers.
   FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
   if (ranks.root()) {
-    start_outputs(dir, app, o.export_ppe, "dambreak, " + scene_name, scene.sim());
+    start_outputs(dir, app, o.export_ppe, "dambreak, " + scene_name, scene.sim(), checkpoints.restart() != nullptr);
   }
-  series.write_if_due(sim.time(), scene.all_particles());
   Progress progress(p.end_time, "s");
   try {
     run<dambreak::BoxImpact>(scene, series, progress, ranks.root(), [](const dambreak::BoxImpact& sc) {
@@ -755,7 +790,11 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
       if (!sc.samples().back().pressures.empty())
         std::snprintf(text, sizeof text, "P1 %.0f Pa", sc.samples().back().pressures[0]);
       return std::string(text);
-    });
+    }, checkpoints);
+  } catch (const RunStopped& stop) {
+    progress.finish(sim.time(), sim.last_step().step);
+    if (experiment) write_box_impact_series(dir, scene);  // the sensors so far
+    return report_stop(dir, stop, params, sim, checkpoints);
   } catch (const mps::SimulationError& e) {
     progress.finish(sim.time(), sim.last_step().step);
     // As the 2-D dam break's: the step stops every rank at one stage; the scene's own check may be one rank's alone.
@@ -814,19 +853,24 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(o.out);
+    Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"}, ranks.distributed());
     // Rank 0 writes every output; the others step with it and join its gathers.
     FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
     if (ranks.root()) {
-      start_outputs(dir, app, o.export_ppe, "dambreak, " + start.scene_name, scene.sim());
+      start_outputs(dir, app, o.export_ppe, "dambreak, " + start.scene_name, scene.sim(),
+                    checkpoints.restart() != nullptr);
     }
-    series.write_if_due(sim.time(), scene.all_particles());
     Progress progress(p.end_time, "s");
     try {
       run<dambreak::Scene>(scene, series, progress, ranks.root(), [](const dambreak::Scene& sc) {
         char text[40];
         std::snprintf(text, sizeof text, "front %.3f a", sc.samples().back().front / sc.params().width);
         return std::string(text);
-      });
+      }, checkpoints);
+    } catch (const RunStopped& stop) {
+      progress.finish(sim.time(), sim.last_step().step);
+      write_series(dir, scene, sim.config().rho);  // the front, levels and pressures so far
+      return report_stop(dir, stop, params, sim, checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time(), sim.last_step().step);
       // The step stops every rank at the same stage (the scene's gathering is the last good state); the scene's own

@@ -367,7 +367,7 @@ int main(int argc, char** argv) {
       return report_stop(dir, stop, params, sim, checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time() / p.convective_time(), sim.last_step().step);
-      if (!ranks.distributed()) checkpoints.write(sim, save);  // the last good state, to restart from
+      if (!checkpoints.on_ranks()) checkpoints.write(sim, save);  // the last good state, to restart from
       // The step stops every rank at the same stage, each holding the last good state; the scene's own checks
       // between steps may be one rank's alone.
       if (!ranks.every_rank_failed())

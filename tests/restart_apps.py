@@ -26,6 +26,12 @@ APPS = [
      "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --gamma 0.5"),
     ("dambreak", "--end-time 0.1 --frames 6", "--end-time 0.1 --frames 6 --cfl 0.1"),
     ("dambreak", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6 --gamma 0.1"),
+    ("rotating", "--scene couette --across 14 --times 0.1,0.4 --frames 8",
+     "--scene couette --across 16 --times 0.1,0.4 --frames 8"),
+    ("rotating", "--across 25 --times 0.02,0.1 --frames 8 --model fixed",
+     "--across 25 --times 0.02,0.1 --frames 8 --model moving"),
+    ("rotating", "--scene couette --dim 3 --times 0.02,0.05 --frames 4",
+     "--scene couette --dim 3 --times 0.02,0.05 --frames 4 --gamma 0.5"),
 ]
 ENV = dict(os.environ, OMP_NUM_THREADS="1")
 TIMING_COLUMNS = {"setup_s", "solve_s"}

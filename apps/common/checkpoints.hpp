@@ -18,6 +18,7 @@
 
 #include "checks.hpp"
 #include "console.hpp"
+#include "mps/core/state.hpp"
 #include "mps/io/io.hpp"
 #include "mps/step/step.hpp"
 #include "run_json.hpp"

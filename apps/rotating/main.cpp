@@ -11,6 +11,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
@@ -63,6 +64,20 @@ struct Curves {
   double time = 0;
   Curve couette, line1, arc2, barrel;
 };
+
+nlohmann::json curve_json(const Curve& c) {
+  return {{"axis", mps::pack_array(c.axis)}, {"value", mps::pack_array(c.value)}, {"exact", mps::pack_array(c.exact)},
+          {"count", mps::pack_array(c.count)}};
+}
+
+Curve curve_from(const nlohmann::json& state) {
+  Curve c;
+  mps::unpack_array(state, "axis", c.axis);
+  mps::unpack_array(state, "value", c.value);
+  mps::unpack_array(state, "exact", c.exact);
+  mps::unpack_array(state, "count", c.count);
+  return c;
+}
 
 struct RunResult {
   int status = 0;  // 0 ran to the end; 1 stopped by the guard
@@ -131,7 +146,7 @@ nlohmann::json write_results(const rotating::Params& p, const mps::BasicSimulati
 // One simulation to the last of `times`, sampling each curve over the last `average` fraction of each time.
 template <int D>
 RunResult run(const rotating::Params& p, const std::vector<double>& times, double average, int frames,
-              const fs::path& dir, const std::set<int>& export_ppe) {
+              const fs::path& dir, const std::set<int>& export_ppe, const CheckpointOptions& checkpoint_options) {
   const bool couette = p.scene == rotating::Scene::couette;
   mps::BasicSimulation<D> sim = [&] {
     if constexpr (D == 2) return rotating::make_simulation(p);
@@ -152,6 +167,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
                      "reference_number_density"}},
        {"solver", {"solver", "initial_guess"}},
        {"run", {"times_s", "average_fraction"}}});
+  Checkpoints checkpoints(checkpoint_options, dir, "rotating", params, {"/times_s"}, false);
   fs::create_directories(dir / "frames");
   mps::PvdSeries series(dir / (rotating::to_string(p.scene) + ".pvd"));
   const double t_end = times.back();
@@ -176,11 +192,35 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   long escaped_max = 0;
   int frame = 0;
   const auto start = std::chrono::steady_clock::now();
-  if (frames > 0) write_frame(frame++);
+  // Everything the loop below carries from step to step, for a checkpoint.
+  auto save = [&]() -> nlohmann::json {
+    nlohmann::json saved = {{"escaped_max", escaped_max}, {"frame", frame}, {"frames", series.save_state()},
+                            {"samplers", nlohmann::json::array()}, {"at", nlohmann::json::array()}};
+    for (const auto* s : samplers) saved["samplers"].push_back(s->save_state());
+    for (const Curves& c : out.at)
+      saved["at"].push_back({{"time", c.time}, {"couette", curve_json(c.couette)}, {"line1", curve_json(c.line1)},
+                             {"arc2", curve_json(c.arc2)}, {"barrel", curve_json(c.barrel)}});
+    return saved;
+  };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    sim.restore(restart->at("simulation"));
+    const nlohmann::json& saved = restart->at("scene");
+    escaped_max = saved.at("escaped_max").get<long>();
+    frame = saved.at("frame").get<int>();
+    series.restore_state(saved.at("frames"));
+    for (std::size_t k = 0; k < samplers.size(); ++k) samplers[k]->restore_state(saved.at("samplers").at(k));
+    for (const auto& c : saved.at("at"))
+      out.at.push_back({c.at("time").get<double>(), curve_from(c.at("couette")), curve_from(c.at("line1")),
+                        curve_from(c.at("arc2")), curve_from(c.at("barrel"))});
+    std::printf("restarted from %s at step %d, t = %.4g s\n", checkpoint_options.restart.c_str(),
+                sim.last_step().step, sim.time());
+  } else if (frames > 0) {
+    write_frame(frame++);
+  }
   Progress progress(t_end, "s");
   try {
-    for (double t_sample : times) {
-      for (auto* s : samplers) s->clear();
+    for (std::size_t k = out.at.size(); k < times.size(); ++k) {
+      const double t_sample = times[k];
       while (sim.time() < t_sample - 1e-9 * t_end) {
         sim.step();
         progress.update(sim.time(), sim.last_step().step);
@@ -188,10 +228,12 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
         if (frames > 0 && sim.time() >= t_end * frame / frames - 1e-9 * t_end) write_frame(frame++);
         if (sim.time() > t_sample * (1.0 - average))
           for (auto* s : samplers) s->add(sim);
+        checkpoints.after_step(sim, save, progress);
       }
       if (s_couette.samples() + s_line1.samples() == 0)
         for (auto* s : samplers) s->add(sim);
       Curves c{sim.time(), s_couette.result(), s_line1.result(), s_arc2.result(), s_barrel.result()};
+      for (auto* s : samplers) s->clear();
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       progress.clear();
       if (couette)
@@ -206,8 +248,13 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
                     rotating::odd_defect(c.arc2, 0.4), rotating::range(c.barrel, 0.4), escaped_max, wall);
       out.at.push_back(std::move(c));
     }
+  } catch (const RunStopped& stop) {
+    progress.finish(sim.time(), sim.last_step().step);
+    out.status = report_stop(dir, stop, params, sim, checkpoints);
+    return out;
   } catch (const mps::SimulationError& e) {
     progress.finish(sim.time(), sim.last_step().step);
+    checkpoints.write(sim, save);  // the last good state, to restart from
     out.status = report_guard_stop(dir, e, params, sim);
     return out;
   }
@@ -247,6 +294,7 @@ struct Options {
   double average = 0.1, tolerance = 0.02, agreement = 0.03, symmetry = 0.1;
   int frames = 10;
   std::vector<int> export_ppe;
+  CheckpointOptions checkpoints;
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -295,6 +343,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   add_export_ppe_option(app, o.export_ppe);
+  add_checkpoint_options(app, o.checkpoints);
 }
 
 // The checks over every model's run: couette against the exact profile; the channel's symmetry and, with both
@@ -377,16 +426,22 @@ int main(int argc, char** argv) {
                    times.back() / (p.dt_factor * std::min(0.2 * l0 / (p.omega * p.R2), 0.2 * l0 * l0 / p.nu)),
                    "use fewer --across", "shorten --times or raise --dt-factor");
     const fs::path dir(o.out);
-    clear_outputs(dir, {"frames", "couette.pvd", "channel.pvd", "couette.csv", "line1.csv", "arc2.csv",
-                        "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed",
-                        "config.toml", "solves.csv", "ppe"});
+    const bool checkpointing = o.checkpoints.every > 0 || o.checkpoints.wall > 0.0 || !o.checkpoints.restart.empty();
+    if (both && checkpointing)
+      throw std::invalid_argument("--model both runs two simulations; checkpoint each model's run on its own "
+                                  "(--model moving, --model fixed)");
+    if (o.checkpoints.restart.empty())  // a restart keeps what the run wrote before its checkpoint
+      clear_outputs(dir, {"frames", "couette.pvd", "channel.pvd", "couette.csv", "line1.csv", "arc2.csv",
+                          "barrel_pressure.csv", "summary.json", "last_good.vtp", "compare.json", "moving", "fixed",
+                          "config.toml", "solves.csv", "ppe", "checkpoint.cbor"});
     write_run_config(app, "rotating", dir);
     std::vector<std::pair<std::string, RunResult>> runs;
     for (const std::string& m : both ? std::vector<std::string>{"moving", "fixed"} : std::vector<std::string>{o.model}) {
       if (!couette) p.model = rotating::parse_model(m);
       const std::set<int> export_steps(o.export_ppe.begin(), o.export_ppe.end());
-      runs.emplace_back(m, p.dim == 3 ? run<3>(p, times, o.average, o.frames, dir, export_steps)
-                                      : run<2>(p, times, o.average, o.frames, both ? dir / m : dir, export_steps));
+      runs.emplace_back(m, p.dim == 3 ? run<3>(p, times, o.average, o.frames, dir, export_steps, o.checkpoints)
+                                      : run<2>(p, times, o.average, o.frames, both ? dir / m : dir, export_steps,
+                                               o.checkpoints));
       if (runs.back().second.status != 0) return runs.back().second.status;
     }
     const bool pass = judge(runs, o, times, both, dir);

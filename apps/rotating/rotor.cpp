@@ -9,6 +9,7 @@
 
 #include "mps/boundaries/boundary.hpp"
 #include "mps/boundaries/geometry.hpp"
+#include "mps/core/state.hpp"
 #include "mps/step/components.hpp"
 
 namespace rotating {
@@ -228,6 +229,23 @@ void LineSampler::clear() {
   std::fill(sum_.begin(), sum_.end(), 0.0);
   std::fill(count_.begin(), count_.end(), 0);
   samples_ = 0;
+}
+
+nlohmann::json LineSampler::save_state() const {
+  return {{"sum", mps::pack_array(sum_)}, {"count", mps::pack_array(count_)}, {"samples", samples_}};
+}
+
+void LineSampler::restore_state(const nlohmann::json& state) {
+  std::vector<double> sum;
+  std::vector<long> count;
+  mps::unpack_array(state, "sum", sum);
+  mps::unpack_array(state, "count", count);
+  if (sum.size() != sum_.size() || count.size() != count_.size())
+    throw std::runtime_error("checkpoint: a line sampler of " + std::to_string(sum.size()) + " bins, this one has " +
+                             std::to_string(sum_.size()));
+  sum_ = std::move(sum);
+  count_ = std::move(count);
+  samples_ = mps::unpack_value<int>(state, "samples");
 }
 
 template <int D>

@@ -20,6 +20,7 @@
 // at t = 0; the barrel moves towards +phi relative to the channel), velocities less the channel's rotation.
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
 
 #include "mps/step/step.hpp"
 
@@ -105,6 +106,9 @@ class LineSampler {
   [[nodiscard]] Curve result() const;  // every bin; NaN where no particle was sampled
   [[nodiscard]] int samples() const { return samples_; }
   void clear();
+  // For a checkpoint: the sums so far.
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
 
  private:
   Params p_;

@@ -5,7 +5,7 @@ table and index, solves.csv but for its timings, summary.json but for its timing
 --checkpoint-every restarted from its last checkpoint must match too, and a restart with other parameters, or from
 a file that is no checkpoint, is refused naming why.
 
-  tests/restart_apps.py BUILD_DIR
+  tests/restart_apps.py BUILD_DIR [APP]   (APP: only that app's cases)
 """
 import csv
 import io
@@ -32,6 +32,8 @@ APPS = [
      "--across 25 --times 0.02,0.1 --frames 8 --model moving"),
     ("rotating", "--scene couette --dim 3 --times 0.02,0.05 --frames 4",
      "--scene couette --dim 3 --times 0.02,0.05 --frames 4 --gamma 0.5"),
+    ("acoustic", "--case flow --size 50", "--case flow --size 60"),
+    ("acoustic", "--case mur --size 40", "--case mur --size 40 --cfl 0.2"),
 ]
 ENV = dict(os.environ, OMP_NUM_THREADS="1")
 TIMING_COLUMNS = {"setup_s", "solve_s"}
@@ -69,6 +71,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for app, args, other in APPS:
+            if len(sys.argv) > 2 and app != sys.argv[2]:
+                continue
             case = app + "_" + str(abs(hash(args)))
             whole, stopped, every = tmp / f"{case}_whole", tmp / f"{case}_stopped", tmp / f"{case}_every"
             code = subprocess.run(command(build, app, args, whole), env=ENV, capture_output=True).returncode

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
@@ -85,6 +86,7 @@ struct Options {
   int frames = -1;
   bool no_maps = false;
   mps::AcousticConfig config;
+  CheckpointOptions checkpoints;
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -128,6 +130,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--tolerance", o.tolerance, "absolute quadrature tolerance of the exact solution [eps]")
       ->capture_default_str()->check(number_in(1e-15, 1e-2))->group("Run");
   app.add_option("--out", o.out, "output directory (default: runs/acoustic/<case>)")->check(output_directory())->group("Output");
+  add_checkpoint_options(app, o.checkpoints);
   app.add_option("--maps", o.maps, "times of the pressure-map PNGs (default: the paper's figure times) [s]")
       ->delimiter(',')->check(number_in(0.0, 1e4))->group("Output");
   app.add_flag("--no-maps", o.no_maps, "write no pressure maps (studies)")->group("Output");
@@ -271,6 +274,29 @@ struct Record {
   std::vector<double> energy_t, energy_fraction;
   double exact_s = 0.0, step_s = 0.0;
   std::vector<double> step_times, spmv_times;
+
+  [[nodiscard]] nlohmann::json save_state() const {
+    nlohmann::json columns = nlohmann::json::array();
+    for (const auto& c : line_columns) columns.push_back(mps::pack_array(c));
+    return {{"line_header", line_header}, {"line_columns", columns}, {"sample_log", sample_log}, {"map_log", map_log},
+            {"energy_t", mps::pack_array(energy_t)}, {"energy_fraction", mps::pack_array(energy_fraction)},
+            {"exact_s", exact_s}, {"step_s", step_s}, {"step_times", mps::pack_array(step_times)},
+            {"spmv_times", mps::pack_array(spmv_times)}};
+  }
+  void restore_state(const nlohmann::json& state) {
+    line_header = state.at("line_header").get<std::vector<std::string>>();
+    line_columns.assign(state.at("line_columns").size(), {});
+    for (std::size_t c = 0; c < line_columns.size(); ++c)
+      mps::unpack_array(nlohmann::json{{"c", state.at("line_columns")[c]}}, "c", line_columns[c]);
+    sample_log = state.at("sample_log");
+    map_log = state.at("map_log");
+    mps::unpack_array(state, "energy_t", energy_t);
+    mps::unpack_array(state, "energy_fraction", energy_fraction);
+    exact_s = state.at("exact_s").get<double>();
+    step_s = state.at("step_s").get<double>();
+    mps::unpack_array(state, "step_times", step_times);
+    mps::unpack_array(state, "spmv_times", spmv_times);
+  }
 };
 
 // A sample time: the errors and energies against the exact field, a line on the console, and the centreline's
@@ -317,9 +343,10 @@ void write_map(const fs::path& dir, const Lattice& lattice, double t, const std:
 }
 
 // Steps to the end, comparing with the exact field at the sample, map and frame times, keeping the energy every tenth
-// step and timing the steps and a gradient SpMV; a SimulationError goes to the caller.
+// step and timing the steps and a gradient SpMV, and writing checkpoints when due; a SimulationError goes to the
+// caller, and so does RunStopped once a signal's checkpoint is written. A restart continues from its checkpoint.
 void run(mps::AcousticSolver& solver, const Options& o, const Start& start, const Lattice& lattice, Record& record,
-         Progress& progress) {
+         Progress& progress, Checkpoints& checkpoints) {
   const mps::AcousticConfig& config = start.config;
   const std::vector<double>& samples = start.samples, &maps = start.maps;
   const double t_end = start.t_end;
@@ -347,6 +374,23 @@ void run(mps::AcousticSolver& solver, const Options& o, const Start& start, cons
   };
 
   std::size_t next_sample = 0, next_map = 0, next_pulse = 1;
+  auto save = [&]() -> nlohmann::json {
+    return {{"record", record.save_state()}, {"frame", frame}, {"frames", series.save_state()},
+            {"next_sample", next_sample}, {"next_map", next_map}, {"next_pulse", next_pulse}};
+  };
+  auto save_solver = [&] { return solver.save_state(); };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    solver.restore_state(restart->at("simulation"));
+    const nlohmann::json& saved = restart->at("scene");
+    record.restore_state(saved.at("record"));
+    frame = saved.at("frame").get<int>();
+    series.restore_state(saved.at("frames"));
+    next_sample = saved.at("next_sample").get<std::size_t>();
+    next_map = saved.at("next_map").get<std::size_t>();
+    next_pulse = saved.at("next_pulse").get<std::size_t>();
+    std::printf("restarted from %s at step %d, t = %.4g s\n", o.checkpoints.restart.c_str(), solver.steps(),
+                solver.time());
+  }
   const double frame_dt = o.frames > 0 ? t_end / std::max(1, o.frames - 1) : 2 * t_end;
   const double period = 1.0 / o.frequency;
   const double half_step = 0.5 * solver.dt();
@@ -379,7 +423,12 @@ void run(mps::AcousticSolver& solver, const Options& o, const Start& start, cons
       ++next_pulse;
     }
     const auto t0 = Clock::now();
-    solver.step();
+    try {
+      solver.step();
+    } catch (const mps::SimulationError&) {
+      checkpoints.write(save_solver, save);  // the last good state, to restart from
+      throw;
+    }
     record.step_times.push_back(seconds_since(t0));
     record.step_s += record.step_times.back();
     progress.update(solver.time(), solver.steps());  // after the step's timing: printing is not the step's cost
@@ -392,6 +441,8 @@ void run(mps::AcousticSolver& solver, const Options& o, const Start& start, cons
       record.energy_t.push_back(solver.time());
       record.energy_fraction.push_back(solver.energy() / solver.injected_energy());
     }
+    // Nothing is kept from an earlier step's matrix: every step continues bitwise.
+    checkpoints.after_step(solver.steps(), solver.time(), true, false, save_solver, save, progress);
   }
 }
 
@@ -483,8 +534,10 @@ int main(int argc, char** argv) {
                 solver.interior(), solver.particles().size() - solver.interior(), solver.gradient().x.nnz(), config.dt(),
                 cfl_limit, config.cfl);
 
-    clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json", "last_good.vtp",
-                        "config.toml"});
+    Checkpoints checkpoints(o.checkpoints, dir, "acoustic", params, {"/end_time_s"}, false);
+    if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
+      clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json",
+                          "last_good.vtp", "config.toml", "checkpoint.cbor"});
     write_run_config(app, "acoustic", dir);
     fs::create_directories(dir / "frames");
     fs::create_directories(dir / "maps");
@@ -493,7 +546,11 @@ int main(int argc, char** argv) {
     for (const auto& s : start.sources) solver.add_pulse(s);  // the initial condition
     Progress progress(start.t_end, "s");
     try {
-      run(solver, o, start, lattice, record, progress);
+      run(solver, o, start, lattice, record, progress, checkpoints);
+    } catch (const RunStopped& stop) {
+      progress.finish(solver.time(), solver.steps());
+      mps::write_csv(dir / "energy.csv", {"time_s", "energy_fraction"}, {record.energy_t, record.energy_fraction});
+      return report_stop(dir, stop, params, solver.steps(), solver.time(), checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(solver.time(), solver.steps());
       return report_failure(e, dir, solver, params, record, setup_s, cfl_limit);

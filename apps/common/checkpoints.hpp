@@ -96,27 +96,38 @@ class Checkpoints {
   // signal, or where reorder_every is 0 and no step would). Throws RunStopped after the write a signal asked for.
   template <int D>
   void after_step(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene, Progress& progress) {
+    // Without reorderings no later step would be exact: then the checkpoint is written where it falls due.
+    const bool exact = sim.checkpoint_exact();
+    after_step(sim.last_step().step, sim.time(), exact, !exact && sim.config().reorder_every > 0,
+               [&] { return sim.checkpoint(); }, scene, progress);
+  }
+  // The same for a stepper of another kind (the acoustic solver): its step count, time, whether a checkpoint now
+  // continues bitwise and whether to wait for a step that does, and its state.
+  void after_step(int step, double time, bool exact, bool wait, const std::function<nlohmann::json()>& simulation,
+                  const std::function<nlohmann::json()>& scene, Progress& progress) {
     using checkpoint_detail::signals_seen;
-    const int step = sim.last_step().step;
     if (options_.every > 0 && step % options_.every == 0) due_ = true;
     if (options_.wall > 0.0 && std::chrono::duration<double>(Clock::now() - last_write_).count() >= options_.wall)
       due_ = true;
     const bool stopping = signals_seen > 0;
     if (!due_ && !stopping) return;
-    if (!(sim.checkpoint_exact() || signals_seen > 1 || sim.config().reorder_every == 0)) return;
-    write(sim, scene);
+    if (wait && signals_seen <= 1) return;
+    write(simulation, scene);
     progress.clear();
-    std::printf("checkpoint: step %d, t = %.6g s, written to %s%s\n", step, sim.time(), path_.string().c_str(),
-                sim.checkpoint_exact() ? "" : " (not at a step that continues bitwise)");
+    std::printf("checkpoint: step %d, t = %.6g s, written to %s%s\n", step, time, path_.string().c_str(),
+                exact ? "" : " (not at a step that continues bitwise)");
     if (stopping) throw RunStopped{checkpoint_detail::stop_signal};
   }
 
-  // The state now (a guard stop's last good state, or a checkpoint due); says where on stdout.
+  // The state now (a guard stop's last good state, or a checkpoint due).
   template <int D>
   void write(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene) {
+    write([&] { return sim.checkpoint(); }, scene);
+  }
+  void write(const std::function<nlohmann::json()>& simulation, const std::function<nlohmann::json()>& scene) {
     mps::write_checkpoint(path_, {{"app", app_},
                                   {"parameters", params_},
-                                  {"simulation", sim.checkpoint()},
+                                  {"simulation", simulation()},
                                   {"scene", scene ? scene() : nlohmann::json()}});
     due_ = false;
     last_write_ = Clock::now();
@@ -148,17 +159,21 @@ class Checkpoints {
   Clock::time_point last_write_;
 };
 
-// A run stopped by a signal: solves.csv and summary.json as far as it got, and where its checkpoint is. Returns the
-// exit status, 128 + the signal, as a shell reports a process the signal ended.
+// A run stopped by a signal: summary.json as far as it got (and solves.csv, for a simulation), and where its checkpoint
+// is. Returns the exit status, 128 + the signal, as a shell reports a process the signal ended.
+inline int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const nlohmann::json& params,
+                       int steps, double time, const Checkpoints& checkpoints) {
+  const std::string reason = std::string("stopped by ") + checkpoint_detail::signal_name(stop.signal) + " at step " +
+                             std::to_string(steps) + "; continue it with --restart " + checkpoints.path().string();
+  std::fprintf(stderr, "%s\n", reason.c_str());
+  write_summary(dir, {{"status", "stopped"}, {"error", reason}, {"parameters", params}, {"time_s", time},
+                      {"steps", steps}, {"checkpoint", checkpoints.path().string()}});
+  return 128 + stop.signal;
+}
+
 template <int D>
 int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const nlohmann::json& params,
                 const mps::BasicSimulation<D>& sim, const Checkpoints& checkpoints) {
-  const std::string reason = std::string("stopped by ") + checkpoint_detail::signal_name(stop.signal) +
-                             " at step " + std::to_string(sim.last_step().step) + "; continue it with --restart " +
-                             checkpoints.path().string();
-  std::fprintf(stderr, "%s\n", reason.c_str());
   write_solves(dir, sim);
-  write_summary(dir, {{"status", "stopped"}, {"error", reason}, {"parameters", params}, {"time_s", sim.time()},
-                      {"steps", sim.last_step().step}, {"checkpoint", checkpoints.path().string()}});
-  return 128 + stop.signal;
+  return report_stop(dir, stop, params, sim.last_step().step, sim.time(), checkpoints);
 }

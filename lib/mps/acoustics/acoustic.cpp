@@ -1,4 +1,5 @@
 #include "mps/acoustics/acoustic.hpp"
+#include "mps/core/state.hpp"
 
 #include <algorithm>
 #include <array>
@@ -546,6 +547,34 @@ AcousticSolver::AcousticSolver(const AcousticConfig& config) : config_(config) {
   stage_.assign(3 * total, 0.0);
   next_.assign(3 * total, 0.0);
   sum_.assign(3 * interior_, 0.0);
+}
+
+nlohmann::json AcousticSolver::save_state() const {
+  std::vector<double> pulses;
+  for (const GaussianPulse& g : pulses_) pulses.insert(pulses.end(), {g.x, g.y, g.amplitude, g.half_width, g.time});
+  return {{"time", time_}, {"steps", steps_}, {"state", pack_array(state_)}, {"pulses", pack_array(pulses)},
+          {"sqrt_energy_sum", sqrt_energy_sum_}, {"injected_energy", injected_energy_}};
+}
+
+void AcousticSolver::restore_state(const nlohmann::json& state) {
+  std::vector<double> fields, pulses;
+  unpack_array(state, "state", fields);
+  unpack_array(state, "pulses", pulses);
+  if (fields.size() != state_.size())
+    throw std::runtime_error("checkpoint: fields of " + std::to_string(fields.size() / 3) + " particles, this solver has " +
+                             std::to_string(state_.size() / 3) + " (another configuration?)");
+  if (pulses.size() % 5 != 0) throw std::runtime_error("checkpoint: the pulses do not add up (a damaged file?)");
+  const double time = unpack_value<double>(state, "time");
+  const int steps = unpack_value<int>(state, "steps");
+  const double sqrt_sum = unpack_value<double>(state, "sqrt_energy_sum"), injected = unpack_value<double>(state, "injected_energy");
+  state_ = std::move(fields);
+  pulses_.clear();
+  for (std::size_t k = 0; k < pulses.size(); k += 5)
+    pulses_.push_back({pulses[k], pulses[k + 1], pulses[k + 2], pulses[k + 3], pulses[k + 4]});
+  time_ = time;
+  steps_ = steps;
+  sqrt_energy_sum_ = sqrt_sum;
+  injected_energy_ = injected;
 }
 
 GaussianPulse AcousticSolver::add_pulse(GaussianPulse pulse) {

@@ -18,6 +18,8 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "mps/boundaries/geometry.hpp"
 #include "mps/core/csr.hpp"
 #include "mps/core/kernel.hpp"
@@ -155,6 +157,12 @@ class AcousticSolver {
 
   /// Adds the pulse's dp to the current field, emitted now (the returned copy carries the emission time).
   GaussianPulse add_pulse(GaussianPulse pulse);
+  /// @{ The state between steps for a checkpoint (mps/io/io.hpp write_checkpoint): the fields, clock and pulses.
+  /// restore_state() takes it back into a solver made with the same configuration; a run continued from it repeats
+  /// the uninterrupted one bitwise. Throws std::runtime_error naming what does not fit.
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
+  /// @}
 
   /// One RK4 step and the boundary update. Throws SimulationError (naming the step, the time, the energy bound
   /// and the CFL against its stability limit) and keeps the previous state if the guard trips.

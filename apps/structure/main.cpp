@@ -9,6 +9,7 @@
 #include <iostream>
 #include <omp.h>
 
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "data_dir.hpp"
@@ -47,6 +48,7 @@ struct Options {
   double csm3_tolerance = 0.02;
   int frames = 20;
   mps::ElasticConfig config;
+  CheckpointOptions checkpoints;
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -81,6 +83,7 @@ void add_options(CLI::App& app, Options& o) {
                  "each within this of the reference over the same time")->capture_default_str()
       ->check(positive_up_to(10))->group("Run");
   app.add_option("--out", o.out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
+  add_checkpoint_options(app, o.checkpoints);
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
 }
@@ -175,12 +178,23 @@ struct Samples {
     eg.push_back(e.gravity);
     et.push_back(e.total());
   }
+  [[nodiscard]] nlohmann::json save_state() const {
+    return {{"t", mps::pack_array(t)},   {"ux", mps::pack_array(ux)}, {"uy", mps::pack_array(uy)},
+            {"ek", mps::pack_array(ek)}, {"es", mps::pack_array(es)}, {"eg", mps::pack_array(eg)},
+            {"et", mps::pack_array(et)}};
+  }
+  void restore_state(const nlohmann::json& state) {
+    for (auto [name, series] : {std::pair{"t", &t}, {"ux", &ux}, {"uy", &uy}, {"ek", &ek}, {"es", &es}, {"eg", &eg},
+                                {"et", &et}})
+      mps::unpack_array(state, name, *series);
+  }
 };
 
-// Samples the start, steps to the end sampling every sample interval, writing frames and a line every tenth of the
-// run; returns the seconds from the first step to the last. A SimulationError goes to the caller.
+// Samples the start, steps to the end sampling every sample interval, writing frames, a line every tenth of the run
+// and checkpoints when due; returns the seconds from the first step to the last. A SimulationError goes to the
+// caller, and so does RunStopped once a signal's checkpoint is written. A restart continues from its checkpoint.
 double run(mps::ElasticSolid& solid, const Start& start, int frames, const fs::path& dir, Samples& s,
-           Progress& progress) {
+           Progress& progress, Checkpoints& checkpoints) {
   const double end_time = start.end_time, sample_interval = start.sample_interval;
   mps::PvdSeries series(dir / "structure.pvd");
   int next_frame = 0, next_sample = 0;
@@ -191,13 +205,34 @@ double run(mps::ElasticSolid& solid, const Start& start, int frames, const fs::p
     series.add(solid.time(), dir / name);
   };
   const double frame_interval = frames > 0 ? end_time / frames : 2 * end_time;
-  s.add(solid, start.probe_x, start.probe_y);
-  ++next_sample;
-  if (frames > 0) frame();
-  const auto stepping_start = std::chrono::steady_clock::now();
   double next_report = end_time / 10;
+  auto save = [&]() -> nlohmann::json {
+    return {{"samples", s.save_state()}, {"next_frame", next_frame}, {"next_sample", next_sample},
+            {"next_report", next_report}, {"frames", series.save_state()}};
+  };
+  auto save_solid = [&] { return solid.save_state(); };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    solid.restore_state(restart->at("simulation"));
+    const nlohmann::json& saved = restart->at("scene");
+    s.restore_state(saved.at("samples"));
+    next_frame = saved.at("next_frame").get<int>();
+    next_sample = saved.at("next_sample").get<int>();
+    next_report = saved.at("next_report").get<double>();
+    series.restore_state(saved.at("frames"));
+    std::printf("restarted at step %d, t = %.4g s\n", solid.steps(), solid.time());
+  } else {
+    s.add(solid, start.probe_x, start.probe_y);
+    ++next_sample;
+    if (frames > 0) frame();
+  }
+  const auto stepping_start = std::chrono::steady_clock::now();
   while (solid.time() < end_time - 0.5 * solid.dt()) {
-    solid.step();
+    try {
+      solid.step();
+    } catch (const mps::SimulationError&) {
+      checkpoints.write(save_solid, save);  // the last good state, to restart from
+      throw;
+    }
     progress.update(solid.time(), solid.steps());
     if (solid.time() >= next_sample * sample_interval - 0.5 * solid.dt()) {
       s.add(solid, start.probe_x, start.probe_y);
@@ -211,6 +246,7 @@ double run(mps::ElasticSolid& solid, const Start& start, int frames, const fs::p
                   s.eg.back(), s.et.back());
       next_report += end_time / 10;
     }
+    checkpoints.after_step(solid.steps(), solid.time(), true, false, save_solid, save, progress);
   }
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - stepping_start).count();
 }
@@ -383,15 +419,21 @@ int main(int argc, char** argv) {
          {"run", {"end_time_s", "sample_interval_s"}}});
 
     const fs::path dir(o.out);
-    clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp",
-                        "config.toml"});
+    Checkpoints checkpoints(o.checkpoints, dir, "structure", params, {"/end_time_s"}, false);
+    if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
+      clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp",
+                          "config.toml", "checkpoint.cbor"});
     write_run_config(app, "structure", dir);
     fs::create_directories(dir / "frames");
     Samples samples;
     Progress progress(start.end_time, "s");
     double seconds = 0;
     try {
-      seconds = run(solid, start, o.frames, dir, samples, progress);
+      seconds = run(solid, start, o.frames, dir, samples, progress, checkpoints);
+    } catch (const RunStopped& stop) {
+      progress.finish(solid.time(), solid.steps());
+      mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {samples.t, samples.ux, samples.uy});
+      return report_stop(dir, stop, params, solid.steps(), solid.time(), checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(solid.time(), solid.steps());
       return report_failure(e, dir, solid, samples, params);

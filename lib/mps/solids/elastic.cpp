@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "mps/core/neighbors.hpp"
+#include "mps/core/state.hpp"
 #include "mps/core/particles.hpp"
 
 namespace mps {
@@ -454,6 +455,67 @@ ElasticEnergy ElasticSolid::measure_energy() const {
     e.gravity -= mass_[i] * (config_.gravity_x * (x_[i] - x0_[i]) + config_.gravity_y * (y_[i] - y0_[i]));
   }
   return e;
+}
+
+namespace {
+// The components (xx, xy, yx, yy) of F and P in a checkpoint.
+constexpr const char* kTensorNames[2][4] = {{"f_xx", "f_xy", "f_yx", "f_yy"}, {"p_xx", "p_xy", "p_yx", "p_yy"}};
+}  // namespace
+
+nlohmann::json ElasticSolid::save_state() const {
+  nlohmann::json tensors = nlohmann::json::object();
+  for (std::size_t c = 0; c < 4; ++c) {
+    tensors[kTensorNames[0][c]] = pack_array(f_[c]);
+    tensors[kTensorNames[1][c]] = pack_array(p_[c]);
+  }
+  return {{"time", time_}, {"steps", steps_}, {"x", pack_array(x_)}, {"y", pack_array(y_)}, {"u", pack_array(u_)},
+          {"v", pack_array(v_)}, {"ax", pack_array(ax_)}, {"ay", pack_array(ay_)}, {"tensors", tensors},
+          {"strain_energy", strain_energy_}, {"hourglass_energy", hourglass_energy_},
+          {"energy", {energy_.kinetic, energy_.strain, energy_.hourglass, energy_.gravity}},
+          {"start_energy", start_energy_}, {"largest_mechanical", largest_mechanical_},
+          {"external_x", pack_array(external_x_)}, {"external_y", pack_array(external_y_)},
+          {"external_work", external_work_}};
+}
+
+void ElasticSolid::restore_state(const nlohmann::json& state) {
+  // Read into copies first: a checkpoint that does not fit leaves the solid as it was.
+  std::array<std::vector<double>, 6> motion;
+  const char* names[6] = {"x", "y", "u", "v", "ax", "ay"};
+  for (std::size_t c = 0; c < 6; ++c) {
+    unpack_array(state, names[c], motion[c]);
+    if (motion[c].size() != x_.size())
+      throw std::runtime_error("checkpoint: a solid of " + std::to_string(motion[c].size()) + " particles, this one has " +
+                               std::to_string(x_.size()));
+  }
+  std::array<std::vector<double>, 4> f, p;
+  const nlohmann::json& tensors = state_part(state, "tensors");
+  for (std::size_t c = 0; c < 4; ++c) {
+    unpack_array(tensors, kTensorNames[0][c], f[c]);
+    unpack_array(tensors, kTensorNames[1][c], p[c]);
+  }
+  std::vector<double> external_x, external_y;
+  unpack_array(state, "external_x", external_x);
+  unpack_array(state, "external_y", external_y);
+  const auto energy = unpack_value<std::vector<double>>(state, "energy");
+  if (energy.size() != 4) throw std::runtime_error("checkpoint: the solid's energies are not four (a damaged file?)");
+  x_ = std::move(motion[0]);
+  y_ = std::move(motion[1]);
+  u_ = std::move(motion[2]);
+  v_ = std::move(motion[3]);
+  ax_ = std::move(motion[4]);
+  ay_ = std::move(motion[5]);
+  f_ = std::move(f);
+  p_ = std::move(p);
+  external_x_ = std::move(external_x);
+  external_y_ = std::move(external_y);
+  energy_ = {energy[0], energy[1], energy[2], energy[3]};
+  time_ = unpack_value<double>(state, "time");
+  steps_ = unpack_value<int>(state, "steps");
+  strain_energy_ = unpack_value<double>(state, "strain_energy");
+  hourglass_energy_ = unpack_value<double>(state, "hourglass_energy");
+  start_energy_ = unpack_value<double>(state, "start_energy");
+  largest_mechanical_ = unpack_value<double>(state, "largest_mechanical");
+  external_work_ = unpack_value<double>(state, "external_work");
 }
 
 void ElasticSolid::step() {

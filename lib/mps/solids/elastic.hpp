@@ -25,6 +25,8 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "mps/boundaries/boundary.hpp"  // SimulationError
 #include "mps/core/csr.hpp"
 #include "mps/numerics/operators.hpp"  // GradientMatrices
@@ -188,6 +190,12 @@ class ElasticSolid {
   /// The displacement at a reference point, by a kernel-weighted linear least-squares fit over the reference
   /// neighbours within the kernel radius (exact for a linear displacement field).
   [[nodiscard]] std::array<double, 2> displacement_at(double px, double py) const;
+  /// @{ The state between steps for a checkpoint: positions, velocities, accelerations, the last evaluation's F and
+  /// P, the energies, the external force and the clock. restore_state() takes it back into a solid built from the same
+  /// body and configuration; the steps that follow repeat the uninterrupted run's bitwise.
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
+  /// @}
 
  private:
   void evaluate_forces();  // F, P, strain energy and acceleration at the current positions

@@ -36,6 +36,9 @@ APPS = [
     ("acoustic", "--case mur --size 40", "--case mur --size 40 --cfl 0.2"),
     ("structure", "--end-time 0.2 --frames 10", "--end-time 0.2 --frames 10 --model linear"),
     ("structure", "--scene csm3 --end-time 0.3 --frames 10", "--scene csm3 --end-time 0.3 --frames 10 --model svk --cfl 0.2"),
+    ("fsi", "--dx 0.004 --end-time 0.22 --frames 5", "--dx 0.004 --end-time 0.22 --frames 5 --relaxation 0.5"),
+    ("fsi", "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5",
+     "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5 --modulus 5e6"),
 ]
 ENV = dict(os.environ, OMP_NUM_THREADS="1")
 TIMING_COLUMNS = {"setup_s", "solve_s"}

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "checkpoints.hpp"
 #include "checks.hpp"
 #include "console.hpp"
 #include "help.hpp"
@@ -32,6 +33,7 @@ struct Options {
   double dx = 0, modulus = 0, poisson = 0, end_time = 0;
   int frames = 20;
   std::vector<int> export_ppe;
+  CheckpointOptions checkpoints;
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -73,6 +75,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
   add_export_ppe_option(app, o.export_ppe);
+  add_checkpoint_options(app, o.checkpoints);
 }
 
 // The scene's parameters: the case's defaults where an option was not given.
@@ -95,12 +98,31 @@ fsi::Params make_params(const Options& o) {
   return p;
 }
 
-// Steps to the end, writing frames and a line every tenth of the run; a SimulationError goes to the caller.
-void run(fsi::Scene& scene, FrameSeries& series, Progress& progress, double end_time) {
+// Steps to the end, writing frames, a line every tenth of the run and checkpoints when due; a SimulationError goes to
+// the caller, and so does RunStopped once a signal's checkpoint is written. A restart continues from its checkpoint.
+void run(fsi::Scene& scene, FrameSeries& series, Progress& progress, double end_time, Checkpoints& checkpoints) {
   const mps::Simulation& sim = scene.sim();
   double next_report = end_time / 10;
+  const std::function<nlohmann::json()> save = [&]() -> nlohmann::json {
+    return {{"scene", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
+  };
+  if (const nlohmann::json* restart = checkpoints.restart()) {
+    scene.sim().restore(restart->at("simulation"));
+    const nlohmann::json& saved = restart->at("scene");
+    scene.restore_state(saved.at("scene"));
+    series.restore_state(saved.at("frames"));
+    next_report = saved.at("next_report").get<double>();
+    std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
+  } else {
+    series.write_if_due(sim);
+  }
   while (!scene.done()) {
-    scene.step();
+    try {
+      scene.step();
+    } catch (const mps::SimulationError&) {
+      checkpoints.write(sim, save);  // the last good state, to restart from
+      throw;
+    }
     progress.update(sim.time(), sim.last_step().step);
     series.write_if_due(sim);
     if (sim.time() >= next_report - 1e-12) {
@@ -111,6 +133,7 @@ void run(fsi::Scene& scene, FrameSeries& series, Progress& progress, double end_
                   scene.structure() ? scene.structure()->substeps() : 0);
       next_report += end_time / 10;
     }
+    checkpoints.after_step(sim, save, progress);
   }
 }
 
@@ -205,17 +228,21 @@ int main(int argc, char** argv) {
          {"solver", {"solver"}},
          {"run", {"end_time_s"}}});
     const fs::path dir(o.out);
-    clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp",
-                        "config.toml", "solves.csv", "ppe"});
+    Checkpoints checkpoints(o.checkpoints, dir, "fsi", params, {"/end_time_s"}, false);
+    if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
+      clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp", "config.toml",
+                          "solves.csv", "ppe", "checkpoint.cbor"});
     scene.sim().add<SolveLog>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()), "fsi, " + o.scene_name);
     write_run_config(app, "fsi", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "fsi", o.frames, p.end_time);
-    series.write_if_due(sim);
     const auto start = std::chrono::steady_clock::now();
     Progress progress(p.end_time, "s");
     try {
-      run(scene, series, progress, p.end_time);
+      run(scene, series, progress, p.end_time, checkpoints);
+    } catch (const RunStopped& stop) {
+      progress.finish(sim.time(), sim.last_step().step);
+      return report_stop(dir, stop, params, sim, checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time(), sim.last_step().step);
       return report_guard_stop(dir, with_coupling_advice(e, p), params, sim);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "mps/boundaries/geometry.hpp"
+#include "mps/core/state.hpp"
 
 namespace fsi {
 
@@ -162,6 +163,21 @@ void Scene::sample() {
   if (rigid_force_) s.force_x = rigid_force_->force()[0];
   if (params_.scene == Case::gate) s.level = dambreak::water_level(sim_->particles(), 0.5 * water_width, params_.l0);
   samples_.push_back(s);
+}
+
+nlohmann::json Scene::save_state() const {
+  std::vector<double> values;
+  for (const Sample& s : samples_) values.insert(values.end(), {s.time, s.tip_x, s.tip_y, s.force_x, s.level});
+  return {{"samples", mps::pack_array(values)}};
+}
+
+void Scene::restore_state(const nlohmann::json& state) {
+  std::vector<double> values;
+  mps::unpack_array(state, "samples", values);
+  if (values.size() % 5 != 0) throw std::runtime_error("checkpoint: the samples do not add up (a damaged file?)");
+  samples_.clear();
+  for (std::size_t k = 0; k < values.size(); k += 5)
+    samples_.push_back({values[k], values[k + 1], values[k + 2], values[k + 3], values[k + 4]});
 }
 
 }  // namespace fsi

@@ -67,6 +67,9 @@ class Scene {
   [[nodiscard]] const mps::ElasticStructure* structure() const { return structure_; }  // null when rigid
   [[nodiscard]] const std::vector<Sample>& samples() const { return samples_; }
   [[nodiscard]] std::size_t body_particles() const { return body_particles_; }
+  // For a checkpoint: the samples so far (the simulation's own state, the body's included, is Simulation::checkpoint()).
+  [[nodiscard]] nlohmann::json save_state() const;
+  void restore_state(const nlohmann::json& state);
   // The geometry as built (lengths rounded to whole spacings): the body's lower-left corner, size, and the water's.
   double body_x = 0, body_y = 0, body_width = 0, body_height = 0, water_width = 0, water_height = 0;
 

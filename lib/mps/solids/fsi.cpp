@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mps/core/state.hpp"
 #include "mps/numerics/operators.hpp"
 
 namespace mps {
@@ -149,6 +150,28 @@ void ElasticStructure::after_pressure(StepContext& context) {
   }
   solid_.set_external_force(load_x_, load_y_);
   coupling_seconds_ += seconds_since(start);
+}
+
+nlohmann::json ElasticStructure::save_state() const {
+  return {{"solid", solid_.save_state()}, {"load_x", pack_array(load_x_)}, {"load_y", pack_array(load_y_)},
+          {"on_structure", on_structure_}, {"substeps", substeps_}, {"solid_seconds", solid_seconds_},
+          {"coupling_seconds", coupling_seconds_}};
+}
+
+void ElasticStructure::restore_state(const nlohmann::json& state) {
+  std::vector<double> load_x, load_y;
+  unpack_array(state, "load_x", load_x);
+  unpack_array(state, "load_y", load_y);
+  if (load_x.size() != load_x_.size() || load_y.size() != load_y_.size())
+    throw std::runtime_error("checkpoint: the load of a structure of " + std::to_string(load_x.size()) +
+                             " particles, this one has " + std::to_string(load_x_.size()));
+  solid_.restore_state(state_part(state, "solid"));
+  load_x_ = std::move(load_x);
+  load_y_ = std::move(load_y);
+  on_structure_ = unpack_value<std::array<double, 2>>(state, "on_structure");
+  substeps_ = unpack_value<int>(state, "substeps");
+  solid_seconds_ = unpack_value<double>(state, "solid_seconds");
+  coupling_seconds_ = unpack_value<double>(state, "coupling_seconds");
 }
 
 std::array<double, 2> ElasticStructure::load() const {

@@ -76,6 +76,10 @@ class ElasticStructure : public StepComponent {
   [[nodiscard]] std::array<double, 2> load() const;
   /// @}
   [[nodiscard]] int substeps() const { return substeps_; }  ///< of the solid in the last fluid step
+  /// @{ For a checkpoint: the solid's state (ElasticSolid::save_state), the relaxed load and the last step's force.
+  [[nodiscard]] nlohmann::json save_state() const override;
+  void restore_state(const nlohmann::json& state) override;
+  /// @}
   /// @{ Wall-clock seconds spent so far advancing the solid, and in the coupling itself (mapping, load, fluid-inside
   /// test).
   [[nodiscard]] double solid_seconds() const { return solid_seconds_; }

@@ -18,6 +18,7 @@ packages=(
   libpng-dev             # the acoustic app's pressure maps
   python3-vtk9           # VTK's own reader in the frame tests and scripts/compare_results.py
   python3-jsonschema     # summary.json against docs/summary.schema.json (ReplayFromConfig, scripts/compare_results.py)
+  python3-cbor2          # checkpoints read as documented (RestartApps, docs/restart.md)
   doxygen                # the API reference (make docs) and the test that every public member is documented
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
   pybind11-dev python3-dev python3-scipy python3-pytest   # the Python module sparsemps and its tests (python/)

@@ -18,6 +18,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import cbor2
+import jsonschema
+import numpy as np
+
 # app, its options for a run of a few seconds, and those options with one a restart may not change changed.
 APPS = [
     ("poiseuille", "--across 10 --end-time 6 --frames 12", "--across 12 --end-time 6 --frames 12"),
@@ -71,6 +75,47 @@ def differences(whole, resumed):
     return found
 
 
+SCHEMA = json.loads((Path(__file__).resolve().parent.parent / "docs" / "summary.schema.json").read_text())
+# RFC 8746 typed arrays, as docs/restart.md lists them.
+TYPED = {64: "u1", 72: "i1", 78: "<i4", 79: "<i8", 86: "<f8"}
+
+
+def typed_arrays(node, path=""):
+    """Every typed array in a decoded checkpoint, by its path; a tag of another kind is a failure."""
+    if isinstance(node, cbor2.CBORTag):
+        if node.tag not in TYPED or not isinstance(node.value, bytes):
+            raise ValueError(f"{path}: tag {node.tag} is no typed array of docs/restart.md")
+        yield path, np.frombuffer(node.value, dtype=TYPED[node.tag])
+    elif isinstance(node, dict):
+        for key, value in node.items():
+            yield from typed_arrays(value, f"{path}/{key}")
+    elif isinstance(node, list):
+        for k, value in enumerate(node):
+            yield from typed_arrays(value, f"{path}/{k}")
+
+
+def format_problems(path, steps):
+    """The checkpoint read as docs/restart.md describes it, with an independent CBOR reader."""
+    found = []
+    top = cbor2.loads(path.read_bytes())
+    if top.get("format") != "sparsemps-checkpoint" or top.get("version") != 1:
+        return [f"header {top.get('format')!r} version {top.get('version')!r}"]
+    state = top["state"]
+    simulation = state["simulation"]
+    if simulation.get("step", simulation.get("steps")) != steps:
+        found.append(f"step {simulation.get('step', simulation.get('steps'))} where the summary says {steps}")
+    arrays = dict(typed_arrays(state))
+    if "particles" in simulation:
+        lengths = {len(v) for k, v in arrays.items() if k.startswith("/simulation/particles/")}
+        if len(lengths) != 1:
+            found.append(f"particle fields of lengths {lengths}")
+    for key, values in arrays.items():
+        if values.dtype.kind == "f" and key.startswith("/simulation/particles/") and not np.all(np.isfinite(values)):
+            if not key.endswith("/p"):  # ghosts may hold anything but their positions are finite
+                found.append(f"{key} holds non-finite values")
+    return found
+
+
 def main():
     build = sys.argv[1]
     failures = []
@@ -99,6 +144,12 @@ def main():
             summary = json.loads((stopped / "summary.json").read_text())
             if summary["status"] != "stopped" or summary["pass"]:
                 failures.append(f"{app}: the stopped run's summary says {summary['status']}, pass {summary['pass']}")
+            try:
+                jsonschema.validate(summary, SCHEMA)
+            except jsonschema.ValidationError as e:
+                failures.append(f"{app}: the stopped run's summary breaks docs/summary.schema.json: {e.message}")
+            failures += [f"{app} checkpoint: {p}" for p in format_problems(stopped / "checkpoint.cbor",
+                                                                             summary["steps"])]
             done = subprocess.run(command(build, app, args, stopped, "--restart", str(stopped / "checkpoint.cbor")),
                                   env=ENV, capture_output=True, text=True)
             if done.returncode != code:

@@ -112,9 +112,12 @@ class Checkpoints {
     const bool stopping = signals_seen > 0;
     if (!due_ && !stopping) return;
     if (wait && signals_seen <= 1) return;
+    const auto start = Clock::now();
     write(simulation, scene);
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     progress.clear();
-    std::printf("checkpoint: step %d, t = %.6g s, written to %s%s\n", step, time, path_.string().c_str(),
+    std::printf("checkpoint: step %d, t = %.6g s, written to %s (%.1f MB in %.2f s)%s\n", step, time,
+                path_.string().c_str(), static_cast<double>(std::filesystem::file_size(path_)) / 1e6, seconds,
                 exact ? "" : " (not at a step that continues bitwise)");
     if (stopping) throw RunStopped{checkpoint_detail::stop_signal};
   }

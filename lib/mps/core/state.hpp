@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// A run's state as data, for checkpoints (mps/io/io.hpp write_checkpoint, docs/restart.md): a JSON tree whose arrays
-/// are byte strings of their values, so that they round-trip bitwise and cost their size in the CBOR file.
+/// are byte strings of their values (CBOR typed arrays), so that they round-trip bitwise and cost their size in the file.
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
@@ -15,13 +15,15 @@
 namespace mps {
 
 namespace state_detail {
-// The byte string's subtype names the element type, so that an array is never read back as another type.
+// The byte string is tagged as an RFC 8746 typed array (little-endian), so that any CBOR reader knows its element
+// type and an array is never read back as another type.
 template <class T>
 constexpr std::uint8_t subtype() {
-  if constexpr (std::is_same_v<T, double>) return 1;
-  else if constexpr (std::is_same_v<T, int>) return 2;
-  else if constexpr (std::is_same_v<T, long> || std::is_same_v<T, long long>) return 3;
-  else if constexpr (sizeof(T) == 1) return 4;  // char, bool-like flags, Kind
+  if constexpr (std::is_same_v<T, double>) return 86;  // float64
+  else if constexpr (std::is_integral_v<T> && std::is_signed_v<T> && sizeof(T) == 4) return 78;  // sint32
+  else if constexpr (std::is_integral_v<T> && std::is_signed_v<T> && sizeof(T) == 8) return 79;  // sint64
+  else if constexpr (std::is_integral_v<T> && std::is_signed_v<T> && sizeof(T) == 1) return 72;  // sint8
+  else if constexpr (sizeof(T) == 1) return 64;  // uint8: unsigned flags, Kind
   else static_assert(sizeof(T) == 0, "no checkpoint type for this element");
 }
 }  // namespace state_detail

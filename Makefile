@@ -8,19 +8,25 @@
 # make test-sanitize; make docs (the API reference); make install PREFIX=/opt/sparsemps.
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= runs/demo
+# The benchmarks write their tables and charts to bench/results/local/ (not committed); UPDATE=1 writes the committed
+# ones in bench/results/ that docs/ shows (make bench-full UPDATE=1).
+RESULTS := $(if $(UPDATE),bench/results,bench/results/local)
 
 .PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-migration bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic clean
 
 deps:
 	@bash scripts/install-deps.sh
+	@mkdir -p $(RESULTS)
 
 build/release/CMakeCache.txt: | deps
 	cmake -S . -B build/release -DCMAKE_BUILD_TYPE=Release
 
-# The paper's Poiseuille set-up (seed 004: pushing-plate inlet, open outlet, 15 D, station at 10 D, to
-# U t/D = 10) at Re = 40, coarse: 20 particles across instead of 50. About two minutes.
+# Every app is built (the README runs them from build/release next); the demo is the paper's Poiseuille set-up
+# (seed 004: pushing-plate inlet, open outlet, 15 D, station at 10 D, to U t/D = 10) at Re = 40, coarse: 20 particles
+# across instead of 50. About two minutes of running.
+APPS = poiseuille hydrostatic rotating acoustic dambreak structure fsi
 demo: deps build/release/CMakeCache.txt
-	cmake --build build/release -j$(JOBS) --target poiseuille
+	cmake --build build/release -j$(JOBS) --target $(APPS)
 	./build/release/apps/poiseuille/poiseuille --mode inlet --re 40 --across 20 --end-time 10 --out $(DEMO_OUT)
 	/usr/bin/python3 apps/poiseuille/plot_profile.py $(DEMO_OUT)/profile.csv $(DEMO_OUT)/profile.png
 	@echo "profile plot: $(DEMO_OUT)/profile.png"
@@ -83,8 +89,8 @@ bench-full: bench-core bench-solvers bench-scaling bench-pareto bench-stability 
 # One thread, like the per-step sweep: with two and a job on the other core, the lists took 1.6-6.5x longer than on one.
 bench-core: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_core
-	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --out bench/results/core.csv
-	/usr/bin/python3 bench/plot_core.py bench/results/core.csv bench/results/core.png
+	OMP_NUM_THREADS=1 ./build/release/bench/bench_core --out $(RESULTS)/core.csv
+	/usr/bin/python3 bench/plot_core.py $(RESULTS)/core.csv $(RESULTS)/core.png
 
 # The distributed PPE on 1 and 2 MPI ranks at 1e5 and 1e6 unknowns, one thread per rank (docs/scaling.md): a row per
 # run appended to bench/results/distributed_ppe.csv, with the machine's load at its start.
@@ -92,7 +98,7 @@ bench-distributed: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_distributed_ppe
 	for n in 1e5 1e6; do for p in 1 2; do \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$p \
-	    ./build/release/bench/bench_distributed_ppe --fluid $$n --out bench/results/distributed_ppe.csv || exit 1; \
+	    ./build/release/bench/bench_distributed_ppe --fluid $$n --out $(RESULTS)/distributed_ppe.csv || exit 1; \
 	done; done
 
 # The step on 1 and 2 ranks (bench_distributed_step, the dam break; docs/scaling.md): DSTEP_SIZES fluid particles,
@@ -104,7 +110,7 @@ bench-distributed-step: deps build/release/CMakeCache.txt
 	for n in $(DSTEP_SIZES); do for p in 1 2; do \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$p \
 	    ./build/release/bench/bench_distributed_step --fluid $$n --steps $(DSTEP_STEPS) \
-	    --out bench/results/distributed_step.csv || exit 1; \
+	    --out $(RESULTS)/distributed_step.csv || exit 1; \
 	done; done
 
 # Strong (1e5, 1e6 on 1 and 2 ranks) and weak scaling (1e5 and 5e5 per rank) of the dam break's step, twice over,
@@ -112,13 +118,14 @@ bench-distributed-step: deps build/release/CMakeCache.txt
 # to 1e8 particles on 1,000 ranks (bench/scaling_model.py, docs/scaling.md). About 5 minutes; run it on an idle machine.
 bench-distributed-scaling: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_distributed_step
-	rm -f bench/results/distributed_scaling.csv
+	rm -f $(RESULTS)/distributed_scaling.csv
 	for round in 1 2; do for run in "1 1e5 5" "2 1e5 5" "2 2e5 5" "1 5e5 3" "2 1e6 3" "1 1e6 3"; do set -- $$run; \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
 	    ./build/release/bench/bench_distributed_step --fluid $$2 --steps $$3 \
-	    --out bench/results/distributed_scaling.csv || exit 1; \
+	    --out $(RESULTS)/distributed_scaling.csv || exit 1; \
 	done; done
-	/usr/bin/python3 bench/scaling_model.py
+	/usr/bin/python3 bench/scaling_model.py --step-csv $(RESULTS)/distributed_scaling.csv \
+	  --ppe-csv bench/results/distributed_ppe.csv --png $(RESULTS)/scaling_model.png
 
 # The 3-D dam break's step (SPHERIC Test 2, bench_distributed_step --dim 3) on 1 and 2 ranks at four spacings with
 # the app's solver and kind weights, into a fresh bench/results/distributed_step_3d.csv; then the 3-D model and its
@@ -127,13 +134,14 @@ DSTEP3_WEIGHTS ?= 1 0.6 0.25 0.01
 DSTEP3_BENCH ?= ./build/release/bench/bench_distributed_step
 bench-distributed-3d: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_distributed_step
-	rm -f bench/results/distributed_step_3d.csv
+	rm -f $(RESULTS)/distributed_step_3d.csv
 	for run in "1 0.05" "2 0.05" "1 0.03" "2 0.03" "1 0.02" "2 0.02" "1 0.0116" "2 0.0116"; do set -- $$run; \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
 	    $(DSTEP3_BENCH) --dim 3 --l0 $$2 --steps 3 --solver auto --kind-weights $(DSTEP3_WEIGHTS) \
-	    --out bench/results/distributed_step_3d.csv || exit 1; \
+	    --out $(RESULTS)/distributed_step_3d.csv || exit 1; \
 	done
-	/usr/bin/python3 bench/scaling_model.py --dim 3
+	/usr/bin/python3 bench/scaling_model.py --dim 3 --step-csv $(RESULTS)/distributed_step_3d.csv \
+	  --ppe-csv bench/results/distributed_ppe.csv --png $(RESULTS)/scaling_model_3d.png
 
 # AMG kept across migrations (docs/scaling.md): the dam break (MIGRATION_DIM 2: the classic column, 3: SPHERIC Test 2)
 # at about MIGRATION_FLUID fluid particles with `auto`, on 1 rank and on 2 ranks migrating every step and every 20th,
@@ -148,12 +156,12 @@ bench-migration: deps build/release/CMakeCache.txt
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np $$1 \
 	    ./build/release/bench/bench_distributed_step --dim $(MIGRATION_DIM) --fluid $(MIGRATION_FLUID) \
 	    --steps $(MIGRATION_STEPS) --solver auto --migrate-every $$2 --trace build/release/migration_trace_$$1_$$2.csv \
-	    --out bench/results/migration_$(MIGRATION_DIM)d.csv || exit 1; \
+	    --out $(RESULTS)/migration_$(MIGRATION_DIM)d.csv || exit 1; \
 	done
 	(head -1 build/release/migration_trace_1_20.csv; for run in 1_20 2_1 2_20; do \
-	  tail -n +2 build/release/migration_trace_$$run.csv; done) > bench/results/migration_trace_$(MIGRATION_DIM)d.csv
-	/usr/bin/python3 bench/plot_migration.py bench/results/migration_trace_$(MIGRATION_DIM)d.csv \
-	  bench/results/migration_trace_$(MIGRATION_DIM)d.png $(MIGRATION_DIM)
+	  tail -n +2 build/release/migration_trace_$$run.csv; done) > $(RESULTS)/migration_trace_$(MIGRATION_DIM)d.csv
+	/usr/bin/python3 bench/plot_migration.py $(RESULTS)/migration_trace_$(MIGRATION_DIM)d.csv \
+	  $(RESULTS)/migration_trace_$(MIGRATION_DIM)d.png $(MIGRATION_DIM)
 
 # The dam break's load imbalance on 2 ranks against time, one trace per rebalance threshold (docs/scaling.md, "Keeping
 # the cuts"): concatenated into bench/results/rebalance_trace.csv, the runs' rows appended to rebalance.csv, the figure.
@@ -163,20 +171,20 @@ bench-rebalance: deps build/release/CMakeCache.txt
 	for t in $(REBALANCE_THRESHOLDS); do \
 	  OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe -np 2 \
 	    ./build/release/bench/bench_distributed_step --fluid 800 --steps 2000 --threshold $$t --migrate-every 1 \
-	    --trace build/release/rebalance_trace_$$t.csv --out bench/results/rebalance.csv || exit 1; \
+	    --trace build/release/rebalance_trace_$$t.csv --out $(RESULTS)/rebalance.csv || exit 1; \
 	done
 	t0=$(firstword $(REBALANCE_THRESHOLDS)); (head -1 build/release/rebalance_trace_$$t0.csv; \
 	  for t in $(REBALANCE_THRESHOLDS); do tail -n +2 build/release/rebalance_trace_$$t.csv; done) \
-	  > bench/results/rebalance_trace.csv
-	/usr/bin/python3 scripts/plot_rebalance.py bench/results/rebalance_trace.csv bench/results/rebalance_trace.png
+	  > $(RESULTS)/rebalance_trace.csv
+	/usr/bin/python3 scripts/plot_rebalance.py $(RESULTS)/rebalance_trace.csv $(RESULTS)/rebalance_trace.png
 
 SOLVER_SIZES ?= 1e4,1e5,1e6
 bench-solvers: deps build/release/CMakeCache.txt
 	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --sizes $(SOLVER_SIZES) --limit "eigen-bicgstab=200000" \
-	  --out bench/results/solvers.csv data/*.mtx data/ppe/*.mtx.gz
-	/usr/bin/python3 bench/plot_solvers.py bench/results/solvers.csv bench/results/solvers.png
+	  --out $(RESULTS)/solvers.csv data/*.mtx data/ppe/*.mtx.gz
+	/usr/bin/python3 bench/plot_solvers.py $(RESULTS)/solvers.csv $(RESULTS)/solvers.png
 
 # The sample PPEs of real scenes (inlet channel, screw channel, dam break, 3-D dam break; data/ppe/,
 # docs/solvers.md#sample-matrices): SAMPLES=small (the ~1e4 cases, half a minute), large (the ~1e5 ones, about 19
@@ -193,14 +201,14 @@ bench-samples: deps build/release/CMakeCache.txt
 	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
 	./build/release/bench/bench_solvers --files-only --limit "eigen-bicgstab=200000" \
-	  --out bench/results/solvers_samples.csv data/ppe/*.mtx.gz
+	  --out $(RESULTS)/solvers_samples.csv data/ppe/*.mtx.gz
 
 # PETSc's methods (GAMG, hypre through PETSc, ICC, Jacobi) beside ours on the sample PPEs on disk, one thread
 # (bench/petsc_samples.py; docs/solvers.md#petsc): CSV and chart in bench/results/.
 bench-petsc: deps build/release/CMakeCache.txt
 	test -e data/ppe/channel_1e4.mtx.gz || $(MAKE) --no-print-directory sample-ppes
 	cmake --build build/release -j$(JOBS) --target bench_solvers
-	/usr/bin/python3 bench/petsc_samples.py build/release
+	/usr/bin/python3 bench/petsc_samples.py build/release --results $(RESULTS)
 
 # MPS-Basic (a public C++ MPS code) beside ours on its own dam break, one thread each (bench/mps_basic.py;
 # docs/benchmarks.md): MPS_BASIC is a checkout of github.com/MPS-Basic/MPS-Basic, built from its sources for the
@@ -224,16 +232,16 @@ poiseuille: deps build/release/CMakeCache.txt
 acoustic: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target acoustic
 	for c in free hard mur two-pulse flow; do ./build/release/apps/acoustic/acoustic --case $$c --frames 0 || exit 1; done
-	/usr/bin/python3 bench/plot_acoustic.py maps runs/acoustic bench/results/acoustic_maps.png
-	/usr/bin/python3 bench/plot_acoustic.py centreline runs/acoustic bench/results/acoustic_centreline.png
+	/usr/bin/python3 bench/plot_acoustic.py maps runs/acoustic $(RESULTS)/acoustic_maps.png
+	/usr/bin/python3 bench/plot_acoustic.py centreline runs/acoustic $(RESULTS)/acoustic_centreline.png
 
 # Error against CFL and against spacing (seed 001 Fig. 2-3): ~7 min on 2 cores.
 bench-acoustic: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target acoustic
-	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic cfl --out bench/results/acoustic_cfl.csv
-	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic spacing --out bench/results/acoustic_spacing.csv
-	/usr/bin/python3 bench/plot_acoustic.py cfl bench/results/acoustic_cfl.csv bench/results/acoustic_cfl.png
-	/usr/bin/python3 bench/plot_acoustic.py spacing bench/results/acoustic_spacing.csv bench/results/acoustic_spacing.png
+	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic cfl --out $(RESULTS)/acoustic_cfl.csv
+	/usr/bin/python3 bench/acoustic_studies.py --app build/release/apps/acoustic/acoustic spacing --out $(RESULTS)/acoustic_spacing.csv
+	/usr/bin/python3 bench/plot_acoustic.py cfl $(RESULTS)/acoustic_cfl.csv $(RESULTS)/acoustic_cfl.png
+	/usr/bin/python3 bench/plot_acoustic.py spacing $(RESULTS)/acoustic_spacing.csv $(RESULTS)/acoustic_spacing.png
 
 # Rotating boundaries (seed 000): Taylor-Couette at 20 across to 1 s (in 3-D at 10 across), and the screw channel in
 # both models at 24 across to 0.5 s (the paper's 49 across: --across 49, or leave --across out), with the plots of
@@ -246,9 +254,9 @@ rotating: deps build/release/CMakeCache.txt
 	# Status 2 is a check missed (reported in the check lines, docs/rotating.md): plot anyway.
 	OMP_NUM_THREADS=1 ./build/release/apps/rotating/rotating --scene channel --model both --across $(ROTATING_ACROSS) \
 	  --average 0.5 --out runs/rotating/channel || [ $$? -eq 2 ]
-	/usr/bin/python3 apps/rotating/plot_rotating.py couette bench/results/rotating_couette.png runs/rotating/couette \
+	/usr/bin/python3 apps/rotating/plot_rotating.py couette $(RESULTS)/rotating_couette.png runs/rotating/couette \
 	  runs/rotating/couette-3d
-	/usr/bin/python3 apps/rotating/plot_rotating.py channel bench/results/rotating_channel.png \
+	/usr/bin/python3 apps/rotating/plot_rotating.py channel $(RESULTS)/rotating_channel.png \
 	  --reference bench/results/rotating_reference.csv \
 	  runs/rotating/channel/moving runs/rotating/channel/fixed
 
@@ -262,7 +270,7 @@ structure: deps build/release/CMakeCache.txt
 bench-structure: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target structure
 	/usr/bin/python3 bench/plate_reference.py
-	/usr/bin/python3 bench/structure_study.py build/release
+	/usr/bin/python3 bench/structure_study.py build/release --results $(RESULTS)
 
 # Fluid-structure interaction (seed 003 §2.3-2.4): the dam break on the elastic plate and the rubber gate at their
 # coarse defaults (a few minutes); bench-fsi runs docs/fsi.md's study and stability map (about an hour on 2 cores).
@@ -274,36 +282,36 @@ fsi: deps build/release/CMakeCache.txt
 # the default solver (auto) against the classic IC-CG path on every scene, alternating, one run at a time (~4 min)
 bench-default-solver: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS)
-	/usr/bin/python3 bench/default_solver.py build/release
+	/usr/bin/python3 bench/default_solver.py build/release --results $(RESULTS)
 
 # cost per particle of each phase against N, one and two threads, peak RSS: the 2-D channel, then the 3-D dam break
 # (~10 min; needs an idle machine)
 bench-phase-cost: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
-	/usr/bin/python3 bench/phase_cost.py build/release
-	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5
+	/usr/bin/python3 bench/phase_cost.py build/release --results $(RESULTS)
+	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5 --results $(RESULTS)
 
 # one thread against two with OpenMP's active and passive wait policies, idle and beside a busy process (~5 min)
 bench-thread-wait: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
-	/usr/bin/python3 bench/thread_wait.py build/release
+	/usr/bin/python3 bench/thread_wait.py build/release --results $(RESULTS)
 
 # hypre-pcg's AMG built on the filtered PPE against the unfiltered one, tank PPEs at 4.1 and 3.1 l0 (~3 min)
 bench-solver-filter: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_solvers
-	/usr/bin/python3 bench/solver_filter.py build/release
+	/usr/bin/python3 bench/solver_filter.py build/release --results $(RESULTS)
 
 bench-fsi: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target fsi
-	/usr/bin/python3 bench/fsi_stability.py build/release
-	/usr/bin/python3 bench/fsi_study.py build/release
+	/usr/bin/python3 bench/fsi_stability.py build/release --results $(RESULTS)
+	/usr/bin/python3 bench/fsi_study.py build/release --results $(RESULTS)
 
 # Barrel pressure at the corners for gamma in {0, 0.01, 0.05, 0.5, 0.99, 1}, with and without the corrective matrix
 # and particle shifting (24 runs, ~5 min).
 bench-rotating: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target rotating
 	OMP_NUM_THREADS=1 /usr/bin/python3 bench/rotating_corners.py --app build/release/apps/rotating/rotating \
-	  --out bench/results/rotating_corners.csv
+	  --out $(RESULTS)/rotating_corners.csv
 
 # Error against wall time (design section 7) for the body-force channel and Taylor-Couette: spacing x backend, then
 # tolerance and gamma one at a time; one thread, one run at a time. The quick sweep takes ~6 min; --defaults adds
@@ -311,14 +319,14 @@ bench-rotating: deps build/release/CMakeCache.txt
 PARETO_FLAGS ?= --defaults
 bench-pareto: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target poiseuille rotating
-	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release $(PARETO_FLAGS)
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/pareto.py build/release $(PARETO_FLAGS) --results $(RESULTS)
 
 # Per-step cost by phase against N: the body-force channel scaled up (as long as it is wide), each backend for 10
 # steps after 3, the classic baseline (IC-CG from a zero initial guess) included, and hypre-pcg at a looser tolerance
 # (its profile error is the same to four digits at 3e5); one thread.
 SCALING_SIZES ?= 1e4,3e4,1e5,3e5,1e6
 SCALING_SOLVERS ?= eigen-cg;eigen-cg:precond=jacobi;hypre-pcg:reuse=10;hypre-pcg:reuse=10,tol=1e-6;cholmod
-SCALING_OUT ?= bench/results
+SCALING_OUT ?= $(RESULTS)
 bench-scaling: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling
 	OMP_NUM_THREADS=1 ./build/release/bench/bench_scaling --sizes $(SCALING_SIZES) --solvers "$(SCALING_SOLVERS)" \
@@ -330,7 +338,7 @@ bench-scaling: deps build/release/CMakeCache.txt
 # at a time. CSV + PNG in bench/results/stability_{inlet,channel}.*
 bench-stability: deps build/release/CMakeCache.txt
 	cmake --build build/release -j1 --target poiseuille rotating
-	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release
+	OMP_NUM_THREADS=1 /usr/bin/python3 bench/stability_maps.py build/release --results $(RESULTS)
 
 clean:
 	rm -rf build runs

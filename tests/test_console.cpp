@@ -112,6 +112,20 @@ TEST(Progress, OnATerminalOneLineIsRedrawnInPlaceAndClearedForOtherOutput) {
   EXPECT_EQ(all.substr(all.size() - last.size()), last);
 }
 
+// Under mpirun a rank's stdout is a pseudo-terminal even when the log goes to a file: plain lines there.
+TEST(Progress, PlainLinesUnderAnMpiLauncherEvenOnATerminal) {
+  const char* before = std::getenv("OMPI_COMM_WORLD_SIZE");
+  const std::string saved = before ? before : "";
+  unsetenv("OMPI_COMM_WORLD_SIZE");
+  const bool alone = redraw_in_place(true);
+  setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
+  const bool launched = redraw_in_place(true);
+  if (before) setenv("OMPI_COMM_WORLD_SIZE", saved.c_str(), 1); else unsetenv("OMPI_COMM_WORLD_SIZE");
+  EXPECT_TRUE(alone || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK") || std::getenv("MPI_LOCALNRANKS"));
+  EXPECT_FALSE(launched);
+  EXPECT_FALSE(redraw_in_place(false));
+}
+
 TEST(Progress, DurationsAsMinutesAndSecondsOrHours) {
   EXPECT_EQ(Progress::duration(0), "0:00");
   EXPECT_EQ(Progress::duration(65.4), "1:05");

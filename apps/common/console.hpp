@@ -7,12 +7,22 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <regex>
 #include <string>
 #include <utility>
 #include <vector>
 #include <nlohmann/json.hpp>
+
+// Whether progress may redraw one line in place: stdout is a terminal (`is_tty`) and no MPI launcher started the
+// process. Under mpirun a rank's stdout is a pseudo-terminal even when mpirun's own output goes to a log file, which
+// then filled with carriage returns and escape sequences.
+inline bool redraw_in_place(bool is_tty) {
+  for (const char* launcher : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS"})
+    if (std::getenv(launcher) != nullptr) return false;
+  return is_tty;
+}
 
 // Progress on stdout. On a terminal: one line rewritten in place (\r) with the simulated time against the end, the
 // per cent done, the steps, the wall time and the time left at the pace so far. Otherwise (a log file, a pipe): a
@@ -24,7 +34,7 @@ class Progress {
 
   // end: the simulated time the run stops at, in `unit` (the unit the app's own lines use, such as s or D/U).
   Progress(double end, std::string unit, double interval = 10.0)
-      : Progress(end, std::move(unit), interval, isatty(fileno(stdout)) != 0, stdout, steady_seconds) {}
+      : Progress(end, std::move(unit), interval, redraw_in_place(isatty(fileno(stdout)) != 0), stdout, steady_seconds) {}
   Progress(double end, std::string unit, double interval, bool terminal, std::FILE* out, Clock clock)
       : end_(end), unit_(std::move(unit)), interval_(interval), terminal_(terminal), out_(out),
         clock_(std::move(clock)), start_(clock_()), next_(start_ + interval) {}

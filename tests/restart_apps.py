@@ -10,6 +10,7 @@ a file that is no checkpoint, is refused naming why.
 import csv
 import io
 import json
+import math
 import os
 import signal
 import subprocess
@@ -178,9 +179,71 @@ def main():
                 failures.append(f"{app}: a restart from summary.json gave exit {bad.returncode}: {bad.stderr[-300:]!r}")
             print(f"{app} {args}: stopped at step {summary['steps']} and restarted: same outputs"
                   if not failures else f"{app} {args}: checked")
+        if len(sys.argv) <= 2 or sys.argv[2] == "ranks":
+            failures += on_ranks(build, tmp)
     for f in failures:
         print("FAIL", f)
     return 1 if failures else 0
+
+
+MPIRUN = ["mpirun", "--oversubscribe", "-np", "2"]
+MPI_ENV = dict(ENV, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+
+
+def series_difference(a, b):
+    """The largest difference between two runs' front, level and pressure series (the same rows)."""
+    worst = 0.0
+    for name in ("front.csv", "level.csv", "pressure.csv"):
+        x = np.loadtxt(a / name, delimiter=",", skiprows=1)
+        y = np.loadtxt(b / name, delimiter=",", skiprows=1)
+        if x.shape != y.shape:
+            return math.inf
+        worst = max(worst, float(np.abs(x - y).max()))
+    return worst
+
+
+def on_ranks(build, tmp):
+    """The dam break on 2 ranks: stopped by SIGTERM (to mpirun, which passes it on) and restarted on 2 ranks, the
+    same outputs bitwise; its checkpoint restarted on 1 process, and a 1-process checkpoint on 2 ranks, the same series
+    within 1e-6 (the solver's tolerance; the series are printed to 10 digits)."""
+    failures = []
+    args = "--end-time 0.1 --frames 6"
+    whole, stopped, one, two = (tmp / f"ranks_{n}" for n in ("whole", "stopped", "one", "two"))
+    code = subprocess.run(MPIRUN + command(build, "dambreak", args, whole), env=MPI_ENV, capture_output=True).returncode
+    if code not in (0, 2):
+        return [f"dambreak on 2 ranks: the uninterrupted run exited {code}"]
+    run = subprocess.Popen(MPIRUN + command(build, "dambreak", args, stopped), env=MPI_ENV, stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    while len(list((stopped / "frames").glob("*.vtp"))) < 3 and run.poll() is None:
+        time.sleep(0.02)
+    run.send_signal(signal.SIGTERM)
+    out, err = run.communicate()
+    if "continue it with --restart" not in err or not (stopped / "checkpoint.cbor").exists():
+        return [f"dambreak on 2 ranks: SIGTERM gave exit {run.returncode}, stderr {err.strip()[-300:]!r}"]
+    steps = json.loads((stopped / "summary.json").read_text())["steps"]
+    checkpoint = tmp / "ranks.cbor"
+    checkpoint.write_bytes((stopped / "checkpoint.cbor").read_bytes())
+    subprocess.run(MPIRUN + command(build, "dambreak", args, stopped, "--restart", str(checkpoint)), env=MPI_ENV,
+                   capture_output=True)
+    failures += [f"dambreak on 2 ranks after SIGTERM at step {steps}: {d}" for d in differences(whole, stopped)]
+    # 2 ranks -> 1 process.
+    subprocess.run(command(build, "dambreak", args, one, "--restart", str(checkpoint)), env=ENV, capture_output=True)
+    gap = series_difference(whole, one)
+    if not gap <= 1e-6:
+        failures.append(f"dambreak: 2 ranks' checkpoint restarted on 1 process: series {gap:.3g} from the 2 ranks' run")
+    # 1 process -> 2 ranks, from the serial run's checkpoint at step 200.
+    serial = tmp / "ranks_serial"
+    subprocess.run(command(build, "dambreak", args, serial, "--checkpoint-every", "200"), env=ENV, capture_output=True)
+    subprocess.run(MPIRUN + command(build, "dambreak", args, two, "--restart", str(serial / "checkpoint.cbor")),
+                   env=MPI_ENV, capture_output=True)
+    gap_two = series_difference(serial, two)
+    if not gap_two <= 1e-6:
+        failures.append(f"dambreak: 1 process's checkpoint restarted on 2 ranks: series {gap_two:.3g} from the "
+                        "serial run's")
+    print(f"dambreak on 2 ranks: stopped at step {steps} and restarted on 2 ranks: "
+          f"{'same outputs' if not failures else 'checked'}; on 1 process: series within {gap:.2g}; "
+          f"1 process -> 2 ranks: within {gap_two:.2g}")
+    return failures
 
 
 if __name__ == "__main__":

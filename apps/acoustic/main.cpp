@@ -381,7 +381,7 @@ void run(mps::AcousticSolver& solver, const Options& o, const Start& start, cons
   auto save_solver = [&] { return solver.save_state(); };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     solver.restore_state(restart->at("simulation"));
-    const nlohmann::json& saved = restart->at("scene");
+    const nlohmann::json& saved = checkpoints.scene();
     record.restore_state(saved.at("record"));
     frame = saved.at("frame").get<int>();
     series.restore_state(saved.at("frames"));
@@ -534,7 +534,7 @@ int main(int argc, char** argv) {
                 solver.interior(), solver.particles().size() - solver.interior(), solver.gradient().x.nnz(), config.dt(),
                 cfl_limit, config.cfl);
 
-    Checkpoints checkpoints(o.checkpoints, dir, "acoustic", params, {"/end_time_s"}, false);
+    Checkpoints checkpoints(o.checkpoints, dir, "acoustic", params, {"/end_time_s"});
     if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
       clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json",
                           "last_good.vtp", "config.toml", "checkpoint.cbor"});

@@ -10,11 +10,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
 #include <nlohmann/json.hpp>
+
+#include <mpi.h>
 
 #include "checks.hpp"
 #include "console.hpp"
@@ -61,14 +64,14 @@ class Checkpoints {
   using Clock = std::chrono::steady_clock;
 
   // `params`: the run's parameters as its summary records them; `may_change`: their flattened keys (JSON pointers,
-  // e.g. "/end_time_s") that a restart may give otherwise. On MPI ranks the options are refused (not built yet).
+  // e.g. "/end_time_s") that a restart may give otherwise (the rank count always may). `comm`: the MPI communicator's
+  // handle of a run on ranks, whose ranks then agree on every checkpoint and stop; rank 0 writes the file.
   Checkpoints(const CheckpointOptions& o, std::filesystem::path dir, std::string app, nlohmann::json params,
-              std::set<std::string> may_change, bool on_ranks)
+              std::set<std::string> may_change, std::optional<int> comm = std::nullopt)
       : options_(o), path_(std::move(dir) / "checkpoint.cbor"), app_(std::move(app)), params_(std::move(params)),
-        on_ranks_(on_ranks), last_write_(Clock::now()) {
-    if (on_ranks && (o.every > 0 || o.wall > 0.0 || !o.restart.empty()))
-      throw std::invalid_argument("--checkpoint-every, --checkpoint-wall and --restart run on one process only so "
-                                  "far; run without mpirun");
+        comm_(comm), last_write_(Clock::now()) {
+    if (comm_) MPI_Comm_rank(MPI_Comm_f2c(*comm_), &rank_);
+    may_change.insert("/ranks");
     if (!o.restart.empty()) {
       const nlohmann::json state = mps::read_checkpoint(o.restart);
       const std::string app_of = state.value("app", "");
@@ -78,19 +81,27 @@ class Checkpoints {
       check_same_parameters(state.at("parameters"), may_change);
       restart_ = state;
     }
-    if (!on_ranks) {
-      struct sigaction action {};
-      action.sa_handler = checkpoint_detail::on_stop_signal;
-      sigemptyset(&action.sa_mask);
-      sigaction(SIGTERM, &action, nullptr);
-      sigaction(SIGINT, &action, nullptr);
-    }
+    struct sigaction action {};
+    action.sa_handler = checkpoint_detail::on_stop_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGTERM, &action, nullptr);
+    sigaction(SIGINT, &action, nullptr);
   }
 
   // The checkpoint --restart names, or nullptr.
   [[nodiscard]] const nlohmann::json* restart() const { return restart_.is_null() ? nullptr : &restart_; }
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-  [[nodiscard]] bool on_ranks() const { return on_ranks_; }  // no checkpoints there (yet)
+  [[nodiscard]] bool on_ranks() const { return comm_.has_value(); }
+  // The app's own state in the --restart checkpoint: this rank's part when the run had as many ranks, else rank 0's
+  // (where an app keeps its samplers and tables).
+  [[nodiscard]] const nlohmann::json& scene() const {
+    const nlohmann::json& scene = restart_.at("scene");
+    if (!scene.is_object() || !scene.contains("parts")) return scene;
+    int ranks = 1;
+    if (comm_) MPI_Comm_size(MPI_Comm_f2c(*comm_), &ranks);
+    const nlohmann::json& parts = scene.at("parts");
+    return parts.at(static_cast<int>(parts.size()) == ranks ? static_cast<std::size_t>(rank_) : 0);
+  }
 
   // After each step: writes the checkpoint when one is due and the step continues bitwise (or at once on a second
   // signal, or where reorder_every is 0 and no step would). Throws RunStopped after the write a signal asked for.
@@ -109,29 +120,36 @@ class Checkpoints {
     if (options_.every > 0 && step % options_.every == 0) due_ = true;
     if (options_.wall > 0.0 && std::chrono::duration<double>(Clock::now() - last_write_).count() >= options_.wall)
       due_ = true;
-    const bool stopping = signals_seen > 0;
+    // On ranks a signal or the wall clock may reach one rank a step before another: they agree here.
+    int flags[3] = {signals_seen > 0 ? 1 : 0, signals_seen > 1 ? 1 : 0, due_ ? 1 : 0};
+    if (comm_) MPI_Allreduce(MPI_IN_PLACE, flags, 3, MPI_INT, MPI_MAX, MPI_Comm_f2c(*comm_));
+    const bool stopping = flags[0] != 0, at_once = flags[1] != 0;
+    due_ = flags[2] != 0;
     if (!due_ && !stopping) return;
-    if (wait && signals_seen <= 1) return;
+    if (wait && !at_once) return;
     const auto start = Clock::now();
     write(simulation, scene);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     progress.clear();
-    std::printf("checkpoint: step %d, t = %.6g s, written to %s (%.1f MB in %.2f s)%s\n", step, time,
-                path_.string().c_str(), static_cast<double>(std::filesystem::file_size(path_)) / 1e6, seconds,
-                exact ? "" : " (not at a step that continues bitwise)");
-    if (stopping) throw RunStopped{checkpoint_detail::stop_signal};
+    if (rank_ == 0)
+      std::printf("checkpoint: step %d, t = %.6g s, written to %s (%.1f MB in %.2f s)%s\n", step, time,
+                  path_.string().c_str(), static_cast<double>(std::filesystem::file_size(path_)) / 1e6, seconds,
+                  exact ? "" : " (not at a step that continues bitwise)");
+    if (stopping) throw RunStopped{checkpoint_detail::stop_signal != 0 ? checkpoint_detail::stop_signal : SIGTERM};
   }
 
   // The state now (a guard stop's last good state, or a checkpoint due).
+  // On ranks collective: every rank's state goes to rank 0, which writes the file.
   template <int D>
   void write(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene) {
-    write([&] { return sim.checkpoint(); }, scene);
+    write([&] { return sim.checkpoint(); },
+          [&] { return sim.exchange().gather_states(scene ? scene() : nlohmann::json()); });
   }
   void write(const std::function<nlohmann::json()>& simulation, const std::function<nlohmann::json()>& scene) {
-    mps::write_checkpoint(path_, {{"app", app_},
-                                  {"parameters", params_},
-                                  {"simulation", simulation()},
-                                  {"scene", scene ? scene() : nlohmann::json()}});
+    nlohmann::json state = simulation(), own = scene ? scene() : nlohmann::json();
+    if (rank_ == 0)
+      mps::write_checkpoint(path_, {{"app", app_}, {"parameters", params_}, {"simulation", std::move(state)},
+                                    {"scene", std::move(own)}});
     due_ = false;
     last_write_ = Clock::now();
   }
@@ -157,7 +175,8 @@ class Checkpoints {
   std::filesystem::path path_;
   std::string app_;
   nlohmann::json params_, restart_;
-  bool on_ranks_;
+  std::optional<int> comm_;
+  int rank_ = 0;
   bool due_ = false;
   Clock::time_point last_write_;
 };
@@ -177,6 +196,7 @@ inline int report_stop(const std::filesystem::path& dir, const RunStopped& stop,
 template <int D>
 int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const nlohmann::json& params,
                 const mps::BasicSimulation<D>& sim, const Checkpoints& checkpoints) {
+  if (!sim.exchange().first_process()) return 128 + stop.signal;  // rank 0 reports for all
   write_solves(dir, sim);
   return report_stop(dir, stop, params, sim.last_step().step, sim.time(), checkpoints);
 }

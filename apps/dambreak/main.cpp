@@ -300,9 +300,9 @@ void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
   };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     scene.sim().restore(restart->at("simulation"));
-    const nlohmann::json& saved = restart->at("scene");
+    const nlohmann::json& saved = checkpoints.scene();
     scene.restore_state(saved.at("scene"));
-    series.restore_state(saved.at("frames"));
+    if (root) series.restore_state(saved.at("frames"));  // rank 0 writes the frames and their index
     next_report = saved.at("next_report").template get<double>();
     std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
   } else {
@@ -777,7 +777,8 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
-  Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"}, ranks.distributed());
+  Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params,
+                          {"/end_time_s"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
   // Rank 0 writes every output; the others step with it and join its gathers.
   FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
   if (ranks.root()) {
@@ -793,7 +794,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
     }, checkpoints);
   } catch (const RunStopped& stop) {
     progress.finish(sim.time(), sim.last_step().step);
-    if (experiment) write_box_impact_series(dir, scene);  // the sensors so far
+    if (experiment && ranks.root()) write_box_impact_series(dir, scene);  // the sensors so far
     return report_stop(dir, stop, params, sim, checkpoints);
   } catch (const mps::SimulationError& e) {
     progress.finish(sim.time(), sim.last_step().step);
@@ -853,7 +854,8 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"}, ranks.distributed());
+    Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params,
+                          {"/end_time_s"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     // Rank 0 writes every output; the others step with it and join its gathers.
     FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
     if (ranks.root()) {
@@ -869,7 +871,7 @@ int main(int argc, char** argv) {
       }, checkpoints);
     } catch (const RunStopped& stop) {
       progress.finish(sim.time(), sim.last_step().step);
-      write_series(dir, scene, sim.config().rho);  // the front, levels and pressures so far
+      if (ranks.root()) write_series(dir, scene, sim.config().rho);  // the front, levels and pressures so far
       return report_stop(dir, stop, params, sim, checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(sim.time(), sim.last_step().step);

@@ -108,7 +108,7 @@ void run(fsi::Scene& scene, FrameSeries& series, Progress& progress, double end_
   };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     scene.sim().restore(restart->at("simulation"));
-    const nlohmann::json& saved = restart->at("scene");
+    const nlohmann::json& saved = checkpoints.scene();
     scene.restore_state(saved.at("scene"));
     series.restore_state(saved.at("frames"));
     next_report = saved.at("next_report").get<double>();
@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
          {"solver", {"solver"}},
          {"run", {"end_time_s"}}});
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "fsi", params, {"/end_time_s"}, false);
+    Checkpoints checkpoints(o.checkpoints, dir, "fsi", params, {"/end_time_s"});
     if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
       clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp", "config.toml",
                           "solves.csv", "ppe", "checkpoint.cbor"});

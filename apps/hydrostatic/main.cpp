@@ -113,7 +113,7 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
        {"solver", {"solver"}},
        {"run", {"end_time_s", "window_s", "band_l0"}}});
   const fs::path dir(out);
-  Checkpoints checkpoints(checkpoint_options, dir, "hydrostatic", params, {"/end_time_s"}, false);
+  Checkpoints checkpoints(checkpoint_options, dir, "hydrostatic", params, {"/end_time_s"});
   if (!checkpoints.restart())
     clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp", "config.toml",
                         "solves.csv", "ppe", "checkpoint.cbor"});
@@ -128,9 +128,9 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
   };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     scene.sim().restore(restart->at("simulation"));
-    scene.restore_state(restart->at("scene").at("tank"));
-    series.restore_state(restart->at("scene").at("frames"));
-    next_report = restart->at("scene").at("next_report").get<double>();
+    scene.restore_state(checkpoints.scene().at("tank"));
+    series.restore_state(checkpoints.scene().at("frames"));
+    next_report = checkpoints.scene().at("next_report").get<double>();
     std::printf("restarted from %s at step %d, t = %.4g s\n", checkpoint_options.restart.c_str(),
                 sim.last_step().step, sim.time());
   } else {

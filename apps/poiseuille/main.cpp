@@ -309,7 +309,8 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "initial_guess"}},
          {"run", {"end_time_D_over_U", "average_D_over_U"}}});
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "poiseuille", params, {"/end_time_D_over_U"}, ranks.distributed());
+    Checkpoints checkpoints(o.checkpoints, dir, "poiseuille", params,
+                          {"/end_time_D_over_U"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     // Rank 0 writes every output; the others step with it and join its gathers. A restart keeps what is there.
     if (ranks.root()) {
       if (!checkpoints.restart())
@@ -342,14 +343,14 @@ int main(int argc, char** argv) {
     };
     if (const nlohmann::json* restart = checkpoints.restart()) {
       sim.restore(restart->at("simulation"));
-      const nlohmann::json& scene = restart->at("scene");
+      const nlohmann::json& scene = checkpoints.scene();
       if (plate) plate->restore_state(scene.at("plate"));
       state.table.restore_state(scene.at("table"));
       state.sampler.restore_state(scene.at("sampler"));
       state.profiles_done = scene.at("profiles_done").get<int>();
       state.last = profile_from(scene.at("last"));
       state.frames_written = scene.at("frames_written").get<int>();
-      series.restore_state(scene.at("frames"));
+      if (ranks.root()) series.restore_state(scene.at("frames"));  // rank 0 writes the frames and their index
       std::printf("restarted from %s at step %d, t = %.4g D/U\n", o.checkpoints.restart.c_str(),
                   sim.last_step().step, sim.time() / p.convective_time());
     } else if (o.frames > 0) {

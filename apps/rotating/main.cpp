@@ -167,7 +167,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
                      "reference_number_density"}},
        {"solver", {"solver", "initial_guess"}},
        {"run", {"times_s", "average_fraction"}}});
-  Checkpoints checkpoints(checkpoint_options, dir, "rotating", params, {"/times_s"}, false);
+  Checkpoints checkpoints(checkpoint_options, dir, "rotating", params, {"/times_s"});
   fs::create_directories(dir / "frames");
   mps::PvdSeries series(dir / (rotating::to_string(p.scene) + ".pvd"));
   const double t_end = times.back();
@@ -204,7 +204,7 @@ RunResult run(const rotating::Params& p, const std::vector<double>& times, doubl
   };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     sim.restore(restart->at("simulation"));
-    const nlohmann::json& saved = restart->at("scene");
+    const nlohmann::json& saved = checkpoints.scene();
     escaped_max = saved.at("escaped_max").get<long>();
     frame = saved.at("frame").get<int>();
     series.restore_state(saved.at("frames"));

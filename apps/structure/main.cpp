@@ -213,7 +213,7 @@ double run(mps::ElasticSolid& solid, const Start& start, int frames, const fs::p
   auto save_solid = [&] { return solid.save_state(); };
   if (const nlohmann::json* restart = checkpoints.restart()) {
     solid.restore_state(restart->at("simulation"));
-    const nlohmann::json& saved = restart->at("scene");
+    const nlohmann::json& saved = checkpoints.scene();
     s.restore_state(saved.at("samples"));
     next_frame = saved.at("next_frame").get<int>();
     next_sample = saved.at("next_sample").get<int>();
@@ -419,7 +419,7 @@ int main(int argc, char** argv) {
          {"run", {"end_time_s", "sample_interval_s"}}});
 
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "structure", params, {"/end_time_s"}, false);
+    Checkpoints checkpoints(o.checkpoints, dir, "structure", params, {"/end_time_s"});
     if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
       clear_outputs(dir, {"frames", "structure.pvd", "tip.csv", "energy.csv", "summary.json", "last_good.vtp",
                           "config.toml", "checkpoint.cbor"});

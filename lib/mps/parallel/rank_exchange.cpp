@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "mps/core/state.hpp"
 #include "mps/step/components.hpp"
 #include "mps/step/step.hpp"
 
@@ -64,6 +65,7 @@ void BasicRankExchange<D>::distribute(Particles& particles) {
   const auto start = Clock::now();
   partition_.emplace(comm_, options_.kind_weights);
   const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
+  keep_cut_input(particles);
   stats_.kept_imbalance = stats_.imbalance = stats_.max_imbalance = placed.imbalance;
   count(migrate_particles(particles, placed.destination, comm_));
   stats_.migrate_seconds += seconds_since(start);
@@ -114,6 +116,7 @@ void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   const RcbPartition::Placement placed = partition_->place(particles, options_.rebalance_threshold);
   const double placing = seconds_since(start);
   if (placed.repartitioned) {
+    keep_cut_input(particles);
     ++stats_.repartitions;
     stats_.repartition_seconds += placing;
   } else {
@@ -123,8 +126,9 @@ void BasicRankExchange<D>::migrate_to_partition(Particles& particles) {
   stats_.imbalance = placed.imbalance;
   stats_.max_imbalance = std::max(stats_.max_imbalance, placed.imbalance);
   const ExchangeStats moved = migrate_keeping_order(particles, placed.destination);
-  // A rank that sent as many as it received keeps its count, not its rows: the solver must know either way.
-  renumbered_ = !all(moved.particles_sent == 0 && moved.particles_received == 0);
+  // Told at every placement, as the serial step tells it at every reordering, whether or not a particle moved: a
+  // checkpoint then knows that the step after it sets a kept hierarchy up afresh (renumbers_after).
+  renumbered_ = true;
   stats_.migrated += moved.particles_sent;
   stats_.migrate_seconds += seconds_since(start);
 }
@@ -277,6 +281,79 @@ typename BasicRankExchange<D>::Particles BasicRankExchange<D>::gather(const Part
   const std::vector<int> to_root(all.size(), 0);
   migrate_particles(all, to_root, comm_);
   return all;
+}
+
+template <int D>
+void BasicRankExchange<D>::keep_cut_input(const Particles& particles) {
+  cut_input_ = Particles{};
+  const auto from = particles.positions();
+  const auto to = cut_input_.positions();
+  for (std::size_t a = 0; a < D; ++a) *to[a] = *from[a];
+  cut_input_.id = particles.id;
+  cut_input_.kind = particles.kind;
+}
+
+template <int D>
+nlohmann::json BasicRankExchange<D>::save_state() const {
+  nlohmann::json cut = nlohmann::json::object();
+  static constexpr const char* names[3] = {"x", "y", "z"};
+  const auto r = cut_input_.positions();
+  for (std::size_t a = 0; a < D; ++a) cut[names[a]] = pack_array(*r[a]);
+  cut["id"] = pack_array(cut_input_.id);
+  cut["kind"] = pack_array(cut_input_.kind);
+  return {{"steps", stats_.steps}, {"renumbered", renumbered_}, {"cut_input", cut}};
+}
+
+template <int D>
+void BasicRankExchange<D>::restore_state(const nlohmann::json& state, int steps) {
+  if (state.is_null()) {  // particles distributed afresh (another rank count): new cuts, and a setup afresh
+    stats_.steps = static_cast<std::size_t>(steps);
+    renumbered_ = true;
+    return;
+  }
+  Particles input;
+  static constexpr const char* names[3] = {"x", "y", "z"};
+  const nlohmann::json& cut = state_part(state, "cut_input");
+  const auto r = input.positions();
+  for (std::size_t a = 0; a < D; ++a) unpack_array(cut, names[a], *r[a]);
+  unpack_array(cut, "id", input.id);
+  unpack_array(cut, "kind", input.kind);
+  if (input.id.size() != input.size() || input.kind.size() != input.size())
+    throw std::runtime_error("checkpoint: the kept cuts' input differs in length (a damaged file?)");
+  // The same input on every rank as when the cuts were made gives the same cuts (Zoltan's RCB is deterministic).
+  partition_.emplace(comm_, options_.kind_weights);
+  (void)partition_->repartition(input);
+  cut_input_ = std::move(input);
+  stats_.steps = unpack_value<std::size_t>(state, "steps");
+  renumbered_ = unpack_value<bool>(state, "renumbered");
+}
+
+template <int D>
+bool BasicRankExchange<D>::renumbers_after(int steps, const SimulationConfig&) const {
+  return steps % options_.migrate_every == 0;
+}
+
+template <int D>
+nlohmann::json BasicRankExchange<D>::gather_states(nlohmann::json own) const {
+  const MPI_Comm c = MPI_Comm_f2c(comm_);
+  const std::vector<std::uint8_t> bytes = nlohmann::json::to_cbor(own);
+  int size = static_cast<int>(bytes.size());
+  std::vector<int> sizes(rank_ == 0 ? static_cast<std::size_t>(ranks_) : 0), offsets(sizes.size() + 1, 0);
+  MPI_Gather(&size, 1, MPI_INT, sizes.data(), 1, MPI_INT, 0, c);
+  for (std::size_t q = 0; q < sizes.size(); ++q) offsets[q + 1] = offsets[q] + sizes[q];
+  std::vector<std::uint8_t> all(rank_ == 0 ? static_cast<std::size_t>(offsets.back()) : 0);
+  MPI_Gatherv(bytes.data(), size, MPI_BYTE, all.data(), sizes.data(), offsets.data(), MPI_BYTE, 0, c);
+  if (rank_ != 0) return nullptr;
+  nlohmann::json parts = nlohmann::json::array();
+  for (std::size_t q = 0; q < sizes.size(); ++q)
+    parts.push_back(nlohmann::json::from_cbor(all.begin() + offsets[q], all.begin() + offsets[q + 1], true, true,
+                                              nlohmann::json::cbor_tag_handler_t::store));
+  return {{"ranks", ranks_}, {"parts", std::move(parts)}};
+}
+
+template <int D>
+const nlohmann::json& BasicRankExchange<D>::own_part(const std::vector<const nlohmann::json*>& parts) const {
+  return *parts.at(static_cast<std::size_t>(rank_));
 }
 
 template class BasicRankExchange<2>;

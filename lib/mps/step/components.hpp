@@ -194,6 +194,12 @@ class BasicRemoveEscaped : public BasicStepComponent<D> {
   [[nodiscard]] long removed() const { return removed_; }  ///< fluid particles removed so far
   [[nodiscard]] nlohmann::json save_state() const override { return {{"removed", removed_}}; }  ///< the count
   void restore_state(const nlohmann::json& state) override { removed_ = unpack_value<long>(state, "removed"); }  ///< same
+  /// the counts added up
+  [[nodiscard]] nlohmann::json merge_states(const std::vector<const nlohmann::json*>& parts) const override {
+    long sum = 0;
+    for (const auto* part : parts) sum += unpack_value<long>(*part, "removed");
+    return {{"removed", sum}};
+  }
 
  private:
   Region inside_;
@@ -222,6 +228,12 @@ class BasicWallBackstop : public BasicStepComponent<D> {
   [[nodiscard]] long returned() const { return returned_; }  ///< fluid particles put back so far (one per step each)
   [[nodiscard]] nlohmann::json save_state() const override { return {{"returned", returned_}}; }  ///< the count
   void restore_state(const nlohmann::json& state) override { returned_ = unpack_value<long>(state, "returned"); }  ///< same
+  /// the counts added up
+  [[nodiscard]] nlohmann::json merge_states(const std::vector<const nlohmann::json*>& parts) const override {
+    long sum = 0;
+    for (const auto* part : parts) sum += unpack_value<long>(*part, "returned");
+    return {{"returned", sum}};
+  }
 
  private:
   AxisBox tank_;

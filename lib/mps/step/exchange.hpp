@@ -13,6 +13,7 @@
 #include "mps/core/particles.hpp"
 #include "mps/numerics/ppe.hpp"
 #include "mps/solvers/solver.hpp"
+#include "mps/step/config.hpp"
 
 namespace mps {
 
@@ -92,6 +93,21 @@ class BasicExchange {
   /// that failed, saying which it was, or "" when none did. How an error on one process stops them all.
   [[nodiscard]] virtual std::string first_failure(const std::string& failure) const = 0;
   /// @}
+
+  /// @{ Checkpoints (Simulation::checkpoint, docs/restart.md). The processes' states: on one process `own` itself;
+  /// on ranks {"ranks": P, "parts": [each rank's own]} on rank 0 and null on the others (collective).
+  [[nodiscard]] virtual nlohmann::json gather_states(nlohmann::json own) const = 0;
+  /// This process's part of a checkpoint of as many processes as this run has: `parts[rank]`.
+  [[nodiscard]] virtual const nlohmann::json& own_part(const std::vector<const nlohmann::json*>& parts) const = 0;
+  [[nodiscard]] virtual int processes() const = 0;  ///< how many processes the run has
+  [[nodiscard]] virtual bool first_process() const = 0;  ///< rank 0 (one process: true)
+  /// What the exchange carries from step to step (on ranks: the kept cuts' input and the step count), and back on a
+  /// simulation of the same process count; `state` null (another count): the step count only, after distribute().
+  [[nodiscard]] virtual nlohmann::json save_state() const = 0;
+  virtual void restore_state(const nlohmann::json& state, int steps) = 0;  ///< see save_state()
+  /// Whether the step after `steps` completed ones renumbers the unknowns, and so sets a kept solver setup up afresh.
+  [[nodiscard]] virtual bool renumbers_after(int steps, const SimulationConfig& config) const = 0;
+  /// @}
 };
 
 /// One process: nothing to exchange, the PPE assembled and solved here (assemble_ppe, PpeSystem::scatter).
@@ -123,6 +139,19 @@ class BasicSerialExchange final : public BasicExchange<D> {
   [[nodiscard]] bool all(bool value) const override { return value; }          ///< the value
   [[nodiscard]] long long sum(long long value) const override { return value; }  ///< the value
   [[nodiscard]] std::string first_failure(const std::string& failure) const override { return failure; }  ///< it
+  [[nodiscard]] nlohmann::json gather_states(nlohmann::json own) const override { return own; }  ///< `own`
+  /// the only part
+  [[nodiscard]] const nlohmann::json& own_part(const std::vector<const nlohmann::json*>& parts) const override {
+    return *parts.front();
+  }
+  [[nodiscard]] int processes() const override { return 1; }  ///< one
+  [[nodiscard]] bool first_process() const override { return true; }  ///< it is
+  [[nodiscard]] nlohmann::json save_state() const override { return nullptr; }  ///< nothing
+  void restore_state(const nlohmann::json&, int) override {}  ///< nothing
+  /// the steps that reorder by cell (reorder_every)
+  [[nodiscard]] bool renumbers_after(int steps, const SimulationConfig& config) const override {
+    return config.reorder_every > 0 && steps % config.reorder_every == 0;
+  }
 
  private:
   PpeSystem ppe_;                 // kept between steps for its memory

@@ -12,6 +12,9 @@
 #include <cxxabi.h>
 #include <typeinfo>
 #include <cmath>
+#include <map>
+#include <string_view>
+#include <type_traits>
 #include <sstream>
 #include <utility>
 
@@ -781,7 +784,7 @@ void BasicSimulation<D>::check_guard() const {
 
 template <int D>
 bool BasicSimulation<D>::checkpoint_exact() const {
-  return !solver_->keeps_setup() || reorder_due(config_, info_.step);
+  return !solver_->keeps_setup() || exchange_->renumbers_after(info_.step, config_);
 }
 
 template <int D>
@@ -795,66 +798,124 @@ nlohmann::json BasicSimulation<D>::checkpoint() const {
   for (const auto& component : components_)
     components.push_back({{"type", component_name(*component)}, {"state", component->save_state()}});
   const SolveReport& r = info_.solve;
-  return {{"dim", D},
-          {"step", info_.step},
-          {"time", info_.time},
-          {"dt", info_.dt},
-          {"dt_limit", info_.dt_limit},
-          {"viscosity_iterations", info_.viscosity_iterations},
-          {"unknowns", info_.unknowns},
-          {"free_surface", info_.free_surface},
-          {"floating_groups", info_.floating_groups},
-          {"max_speed", info_.max_speed},
-          {"solve", {{"backend", r.backend}, {"iterations", r.iterations}, {"relative_residual", r.relative_residual},
-                     {"setup_seconds", r.setup_seconds}, {"solve_seconds", r.solve_seconds},
-                     {"setup_reused", r.setup_reused}}},
-          {"phase_seconds", {times_.neighbors, times_.predict, times_.assemble, times_.solver_setup, times_.solve,
-                             times_.correct}},
-          {"exact", checkpoint_exact()},
-          {"particles", std::move(particles)},
-          {"components", std::move(components)},
-          {"solver", {{"spec", solver_->spec()}, {"state", solver_->save_state()}}}};
+  nlohmann::json own = {
+      {"dim", D},
+      {"step", info_.step},
+      {"time", info_.time},
+      {"dt", info_.dt},
+      {"dt_limit", info_.dt_limit},
+      {"viscosity_iterations", info_.viscosity_iterations},
+      {"unknowns", info_.unknowns},
+      {"free_surface", info_.free_surface},
+      {"floating_groups", info_.floating_groups},
+      {"max_speed", info_.max_speed},
+      {"solve", {{"backend", r.backend}, {"iterations", r.iterations}, {"relative_residual", r.relative_residual},
+                 {"setup_seconds", r.setup_seconds}, {"solve_seconds", r.solve_seconds},
+                 {"setup_reused", r.setup_reused}}},
+      {"phase_seconds", {times_.neighbors, times_.predict, times_.assemble, times_.solver_setup, times_.solve,
+                         times_.correct}},
+      {"exact", checkpoint_exact()},
+      {"particles", std::move(particles)},
+      {"components", std::move(components)},
+      {"solver", {{"spec", solver_->spec()}, {"state", solver_->save_state()}}},
+      {"exchange", exchange_->save_state()}};
+  return exchange_->gather_states(std::move(own));
 }
+
+namespace {
+// A checkpoint's parts: one per process of the run that wrote it ({"ranks": P, "parts": [...]}), or itself.
+std::vector<const nlohmann::json*> parts_of(const nlohmann::json& state) {
+  std::vector<const nlohmann::json*> parts;
+  if (!state.contains("parts")) return {&state};
+  const nlohmann::json& all = state_part(state, "parts");
+  if (!all.is_array() || all.empty()) throw std::runtime_error("checkpoint: 'parts' is no list of processes");
+  for (const auto& part : all) parts.push_back(&part);
+  return parts;
+}
+
+// A part's components by type, in order: the k-th component of a type matches the k-th of that type in the part
+// (an app may add a component on one rank only, such as rank 0's solve log).
+const nlohmann::json* matching_component(const nlohmann::json& part, const std::string& type, int occurrence) {
+  const nlohmann::json& list = state_part(part, "components");
+  if (!list.is_array()) throw std::runtime_error("checkpoint: 'components' is not a list (a damaged file?)");
+  for (const auto& entry : list)
+    if (unpack_value<std::string>(entry, "type") == type && occurrence-- == 0) return &state_part(entry, "state");
+  return nullptr;
+}
+
+template <int D>
+BasicParticles<D> unpack_particles(const nlohmann::json& part) {
+  BasicParticles<D> restored;
+  restored.for_each_field([&](const char* name, auto& values) { unpack_array(state_part(part, "particles"), name, values); });
+  bool same_length = true;
+  restored.for_each_field([&](const char*, const auto& values) { same_length &= values.size() == restored.size(); });
+  if (!same_length) throw std::runtime_error("checkpoint: its particle fields differ in length (a damaged file?)");
+  return restored;
+}
+}  // namespace
 
 template <int D>
 void BasicSimulation<D>::restore(const nlohmann::json& state) {
   if (next_stage_ != 0)
     throw std::logic_error("simulation: restore() between steps only; step " + std::to_string(info_.step + 1) +
                            " is open at stage " + to_string(next_stage()));
-  if (dynamic_cast<const BasicSerialExchange<D>*>(exchange_.get()) == nullptr)
-    throw std::logic_error("simulation: restoring a checkpoint on MPI ranks is not built yet; restart on one process");
-  const int dim = unpack_value<int>(state, "dim");
+  const std::vector<const nlohmann::json*> parts = parts_of(state);
+  const bool same_processes = static_cast<int>(parts.size()) == exchange_->processes();
+  const nlohmann::json& mine = same_processes ? exchange_->own_part(parts) : *parts.front();
+  const int dim = unpack_value<int>(mine, "dim");
   if (dim != D)
     throw std::runtime_error("checkpoint: of a " + std::to_string(dim) + "-D run; this simulation is " +
                              std::to_string(D) + "-D");
   // Everything is read and checked before anything is changed: a checkpoint that does not fit leaves the run as it was.
-  const nlohmann::json& saved = state_part(state, "components");
-  if (!saved.is_array()) throw std::runtime_error("checkpoint: 'components' is not a list (a damaged file?)");
-  std::string ours, theirs;
-  for (const auto& component : components_) ours += (ours.empty() ? "" : ", ") + component_name(*component);
-  for (const auto& component : saved) theirs += (theirs.empty() ? "" : ", ") + unpack_value<std::string>(component, "type");
-  if (ours != theirs)
-    throw std::runtime_error("checkpoint: its run had the components [" + theirs + "], this simulation has [" + ours +
-                             "]; build the scene as the checkpointed run did");
+  std::vector<std::vector<const nlohmann::json*>> component_parts(components_.size());
+  {
+    std::map<std::string, int> seen;
+    std::string missing;
+    for (std::size_t c = 0; c < components_.size(); ++c) {
+      const std::string type = component_name(*components_[c]);
+      const int occurrence = seen[type]++;
+      for (const nlohmann::json* part : same_processes ? std::vector<const nlohmann::json*>{&mine} : parts)
+        if (const nlohmann::json* found = matching_component(*part, type, occurrence))
+          component_parts[c].push_back(found);
+      if (component_parts[c].empty() && (same_processes || exchange_->first_process()))
+        missing += (missing.empty() ? "" : ", ") + type;
+    }
+    if (!missing.empty()) {
+      std::string theirs;
+      for (const auto& entry : state_part(mine, "components"))
+        theirs += (theirs.empty() ? "" : ", ") + unpack_value<std::string>(entry, "type");
+      throw std::runtime_error("checkpoint: its run had the components [" + theirs + "], not [" + missing +
+                               "] of this simulation; build the scene as the checkpointed run did");
+    }
+  }
   Particles restored;
-  restored.for_each_field([&](const char* name, auto& values) { unpack_array(state_part(state, "particles"), name, values); });
-  bool same_length = true;
-  restored.for_each_field([&](const char*, const auto& values) { same_length &= values.size() == restored.size(); });
-  if (!same_length) throw std::runtime_error("checkpoint: its particle fields differ in length (a damaged file?)");
-  const nlohmann::json& solver = state_part(state, "solver");
-  const bool same_solver = unpack_value<std::string>(solver, "spec") == solver_->spec();
+  if (same_processes) {
+    restored = unpack_particles<D>(mine);
+  } else {
+    for (const nlohmann::json* part : parts) {  // all of them, in the processes' order; the exchange distributes them
+      const Particles more = unpack_particles<D>(*part);
+      restored.for_each_field([&](const char* name, auto& values) {
+        more.for_each_field([&](const char* other, const auto& theirs) {
+          if constexpr (std::is_same_v<std::decay_t<decltype(values)>, std::decay_t<decltype(theirs)>>)
+            if (std::string_view(name) == other) values.insert(values.end(), theirs.begin(), theirs.end());
+        });
+      });
+    }
+  }
+  const nlohmann::json& solver = state_part(mine, "solver");
+  const bool same_solver = same_processes && unpack_value<std::string>(solver, "spec") == solver_->spec();
 
   particles_ = std::move(restored);
-  info_.step = unpack_value<int>(state, "step");
-  info_.time = unpack_value<double>(state, "time");
-  info_.dt = unpack_value<double>(state, "dt");
-  info_.dt_limit = unpack_value<std::string>(state, "dt_limit");
-  info_.viscosity_iterations = unpack_value<int>(state, "viscosity_iterations");
-  info_.unknowns = unpack_value<std::size_t>(state, "unknowns");
-  info_.free_surface = unpack_value<std::size_t>(state, "free_surface");
-  info_.floating_groups = unpack_value<std::size_t>(state, "floating_groups");
-  info_.max_speed = unpack_value<double>(state, "max_speed");
-  const nlohmann::json& r = state_part(state, "solve");
+  info_.step = unpack_value<int>(mine, "step");
+  info_.time = unpack_value<double>(mine, "time");
+  info_.dt = unpack_value<double>(mine, "dt");
+  info_.dt_limit = unpack_value<std::string>(mine, "dt_limit");
+  info_.viscosity_iterations = unpack_value<int>(mine, "viscosity_iterations");
+  info_.unknowns = unpack_value<std::size_t>(mine, "unknowns");
+  info_.free_surface = unpack_value<std::size_t>(mine, "free_surface");
+  info_.floating_groups = unpack_value<std::size_t>(mine, "floating_groups");
+  info_.max_speed = unpack_value<double>(mine, "max_speed");
+  const nlohmann::json& r = state_part(mine, "solve");
   info_.solve = {};
   info_.solve.backend = unpack_value<std::string>(r, "backend");
   info_.solve.iterations = unpack_value<int>(r, "iterations");
@@ -862,11 +923,24 @@ void BasicSimulation<D>::restore(const nlohmann::json& state) {
   info_.solve.setup_seconds = unpack_value<double>(r, "setup_seconds");
   info_.solve.solve_seconds = unpack_value<double>(r, "solve_seconds");
   info_.solve.setup_reused = unpack_value<bool>(r, "setup_reused");
-  const auto phases = unpack_value<std::vector<double>>(state, "phase_seconds");
+  const auto phases = unpack_value<std::vector<double>>(mine, "phase_seconds");
   if (phases.size() == 6) times_ = {phases[0], phases[1], phases[2], phases[3], phases[4], phases[5]};
-  for (std::size_t c = 0; c < components_.size(); ++c) components_[c]->restore_state(state_part(saved[c], "state"));
-  // Another solver than the checkpointed run's (a restart that changes it) starts afresh.
+  for (std::size_t c = 0; c < components_.size(); ++c) {
+    if (same_processes)
+      components_[c]->restore_state(*component_parts[c].front());
+    else  // rank 0 takes over what every process held; the others start with none of it
+      components_[c]->restore_state(
+          components_[c]->merge_states(exchange_->first_process() ? component_parts[c] : std::vector<const nlohmann::json*>{}));
+  }
+  // Another solver than the checkpointed run's (a restart that changes it), or another process count: afresh.
   if (same_solver) solver_->restore_state(state_part(solver, "state"));
+  if (same_processes) {
+    exchange_->restore_state(mine.contains("exchange") ? mine.at("exchange") : nlohmann::json(), info_.step);
+  } else {
+    exchange_->distribute(particles_);
+    exchange_->restore_state(nullptr, info_.step);
+    solver_->renumbered();
+  }
 }
 
 template double max_fluid_speed_squared(const BasicParticles<2>&);

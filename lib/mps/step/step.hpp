@@ -122,6 +122,11 @@ class BasicStepComponent {
   /// it back into the component of a simulation built as this one was (Simulation::restore).
   [[nodiscard]] virtual nlohmann::json save_state() const { return nullptr; }
   virtual void restore_state(const nlohmann::json& state) { (void)state; }  ///< see save_state()
+  /// The state of one process that takes over what the processes of `parts` held (a restart on another number of
+  /// processes): by default the first part's; counts add up. No parts: a process that starts with none of it.
+  [[nodiscard]] virtual nlohmann::json merge_states(const std::vector<const nlohmann::json*>& parts) const {
+    return parts.empty() ? nlohmann::json() : *parts.front();
+  }
   /// Whether this component reads what `other` writes at a hook they share, and so must run after it: the order
   /// Simulation::add checks (the configuration's own components come first).
   [[nodiscard]] virtual bool runs_after(const BasicStepComponent& other) const {
@@ -186,16 +191,21 @@ class BasicSimulation {
   /// failure rolls back as step() does. Throws std::logic_error for a stage this step has passed.
   void advance_to(Stage last);
   /// The run's state between steps for a checkpoint (write_checkpoint, docs/restart.md): the particles, the step
-  /// count, time and last step's record, the phase times, each component's save_state() and the solver's. Throws
-  /// std::logic_error while a step is open. On ranks each process's own part; the caller gathers.
+  /// count, time and last step's record, the phase times, each component's save_state(), the solver's and the
+  /// exchange's. On ranks collective: rank 0 gets every rank's part ({"ranks": P, "parts": [...]}), the others null.
+  /// Throws std::logic_error while a step is open.
   [[nodiscard]] nlohmann::json checkpoint() const;
   /// Continues from `state`, a checkpoint() of a simulation built as this one was (the same scene, components in the
-  /// same order, the same configuration): the steps that follow repeat the checkpointed run's bitwise when it was
-  /// taken at a checkpoint_exact() step. Throws std::runtime_error naming what does not match (dimension, particle
-  /// fields, components) and std::logic_error while a step is open.
+  /// same order, the same configuration; every process passes the whole checkpoint). On as many processes as the
+  /// checkpointed run the steps that follow repeat its steps bitwise when it was taken at a checkpoint_exact() step.
+  /// On another number (one process from ranks, ranks from one process, 2 from 3, ...) the particles are distributed
+  /// afresh, components merge their parts (merge_states) and the solver starts afresh: the run then agrees with the
+  /// uninterrupted one within the solver's tolerance. Throws std::runtime_error naming what does not match
+  /// (dimension, particle fields, components) and std::logic_error while a step is open. Collective on ranks.
   void restore(const nlohmann::json& state);
   /// Whether a checkpoint taken now continues bitwise: the solver keeps no setup made from an earlier matrix, or the
-  /// next step renumbers the unknowns (reorder_every), which sets it up afresh anyway.
+  /// next step renumbers the unknowns (reorder_every; on ranks the placements, migrate_every), which sets it up afresh
+  /// anyway.
   [[nodiscard]] bool checkpoint_exact() const;
   /// The stage the open step runs next (Stage::exchange when no step is open).
   [[nodiscard]] Stage next_stage() const { return static_cast<Stage>(next_stage_); }

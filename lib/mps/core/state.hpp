@@ -14,9 +14,10 @@
 
 namespace mps {
 
+/// Helpers of pack_array and unpack_array.
 namespace state_detail {
-// The byte string is tagged as an RFC 8746 typed array (little-endian), so that any CBOR reader knows its element
-// type and an array is never read back as another type.
+/// The CBOR tag of an array of T: an RFC 8746 typed array (little-endian), so that any CBOR reader knows its element
+/// type and an array is never read back as another type.
 template <class T>
 constexpr std::uint8_t subtype() {
   if constexpr (std::is_same_v<T, double>) return 86;  // float64

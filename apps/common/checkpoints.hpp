@@ -181,6 +181,29 @@ class Checkpoints {
   Clock::time_point last_write_;
 };
 
+// The state dambreak, fsi and hydrostatic keep beside the simulation: the scene's own (its samples), the frames
+// written and the time of the next progress line.
+template <class Scene>
+nlohmann::json scene_state(const Scene& scene, const FrameSeries& series, double next_report) {
+  return {{"scene", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
+}
+
+// With --restart: the simulation and what scene_state() saved taken back (on ranks only rank 0, `root`, takes the
+// frames: it writes their index); false without one.
+template <class Scene, int D>
+bool restore_scene(const Checkpoints& checkpoints, mps::BasicSimulation<D>& sim, Scene& scene, FrameSeries& series,
+                   double& next_report, bool root = true) {
+  const nlohmann::json* restart = checkpoints.restart();
+  if (restart == nullptr) return false;
+  sim.restore(restart->at("simulation"));
+  const nlohmann::json& saved = checkpoints.scene();
+  scene.restore_state(saved.at("scene"));
+  if (root) series.restore_state(saved.at("frames"));
+  next_report = saved.at("next_report").template get<double>();
+  if (root) std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
+  return true;
+}
+
 // A run stopped by a signal: summary.json as far as it got (and solves.csv, for a simulation), and where its checkpoint
 // is. Returns the exit status, 128 + the signal, as a shell reports a process the signal ended.
 inline int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const nlohmann::json& params,

@@ -295,19 +295,9 @@ void run(Scene& scene, FrameSeries& series, Progress& progress, bool root,
   const auto& sim = scene.sim();
   const double end = scene.params().end_time;
   double next_report = end / 10;
-  const std::function<nlohmann::json()> save = [&]() -> nlohmann::json {
-    return {{"scene", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
-  };
-  if (const nlohmann::json* restart = checkpoints.restart()) {
-    scene.sim().restore(restart->at("simulation"));
-    const nlohmann::json& saved = checkpoints.scene();
-    scene.restore_state(saved.at("scene"));
-    if (root) series.restore_state(saved.at("frames"));  // rank 0 writes the frames and their index
-    next_report = saved.at("next_report").template get<double>();
-    std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
-  } else {
+  const std::function<nlohmann::json()> save = [&] { return scene_state(scene, series, next_report); };
+  if (!restore_scene(checkpoints, scene.sim(), scene, series, next_report, root))
     series.write_if_due(sim.time(), scene.all_particles());
-  }
   try {
     steps(scene, series, progress, root, sampled, checkpoints, save, next_report);
   } catch (const mps::SimulationError&) {

@@ -103,19 +103,8 @@ fsi::Params make_params(const Options& o) {
 void run(fsi::Scene& scene, FrameSeries& series, Progress& progress, double end_time, Checkpoints& checkpoints) {
   const mps::Simulation& sim = scene.sim();
   double next_report = end_time / 10;
-  const std::function<nlohmann::json()> save = [&]() -> nlohmann::json {
-    return {{"scene", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
-  };
-  if (const nlohmann::json* restart = checkpoints.restart()) {
-    scene.sim().restore(restart->at("simulation"));
-    const nlohmann::json& saved = checkpoints.scene();
-    scene.restore_state(saved.at("scene"));
-    series.restore_state(saved.at("frames"));
-    next_report = saved.at("next_report").get<double>();
-    std::printf("restarted at step %d, t = %.4g s\n", sim.last_step().step, sim.time());
-  } else {
-    series.write_if_due(sim);
-  }
+  const std::function<nlohmann::json()> save = [&] { return scene_state(scene, series, next_report); };
+  if (!restore_scene(checkpoints, scene.sim(), scene, series, next_report)) series.write_if_due(sim);
   while (!scene.done()) {
     try {
       scene.step();

@@ -123,19 +123,8 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
   fs::create_directories(dir / "frames");
   FrameSeries series(dir, "tank", frames, p.end_time);
   double next_report = 0.1;
-  auto save = [&]() -> nlohmann::json {
-    return {{"tank", scene.save_state()}, {"frames", series.save_state()}, {"next_report", next_report}};
-  };
-  if (const nlohmann::json* restart = checkpoints.restart()) {
-    scene.sim().restore(restart->at("simulation"));
-    scene.restore_state(checkpoints.scene().at("tank"));
-    series.restore_state(checkpoints.scene().at("frames"));
-    next_report = checkpoints.scene().at("next_report").get<double>();
-    std::printf("restarted from %s at step %d, t = %.4g s\n", checkpoint_options.restart.c_str(),
-                sim.last_step().step, sim.time());
-  } else {
-    series.write_if_due(sim);
-  }
+  const std::function<nlohmann::json()> save = [&] { return scene_state(scene, series, next_report); };
+  if (!restore_scene(checkpoints, scene.sim(), scene, series, next_report)) series.write_if_due(sim);
   Progress progress(p.end_time, "s");
   try {
     while (!scene.done()) {

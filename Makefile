@@ -260,7 +260,7 @@ rotating: deps build/release/CMakeCache.txt
 	  --reference bench/results/rotating_reference.csv \
 	  runs/rotating/channel/moving runs/rotating/channel/fixed
 
-# Elastic structures (seed 003 §2.2): the plate at H/10 and CSM3 at H/5 with their default outputs (about a minute);
+# Elastic structures (seed 003 §2.2): the plate and CSM3 at H/10 with their default outputs (about 2.5 minutes);
 # bench-structure runs docs/structures.md's study (three spacings each, the hourglass sweep, speed; ~25 min).
 structure: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target structure

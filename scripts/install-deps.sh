@@ -13,7 +13,7 @@ packages=(
   libtrilinos-zoltan-dev # Zoltan's RCB partition of particles over MPI ranks (mps/parallel/distributed.hpp)
   libpetsc-real-dev      # PETSc's KSP behind the registry (the petsc solver)
   libgtest-dev
-  libcli11-dev nlohmann-json3-dev
+  libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   zlib1g-dev             # the .vtp frames' compression
   libpng-dev             # the acoustic app's pressure maps
   python3-vtk9           # VTK's own reader in the frame tests and scripts/compare_results.py

@@ -89,7 +89,7 @@ def round_trip(build, tmp, failures, dim=2):
         keys = sorted(k for k in set(summary) | set(summary2) if summary.get(k) != summary2.get(k))
         failures.append(f"round trip: the summaries differ in {keys}")
     config = (tmp / f"from-file{dim}" / "config.toml").read_text()
-    if f'particles="{tmp / f"{name}.csv"}"' not in config.splitlines():
+    if f'particles = "../{name}.csv"' not in config.splitlines():  # relative to the file's folder
         failures.append("config.toml does not record the particle file")
     if summary2["parameters"]["column"] != name:
         failures.append(f"round trip: ran as {summary2['parameters']['column']}, not {name}")

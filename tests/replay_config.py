@@ -38,9 +38,10 @@ CASES = {
     "dambreak-particles": "--particles {tmp}/classic.csv --end-time 0.02 --frames 2 --gamma 0.05",
 }
 APP = {"dambreak-particles": "dambreak", "dambreak-3d": "dambreak", "rotating-3d": "rotating"}  # a case's app, where the case is not named after it
-FLAGS = {"poiseuille": "cold-start=true", "rotating": "lattice-reference=true", "dambreak": "wet-walls=true",
-         "dambreak-3d": "wet-walls=true",
-         "acoustic": "no-maps=true", "dambreak-particles": 'particles="{tmp}/classic.csv"'}
+# A line each case's config.toml must hold: a switch given, and a path relative to the file's folder (tmp/CASE/first/).
+FLAGS = {"poiseuille": "cold-start = true", "rotating": "lattice-reference = true", "dambreak": "wet-walls = true",
+         "dambreak-3d": "wet-walls = true",
+         "acoustic": "no-maps = true", "dambreak-particles": 'particles = "../../classic.csv"'}
 
 
 def run(build, app, args, out):
@@ -152,8 +153,8 @@ def main():
                 keys = sorted(k for k in set(summary) | set(summary2) if summary.get(k) != summary2.get(k))
                 failures.append(f"{app}: summary differs on replay in {keys}")
             replayed = (again / "config.toml").read_text()
-            if [l for l in text.splitlines() if not l.startswith("out=")] != \
-                    [l for l in replayed.splitlines() if not l.startswith("out=")]:
+            if [l for l in text.splitlines() if not l.startswith("out = ")] != \
+                    [l for l in replayed.splitlines() if not l.startswith("out = ")]:
                 failures.append(f"{app}: the replay's config.toml differs from the first run's")
             print(f"{case}: exit {status}, {len(files)} files and the summary the same on replay")
         # --help in groups: no option of any app left in CLI11's catch-all "Options" (apps/common/help.hpp).
@@ -173,7 +174,7 @@ def main():
         failures += schema_errors("poiseuille", args, stopped, status) if status == 1 else [f"no guard stop: {status}"]
         # A key the app does not know is an error naming it, not a silent default.
         bad = Path(tmp) / "bad.toml"
-        bad.write_text((Path(tmp) / "poiseuille" / "first" / "config.toml").read_text() + "gama=0.5\n")
+        bad.write_text((Path(tmp) / "poiseuille" / "first" / "config.toml").read_text() + "gama = 0.5\n")
         status, err = run(build, "poiseuille", ["--config", str(bad)], Path(tmp) / "bad")
         if status == 0 or "gama" not in err:
             failures.append(f"a misspelt key was accepted (exit {status}): {err[-300:]}")

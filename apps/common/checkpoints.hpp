@@ -52,9 +52,15 @@ struct RunStopped {
 
 namespace checkpoint_detail {
 inline volatile std::sig_atomic_t stop_signal = 0, signals_seen = 0;
+// The first signal asks for a checkpoint at the next exact step, the second for one at once; the third ends the
+// process as if no handler were there (a run stuck in a long solve).
 extern "C" inline void on_stop_signal(int signal) {
   stop_signal = signal;
   signals_seen = signals_seen + 1;
+  if (signals_seen >= 3) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  }
 }
 inline const char* signal_name(int signal) { return signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "a signal"; }
 }  // namespace checkpoint_detail

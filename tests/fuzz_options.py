@@ -127,7 +127,7 @@ def special_inputs(build, tmp):
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]
         for k, (text, said) in enumerate(configs):
-            path = tmp / f"{app}-{k}.toml"
+            path = good / f"{app}-{k}.toml"  # beside the original: its paths are relative to the file's folder
             path.write_bytes(text.encode("utf-8"))
             cases.append((["--config", str(path), "--out", str(tmp / f"{app}-config-{k}")], said))
         for args, said in cases:

@@ -62,7 +62,9 @@ extern "C" inline void on_stop_signal(int signal) {
     std::raise(signal);
   }
 }
-inline const char* signal_name(int signal) { return signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "a signal"; }
+inline const char* signal_name(int signal) {
+  return signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "a signal";
+}
 }  // namespace checkpoint_detail
 
 class Checkpoints {
@@ -112,7 +114,8 @@ class Checkpoints {
   // After each step: writes the checkpoint when one is due and the step continues bitwise (or at once on a second
   // signal, or where reorder_every is 0 and no step would). Throws RunStopped after the write a signal asked for.
   template <int D>
-  void after_step(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene, Progress& progress) {
+  void after_step(const mps::BasicSimulation<D>& sim, const std::function<nlohmann::json()>& scene,
+                  Progress& progress) {
     // Without reorderings no later step would be exact: then the checkpoint is written where it falls due.
     const bool exact = sim.checkpoint_exact();
     after_step(sim.last_step().step, sim.time(), exact, !exact && sim.config().reorder_every > 0,

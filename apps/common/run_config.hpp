@@ -65,7 +65,8 @@ class StrictConfig : public CLI::ConfigBase {
           for (const std::string& g : groups) known += (known.empty() ? "[" : ", [") + g + "]";
           fail(node, "[" + std::string(key.str()) + "] is no group of this app's options (" + known + ")");
         }
-        for (auto&& [inner, value] : *section) add(read, first_line, std::string(key.str()), std::string(inner.str()), value);
+        for (auto&& [inner, value] : *section)
+          add(read, first_line, std::string(key.str()), std::string(inner.str()), value);
       } else {
         add(read, first_line, "", std::string(key.str()), node);
       }

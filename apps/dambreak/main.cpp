@@ -767,8 +767,8 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
-  Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params,
-                          {"/end_time_s"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+  Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"},
+                          ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
   // Rank 0 writes every output; the others step with it and join its gathers.
   FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
   if (ranks.root()) {
@@ -844,8 +844,8 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params,
-                          {"/end_time_s"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+    Checkpoints checkpoints(o.checkpoints, dir, "dambreak", params, {"/end_time_s"},
+                          ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     // Rank 0 writes every output; the others step with it and join its gathers.
     FrameSeries series(dir, "dambreak", ranks.root() ? o.frames : 0, p.end_time);
     if (ranks.root()) {

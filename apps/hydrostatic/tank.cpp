@@ -105,15 +105,8 @@ nlohmann::json BasicTank<D>::save_state() const {
 
 template <int D>
 void BasicTank<D>::restore_state(const nlohmann::json& state) {
-  std::vector<double> sum;
-  std::vector<int> samples;
-  mps::unpack_array(state, "sum", sum);
-  mps::unpack_array(state, "samples", samples);
-  if (sum.size() != sum_.size() || samples.size() != samples_.size())
-    throw std::runtime_error("checkpoint: " + std::to_string(sum.size()) + " pressure bands, this tank has " +
-                             std::to_string(sum_.size()));
-  sum_ = std::move(sum);
-  samples_ = std::move(samples);
+  mps::unpack_array_same_size(state, "sum", sum_);
+  mps::unpack_array_same_size(state, "samples", samples_);
 }
 
 template <int D>

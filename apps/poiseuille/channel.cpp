@@ -238,15 +238,8 @@ nlohmann::json ProfileSampler::save_state() const {
 }
 
 void ProfileSampler::restore_state(const nlohmann::json& state) {
-  std::vector<double> sum;
-  std::vector<long> count;
-  mps::unpack_array(state, "sum", sum);
-  mps::unpack_array(state, "count", count);
-  if (sum.size() != sum_.size() || count.size() != count_.size())
-    throw std::runtime_error("checkpoint: the profile sampler has " + std::to_string(sum.size()) + " rows, this channel " +
-                             std::to_string(sum_.size()));
-  sum_ = std::move(sum);
-  count_ = std::move(count);
+  mps::unpack_array_same_size(state, "sum", sum_);
+  mps::unpack_array_same_size(state, "count", count_);
   samples_ = mps::unpack_value<int>(state, "samples");
   max_abs_v_ = mps::unpack_value<double>(state, "max_abs_v");
 }

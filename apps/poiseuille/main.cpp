@@ -309,8 +309,8 @@ int main(int argc, char** argv) {
          {"solver", {"solver", "initial_guess"}},
          {"run", {"end_time_D_over_U", "average_D_over_U"}}});
     const fs::path dir(o.out);
-    Checkpoints checkpoints(o.checkpoints, dir, "poiseuille", params,
-                          {"/end_time_D_over_U"}, ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
+    Checkpoints checkpoints(o.checkpoints, dir, "poiseuille", params, {"/end_time_D_over_U"},
+                          ranks.distributed() ? std::optional<int>(ranks.comm()) : std::nullopt);
     // Rank 0 writes every output; the others step with it and join its gathers. A restart keeps what is there.
     if (ranks.root()) {
       if (!checkpoints.restart())

@@ -566,7 +566,8 @@ void AcousticSolver::restore_state(const nlohmann::json& state) {
   if (pulses.size() % 5 != 0) throw std::runtime_error("checkpoint: the pulses do not add up (a damaged file?)");
   const double time = unpack_value<double>(state, "time");
   const int steps = unpack_value<int>(state, "steps");
-  const double sqrt_sum = unpack_value<double>(state, "sqrt_energy_sum"), injected = unpack_value<double>(state, "injected_energy");
+  const double sqrt_sum = unpack_value<double>(state, "sqrt_energy_sum");
+  const double injected = unpack_value<double>(state, "injected_energy");
   state_ = std::move(fields);
   pulses_.clear();
   for (std::size_t k = 0; k < pulses.size(); k += 5)

@@ -53,6 +53,18 @@ void unpack_array(const nlohmann::json& state, std::string_view key, std::vector
   if (!out.empty()) std::memcpy(out.data(), bin.data(), bin.size());
 }
 
+/// unpack_array into `out`, refusing an array of another length than out's (a checkpoint of a scene of another size);
+/// `out` is left as it was when refused.
+template <class T>
+void unpack_array_same_size(const nlohmann::json& state, std::string_view key, std::vector<T>& out) {
+  std::vector<T> read;
+  unpack_array(state, key, read);
+  if (read.size() != out.size())
+    throw std::runtime_error("checkpoint: array '" + std::string(key) + "' holds " + std::to_string(read.size()) +
+                             " values, this run has " + std::to_string(out.size()) + " (a scene of another size?)");
+  out = std::move(read);
+}
+
 /// `state[key]`, a part of the tree; throws std::runtime_error naming the key when it is missing.
 inline const nlohmann::json& state_part(const nlohmann::json& state, std::string_view key) {
   const auto found = state.find(std::string(key));
@@ -73,6 +85,13 @@ T unpack_value(const nlohmann::json& state, std::string_view key) {
   } catch (const nlohmann::json::exception&) {
     throw std::runtime_error("checkpoint: value '" + name + "' is of another type");
   }
+}
+
+/// A count each process kept (fluid removed, ...) added up over `parts`, for merge_states: {key: the sum}.
+inline nlohmann::json summed(const std::vector<const nlohmann::json*>& parts, std::string_view key) {
+  long sum = 0;
+  for (const auto* part : parts) sum += unpack_value<long>(*part, key);
+  return {{std::string(key), sum}};
 }
 
 }  // namespace mps

@@ -196,9 +196,7 @@ class BasicRemoveEscaped : public BasicStepComponent<D> {
   void restore_state(const nlohmann::json& state) override { removed_ = unpack_value<long>(state, "removed"); }  ///< same
   /// the counts added up
   [[nodiscard]] nlohmann::json merge_states(const std::vector<const nlohmann::json*>& parts) const override {
-    long sum = 0;
-    for (const auto* part : parts) sum += unpack_value<long>(*part, "removed");
-    return {{"removed", sum}};
+    return summed(parts, "removed");
   }
 
  private:
@@ -230,9 +228,7 @@ class BasicWallBackstop : public BasicStepComponent<D> {
   void restore_state(const nlohmann::json& state) override { returned_ = unpack_value<long>(state, "returned"); }  ///< same
   /// the counts added up
   [[nodiscard]] nlohmann::json merge_states(const std::vector<const nlohmann::json*>& parts) const override {
-    long sum = 0;
-    for (const auto* part : parts) sum += unpack_value<long>(*part, "returned");
-    return {{"returned", sum}};
+    return summed(parts, "returned");
   }
 
  private:

@@ -71,6 +71,8 @@ struct SimulationConfig {
   bool shift_along_free_surface = false;
   bool clamp_negative_pressure = true;  ///< P < 0 -> 0 where the fluid touches a free surface (see PpeSystem::scatter)
   int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
+  /// Whether the step after `steps` completed ones puts the particles in cell order (every reorder_every-th).
+  [[nodiscard]] bool reorders_after(int steps) const { return reorder_every > 0 && steps % reorder_every == 0; }
   double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]
   /// The host program's option for the time step, named in the guard's advice (e.g. --dt-factor).

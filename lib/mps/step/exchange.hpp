@@ -150,7 +150,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void restore_state(const nlohmann::json&, int) override {}  ///< nothing
   /// the steps that reorder by cell (reorder_every)
   [[nodiscard]] bool renumbers_after(int steps, const SimulationConfig& config) const override {
-    return config.reorder_every > 0 && steps % config.reorder_every == 0;
+    return config.reorders_after(steps);
   }
 
  private:

@@ -121,10 +121,6 @@ Kernel pressure_kernel_of(Kernel laplacian, bool higher_order) {
   return laplacian;
 }
 
-// The step at which particles are put in cell order: by the step serially, by the exchange on ranks.
-bool reorder_due(const SimulationConfig& config, int step) {
-  return config.reorder_every > 0 && step % config.reorder_every == 0;
-}
 }  // namespace
 
 template <int D>
@@ -400,7 +396,7 @@ void BasicSimulation<D>::begin_exchange() {
   // max_displacement in the step.
   const double kernels = config_.l0 * config_.largest_radius();
   const double reach = std::max(kernels, components_reach()) + 2.0 * config_.max_displacement * config_.l0;
-  const bool reorder = reorder_due(config_, info_.step);
+  const bool reorder = config_.reorders_after(info_.step);
   exchange_->begin_step(particles_, domain_, reach, reorder ? grid_.cell_size() : 0.0);
   if (reorder) solver_->renumbered();  // the particles, and with them the PPE's rows, are put in cell order
 }
@@ -425,7 +421,7 @@ void BasicSimulation<D>::choose_time_step() {
 template <int D>
 void BasicSimulation<D>::find_neighbors_now() {
   Particles& p = particles_;
-  if (exchange_->reorders() && reorder_due(config_, info_.step)) {
+  if (exchange_->reorders() && config_.reorders_after(info_.step)) {
     grid_.bin(p);
     p.permute(grid_.cell_order());
   }
@@ -905,26 +901,29 @@ void BasicSimulation<D>::restore(const nlohmann::json& state) {
   const nlohmann::json& solver = state_part(mine, "solver");
   const bool same_solver = same_processes && unpack_value<std::string>(solver, "spec") == solver_->spec();
 
-  particles_ = std::move(restored);
-  info_.step = unpack_value<int>(mine, "step");
-  info_.time = unpack_value<double>(mine, "time");
-  info_.dt = unpack_value<double>(mine, "dt");
-  info_.dt_limit = unpack_value<std::string>(mine, "dt_limit");
-  info_.viscosity_iterations = unpack_value<int>(mine, "viscosity_iterations");
-  info_.unknowns = unpack_value<std::size_t>(mine, "unknowns");
-  info_.free_surface = unpack_value<std::size_t>(mine, "free_surface");
-  info_.floating_groups = unpack_value<std::size_t>(mine, "floating_groups");
-  info_.max_speed = unpack_value<double>(mine, "max_speed");
+  StepInfo info;
+  info.step = unpack_value<int>(mine, "step");
+  info.time = unpack_value<double>(mine, "time");
+  info.dt = unpack_value<double>(mine, "dt");
+  info.dt_limit = unpack_value<std::string>(mine, "dt_limit");
+  info.viscosity_iterations = unpack_value<int>(mine, "viscosity_iterations");
+  info.unknowns = unpack_value<std::size_t>(mine, "unknowns");
+  info.free_surface = unpack_value<std::size_t>(mine, "free_surface");
+  info.floating_groups = unpack_value<std::size_t>(mine, "floating_groups");
+  info.max_speed = unpack_value<double>(mine, "max_speed");
   const nlohmann::json& r = state_part(mine, "solve");
-  info_.solve = {};
-  info_.solve.backend = unpack_value<std::string>(r, "backend");
-  info_.solve.iterations = unpack_value<int>(r, "iterations");
-  info_.solve.relative_residual = unpack_value<double>(r, "relative_residual");
-  info_.solve.setup_seconds = unpack_value<double>(r, "setup_seconds");
-  info_.solve.solve_seconds = unpack_value<double>(r, "solve_seconds");
-  info_.solve.setup_reused = unpack_value<bool>(r, "setup_reused");
+  info.solve.backend = unpack_value<std::string>(r, "backend");
+  info.solve.iterations = unpack_value<int>(r, "iterations");
+  info.solve.relative_residual = unpack_value<double>(r, "relative_residual");
+  info.solve.setup_seconds = unpack_value<double>(r, "setup_seconds");
+  info.solve.solve_seconds = unpack_value<double>(r, "solve_seconds");
+  info.solve.setup_reused = unpack_value<bool>(r, "setup_reused");
   const auto phases = unpack_value<std::vector<double>>(mine, "phase_seconds");
-  if (phases.size() == 6) times_ = {phases[0], phases[1], phases[2], phases[3], phases[4], phases[5]};
+  if (phases.size() != 6) throw std::runtime_error("checkpoint: 'phase_seconds' holds no six phases (a damaged file?)");
+
+  particles_ = std::move(restored);
+  info_ = std::move(info);
+  times_ = {phases[0], phases[1], phases[2], phases[3], phases[4], phases[5]};
   for (std::size_t c = 0; c < components_.size(); ++c) {
     if (same_processes)
       components_[c]->restore_state(*component_parts[c].front());

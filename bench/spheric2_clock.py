@@ -32,7 +32,7 @@ import spheric2_front as front  # noqa: E402  the column, its tank and its numer
 H4_FROM_BACK_WALL = 3.22 - 2.638  # [m] the record's H4, from the tank's wall behind the column
 RECORD = ROOT / "data" / "dambreak" / "spheric2_p1_h2_h4.csv"
 FIT_WINDOW = (0.1, 0.4)           # [s] before H4 meets any wave reflected from the box or a wall
-GAUGE_FLOOR_REACH, GAUGE_GAP = 1.5, 2.0  # [l0] as apps/dambreak/box_impact.cpp's water_height
+GAUGE_FLOOR_REACH, GAUGE_GAP = 1.5, 2.0  # [l0] as mps::water_level's wire (lib/mps/io/probes.cpp)
 
 
 def record():

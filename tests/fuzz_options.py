@@ -123,6 +123,13 @@ def special_inputs(build, tmp):
         cases += [(["--dim", "3", "--out", str(tmp / "d3")],
                    None if app in ("hydrostatic", "dambreak", "rotating") else "this app is 2-D only"),
                   (["--dim", "2", "--out", str(tmp / "d2")], None)]
+        if app in ("dambreak", "fsi", "hydrostatic"):  # a probe file that is none, or a TOML file of no probes
+            (tmp / "no_probes.toml").write_text("interval = 0.01\n")
+            cases += [(["--probes", "/dev/zero", "--out", str(tmp / "p")], "not a regular file"),
+                      (["--probes", "", "--out", str(tmp / "p")], "empty"),
+                      (["--probes", str(tmp / "a_file"), "--out", str(tmp / "p")], "a_file, line 1"),
+                      (["--probes", str(tmp / "no_probes.toml"), "--out", str(tmp / "p")],
+                       "lists its probes as [[probe]] tables")]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]
@@ -141,7 +148,7 @@ def special_inputs(build, tmp):
                                 f"{proc.stderr[-300:]!r}")
         if not Path("/dev/full").is_char_device():
             failures.append(f"{app} replaced /dev/full")
-    print(f"special paths, --dim and damaged config files: {count} cases")
+    print(f"special paths, --dim, probe files and damaged config files: {count} cases")
     return failures
 
 

@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """Checkpoint and restart of the apps (docs/restart.md). For each app, a run stopped by SIGTERM writes its checkpoint
 and exits 128 + 15; restarted from it, it must write what the uninterrupted run writes, bit for bit: every frame,
-table and index, solves.csv but for its timings, summary.json but for its timings and run record. A run with
---checkpoint-every restarted from its last checkpoint must match too, and a restart with other parameters, or from
-a file that is no checkpoint, is refused naming why.
+table and index (probes.csv of the runs with --probes too), solves.csv but for its timings, summary.json but for its
+timings and run record. A run with --checkpoint-every restarted from its last checkpoint must match too, and a
+restart with other parameters, or from a file that is no checkpoint, is refused naming why.
 
   tests/restart_apps.py BUILD_DIR [APP]   (APP: only that app's cases)
 """
@@ -27,9 +27,10 @@ import numpy as np
 APPS = [
     ("poiseuille", "--across 10 --end-time 6 --frames 12", "--across 12 --end-time 6 --frames 12"),
     ("hydrostatic", "--end-time 0.5 --frames 10", "--dx 0.02 --end-time 0.5 --frames 10"),
-    ("hydrostatic", "--dim 3 --end-time 0.15 --window 0.05 --frames 6",
-     "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --gamma 0.5"),
-    ("dambreak", "--end-time 0.1 --frames 6", "--end-time 0.1 --frames 6 --cfl 0.1"),
+    ("hydrostatic", "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --probes {examples}/probes/tank_3d.toml",
+     "--dim 3 --end-time 0.15 --window 0.05 --frames 6 --gamma 0.5 --probes {examples}/probes/tank_3d.toml"),
+    ("dambreak", "--end-time 0.1 --frames 6 --probes {examples}/probes/dambreak_classic.toml",
+     "--end-time 0.1 --frames 6 --cfl 0.1 --probes {examples}/probes/dambreak_classic.toml"),
     ("dambreak", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6", "--dim 3 --dx 0.05 --end-time 0.1 --frames 6 --gamma 0.1"),
     ("rotating", "--scene couette --across 14 --times 0.1,0.4 --frames 8",
      "--scene couette --across 16 --times 0.1,0.4 --frames 8"),
@@ -42,7 +43,8 @@ APPS = [
     ("structure", "--end-time 0.2 --frames 10", "--end-time 0.2 --frames 10 --model linear"),
     ("structure", "--scene csm3 --dx 0.004 --end-time 0.3 --frames 10",
      "--scene csm3 --dx 0.004 --end-time 0.3 --frames 10 --cfl 0.2"),
-    ("fsi", "--dx 0.004 --end-time 0.22 --frames 5", "--dx 0.004 --end-time 0.22 --frames 5 --relaxation 0.5"),
+    ("fsi", "--dx 0.004 --end-time 0.22 --frames 5 --probes {examples}/probes/fsi_plate.toml",
+     "--dx 0.004 --end-time 0.22 --frames 5 --relaxation 0.5 --probes {examples}/probes/fsi_plate.toml"),
     ("fsi", "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5",
      "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5 --modulus 5e6"),
 ]
@@ -52,8 +54,12 @@ EVERY = {"structure": "1000"}  # steps between checkpoints (10 for the others): 
 SUMMARY_SKIP = {"timings", "run", "particle_steps_per_s"}
 
 
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
 def command(build, app, args, out, *extra):
-    return [str(Path(build) / "apps" / app / app), *args.split(), "--out", str(out), *extra]
+    """The app's command line; {examples} in args is the examples folder (the probe files)."""
+    return [str(Path(build) / "apps" / app / app), *args.format(examples=EXAMPLES).split(), "--out", str(out), *extra]
 
 
 def comparable(path):

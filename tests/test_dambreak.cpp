@@ -16,25 +16,10 @@ TEST(DamBreak, FrontAndLevelOfTheStandingColumnAreItsWidthAndHeight) {
   const dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
   mps::Particles s = dambreak::make_particles(p);
   EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width, 1e-12);
-  EXPECT_NEAR(dambreak::water_level(s, 0.5 * p.width, p.l0), p.height, 1e-12);
-  EXPECT_EQ(dambreak::water_level(s, 2.0 * p.width, p.l0), 0.0);  // dry floor
+  EXPECT_NEAR(mps::water_level<2>(s, {0.5 * p.width, 0.0}, p.l0), p.height, 1e-12);
+  EXPECT_EQ(mps::water_level<2>(s, {2.0 * p.width, 0.0}, p.l0), 0.0);  // dry floor
   s.add(3 * p.width, 0.5 * p.height, mps::Kind::fluid);            // a lone drop ahead is spray, not the front
   EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width, 1e-12);
-}
-
-TEST(DamBreak, PatchPressureIsTheMeanOfTheWallAndFluidWithinTheRadius) {
-  mps::Particles s;
-  s.add(0.0, 0.0, mps::Kind::wall);
-  s.add(0.1, 0.0, mps::Kind::fluid);
-  s.add(0.0, 0.3, mps::Kind::fluid);  // outside the patch
-  s.add(0.0, 0.1, mps::Kind::dummy);  // dummies carry no pressure of their own
-  s.p = {10.0, 20.0, 1000.0, 5000.0};
-  EXPECT_DOUBLE_EQ(dambreak::patch_pressure(s, 0.0, 0.0, 0.2), 15.0);
-  // A sensor 0.6 high reaching 0.2 from the wall line takes the fluid at (0, 0.3) too, and leaves out what is further
-  // from the wall than 0.2 even within its height.
-  s.add(0.25, 0.0, mps::Kind::fluid);
-  s.p.back() = 7.0e4;
-  EXPECT_DOUBLE_EQ(dambreak::patch_pressure(s, 0.0, 0.0, 0.2, 0.3), (10.0 + 20.0 + 1000.0) / 3);
 }
 
 // Samples of a front that is exactly the data, or 2 % ahead of it: the error is 0 or 0.02 at the worst point.

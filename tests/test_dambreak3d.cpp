@@ -59,8 +59,8 @@ TEST(DamBreak3d, ParticlesAreTheColumnTheTankAndTheBox) {
   }
   EXPECT_EQ(box_dummies, (nx - 2) * (ny - 2) * (nz - 1));
   EXPECT_EQ(box_walls, nx * ny * nz - box_dummies);
-  EXPECT_NEAR(dambreak::water_height(s, 2.638, 0.5, l0), g.column.z1, 1e-12);
-  EXPECT_EQ(dambreak::water_height(s, 0.992, 0.5, l0), 0.0);
+  EXPECT_NEAR(mps::water_level<3>(s, {2.638, 0.5, 0.0}, l0, mps::LevelMethod::wire), g.column.z1, 1e-12);
+  EXPECT_EQ(mps::water_level<3>(s, {0.992, 0.5, 0.0}, l0, mps::LevelMethod::wire), 0.0);
 }
 
 // A file's 3-D scene: SPHERIC Test 2's own particles, in any order, are the experiment; any other file is a new tank
@@ -123,37 +123,6 @@ TEST(DamBreak3d, AParticleFileIsTheExperimentOrANewTankWithItsObstacles) {
   EXPECT_THROW(dambreak::box_impact_from_particles(s, 0.06, options), std::invalid_argument);  // not the file's spacing
 }
 
-// A gauge reads the water standing on the floor under it, as a wave probe reads the wetted length of its wire: a
-// column 6 spacings high reads its height whether or not a sheet of water flies 3 spacings above it, and a column
-// jittered by up to 0.3 l0 reads its top particle's height; over a dry floor a sheet reads 0, and a one-layer film
-// reads l0.
-TEST(DamBreak3d, GaugeReadsTheWaterStandingOnTheFloorNotASheetAboveIt) {
-  const double l0 = 0.05;
-  const auto block = [&](mps::Particles3& s, double z0, int layers) {
-    mps::fill_box(s, {0.0, 0.0, z0, 10 * l0, 10 * l0, z0 + layers * l0}, l0, mps::Kind::fluid);
-  };
-  const double x = 5 * l0, y = 5 * l0;  // between four columns of the lattice
-  mps::Particles3 column;
-  block(column, 0.0, 6);
-  EXPECT_NEAR(dambreak::water_height(column, x, y, l0), 6 * l0, 1e-12);
-  mps::Particles3 with_sheet = column;
-  block(with_sheet, 9 * l0, 1);
-  EXPECT_NEAR(dambreak::water_height(with_sheet, x, y, l0), 6 * l0, 1e-12);
-  mps::Particles3 jittered = column;
-  std::mt19937 random(7);
-  std::uniform_real_distribution<double> jitter(-0.3 * l0, 0.3 * l0);
-  for (std::size_t i = 0; i < jittered.size(); ++i) jittered.z[i] += jitter(random);
-  double top = 0.0;
-  for (std::size_t i = 0; i < jittered.size(); ++i)
-    if (std::hypot(jittered.x[i] - x, jittered.y[i] - y) < l0) top = std::max(top, jittered.z[i]);
-  EXPECT_NEAR(dambreak::water_height(jittered, x, y, l0), top + 0.5 * l0, 1e-12);
-  mps::Particles3 sheet_only, film;
-  block(sheet_only, 9 * l0, 1);
-  EXPECT_EQ(dambreak::water_height(sheet_only, x, y, l0), 0.0);
-  block(film, 0.0, 1);
-  EXPECT_NEAR(dambreak::water_height(film, x, y, l0), l0, 1e-12);
-}
-
 // A sensor averages the wall and fluid particles within its patch on its face: a pressure linear across the tank (y)
 // averages to its value at the sensor on the front face (the box is symmetric about the sensors' y = 0.5); dummies,
 // particles off the face and beyond the reach do not count.
@@ -174,12 +143,12 @@ TEST(DamBreak3d, SensorPressureIsTheMeanOverItsPatchOnTheFace) {
   }
   for (const dambreak::Sensor& sensor : sensors.pressure) {
     if (sensor.face != "front") continue;
-    EXPECT_NEAR(dambreak::box_face_pressure(s, g, sensor, 2.0 * l0, 2.0 * l0), 1250.0, 1e-9) << sensor.name;
+    EXPECT_NEAR(mps::patch_pressure<3>(s, dambreak::box_face_patch(g, sensor, 2.0 * l0, 2.0 * l0)), 1250.0, 1e-9) << sensor.name;
   }
   // On the top, the patch holds the box's top wall layer alone.
   const dambreak::Sensor& p6 = sensors.pressure.at(5);
   ASSERT_EQ(p6.name, "P6");
-  EXPECT_NEAR(dambreak::box_face_pressure(s, g, p6, 2.0 * l0, 2.0 * l0), 1250.0, 1e-9);
+  EXPECT_NEAR(mps::patch_pressure<3>(s, dambreak::box_face_patch(g, p6, 2.0 * l0, 2.0 * l0)), 1250.0, 1e-9);
 }
 
 TEST(DamBreak3d, SensorFileAndRecordAreReadAndBadLinesNamed) {

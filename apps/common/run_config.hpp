@@ -25,7 +25,7 @@
 
 // The options whose values are paths: in a config file they are relative to the file's folder.
 inline const std::set<std::string>& path_options() {
-  static const std::set<std::string> names = {"out", "data", "particles", "restart", "write-particles"};
+  static const std::set<std::string> names = {"out", "data", "particles", "restart", "write-particles", "probes"};
   return names;
 }
 

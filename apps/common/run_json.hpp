@@ -7,23 +7,42 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <variant>
 #include <vector>
 #include <nlohmann/json.hpp>
 
 #include "mps/io/io.hpp"
+#include "mps/io/probes.hpp"
 #include "mps/step/step.hpp"
 #include "mps/version.hpp"
 #include "solve_log.hpp"
 #include "source_commit.hpp"
 
-// Frames at end_time / count intervals, the first at t = 0: dir/frames/<stem>_NNNN.vtp, listed in dir/<stem>.pvd
-// (count 0: none).
+// What an app writes as the run goes, after every step: frames at end_time / count intervals, the first at t = 0
+// (dir/frames/<stem>_NNNN.vtp, listed in dir/<stem>.pvd; count 0: none), and the user's probes (--probes), sampled
+// from the same particles at their own interval into dir/probes.csv, which is written at every frame and when the
+// series ends (the run's end, a guard stop or a signal alike).
 class FrameSeries {
  public:
   FrameSeries(const std::filesystem::path& dir, const std::string& stem, int count, double end_time)
       : dir_(dir), stem_(stem), count_(count), interval_(count > 0 ? end_time / count : 2 * end_time),
         series_(dir / (stem + ".pvd")) {}
-  // Writes the next frame if its time has come.
+  FrameSeries(const FrameSeries&) = delete;
+  FrameSeries& operator=(const FrameSeries&) = delete;
+  ~FrameSeries() {
+    try {
+      write_probes();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: %s\n", e.what());
+    }
+  }
+  // Samples `probes` from now on with the frames' particles.
+  template <int D>
+  void set_probes(mps::BasicProbeSeries<D> probes) {
+    probes_ = std::move(probes);
+  }
+  // Writes the next frame if its time has come, and samples the probes if theirs has.
   template <int D>
   void write_if_due(const mps::BasicSimulation<D>& sim) {
     write_if_due(sim.time(), sim.particles());
@@ -31,26 +50,65 @@ class FrameSeries {
   // The same for particles held apart from a simulation (a run on ranks gathers them).
   template <int D>
   void write_if_due(double time, const mps::BasicParticles<D>& particles) {
+    auto* probes = std::get_if<mps::BasicProbeSeries<D>>(&probes_);
+    if (probes != nullptr) probes->sample(time, particles);
     if (count_ <= 0 || time < next_ * interval_ - 1e-12) return;
     char name[64];
     std::snprintf(name, sizeof name, "frames/%s_%04d.vtp", stem_.c_str(), next_++);
     mps::write_vtp(dir_ / name, particles, time);
     series_.add(time, dir_ / name);
+    write_probes();
   }
   [[nodiscard]] const std::filesystem::path& path() const { return series_.path(); }
-  // For a checkpoint: the frames written so far.
-  [[nodiscard]] nlohmann::json save_state() const { return {{"next", next_}, {"series", series_.save_state()}}; }
+  // The probes' description for summary.json (null without probes).
+  [[nodiscard]] nlohmann::json probes() const {
+    return std::visit(
+        [](const auto& p) -> nlohmann::json {
+          if constexpr (std::is_same_v<std::decay_t<decltype(p)>, std::monostate>) return nullptr;
+          else return p.describe();
+        },
+        probes_);
+  }
+  // For a checkpoint: the frames written so far and the probes' samples.
+  [[nodiscard]] nlohmann::json save_state() const {
+    nlohmann::json state = {{"next", next_}, {"series", series_.save_state()}};
+    std::visit(
+        [&](const auto& p) {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(p)>, std::monostate>) state["probes"] = p.save_state();
+        },
+        probes_);
+    return state;
+  }
   void restore_state(const nlohmann::json& state) {
     next_ = state.at("next").get<int>();
     series_.restore_state(state.at("series"));
+    std::visit(
+        [&](auto& p) {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(p)>, std::monostate>) {
+            if (!state.contains("probes"))
+              throw std::runtime_error("checkpoint: the run had no probes; restart it without --probes");
+            p.restore_state(state.at("probes"));
+          }
+        },
+        probes_);
   }
 
  private:
+  void write_probes() const {
+    std::visit(
+        [&](const auto& p) {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(p)>, std::monostate>)
+            if (!p.rows().empty()) p.write_csv(dir_ / "probes.csv");
+        },
+        probes_);
+  }
+
   std::filesystem::path dir_;
   std::string stem_;
   int count_, next_ = 0;
   double interval_;
   mps::PvdSeries series_;
+  std::variant<std::monostate, mps::ProbeSeries, mps::ProbeSeries3> probes_;
 };
 
 // Who made a summary: the app, the library's version and source commit, the command line and the config file beside

@@ -17,10 +17,6 @@
 namespace dambreak {
 
 namespace {
-// A gauge's water stands on the floor: its lowest particle within this many l0 of the floor (the first layer's centre
-// is l0/2 above it), each next one no more than kGaugeGap l0 above the one below (a disordered column's layers, seen
-// through a line l0 wide, lie closer; a sheet thrown over the line lies further).
-constexpr double kGaugeFloorReach = 1.5, kGaugeGap = 2.0;
 
 std::string fmt(double v) {
   char s[32];
@@ -121,39 +117,12 @@ mps::Particles3 make_box_impact_particles(const BoxImpactGeometry& g, double l0)
   return s;
 }
 
-double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, const Sensor& sensor, double reach,
-                         double radius) {
+mps::SensorPatch3 box_face_patch(const BoxImpactGeometry& g, const Sensor& sensor, double reach, double radius) {
   const mps::Box& b = g.boxes.front();
-  const bool front = sensor.face == "front";
-  double sum = 0.0;
-  int count = 0;
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    if (s.kind[i] != mps::Kind::fluid && s.kind[i] != mps::Kind::wall) continue;
-    // Across the face (its normal) and along it: the front face is x = x1, the top z = z1.
-    const double across = front ? s.x[i] - b.x1 : s.z[i] - b.z1;
-    const double a = front ? s.y[i] - sensor.y : s.x[i] - sensor.x, c = front ? s.z[i] - sensor.z : s.y[i] - sensor.y;
-    const bool on_face = front ? s.y[i] > b.y0 && s.y[i] < b.y1 && s.z[i] > b.z0 && s.z[i] < b.z1
-                               : s.x[i] > b.x0 && s.x[i] < b.x1 && s.y[i] > b.y0 && s.y[i] < b.y1;
-    if (std::abs(across) < reach && std::hypot(a, c) < radius && on_face) {
-      sum += s.p[i];
-      ++count;
-    }
-  }
-  return count > 0 ? sum / count : 0.0;
-}
-
-double water_height(const mps::Particles3& s, double x, double y, double l0) {
-  std::vector<double> line;
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (s.kind[i] == mps::Kind::fluid && std::hypot(s.x[i] - x, s.y[i] - y) < l0) line.push_back(s.z[i]);
-  std::sort(line.begin(), line.end());
-  if (line.empty() || line.front() > kGaugeFloorReach * l0) return 0.0;
-  double top = line.front();
-  for (double z : line) {
-    if (z - top > kGaugeGap * l0) break;
-    top = z;
-  }
-  return top + 0.5 * l0;
+  // The front face is x = x1, the top z = z1; the patch is bounded by the face's edges on the other two axes.
+  if (sensor.face == "front")
+    return {{b.x1, sensor.y, sensor.z}, 0, reach, radius, {b.x0, b.y0, b.z0}, {b.x1, b.y1, b.z1}};
+  return {{sensor.x, sensor.y, b.z1}, 2, reach, radius, {b.x0, b.y0, b.z0}, {b.x1, b.y1, b.z1}};
 }
 
 namespace {
@@ -414,8 +383,9 @@ void BoxImpact::sample() {
   const double l0 = params_.l0;
   BoxImpactSample sample{sim_->time(), {}, {}};
   for (const Sensor& sensor : sensors_.pressure)
-    sample.pressures.push_back(box_face_pressure(s, geometry_, sensor, patch_reach(), patch_radius()));
-  for (const Sensor& gauge : sensors_.height) sample.heights.push_back(water_height(s, gauge.x, gauge.y, l0));
+    sample.pressures.push_back(mps::patch_pressure<3>(s, box_face_patch(geometry_, sensor, patch_reach(), patch_radius())));
+  for (const Sensor& gauge : sensors_.height)
+    sample.heights.push_back(mps::water_level<3>(s, {gauge.x, gauge.y, 0.0}, l0, mps::LevelMethod::wire));
   samples_.push_back(std::move(sample));
   // Below the walls' top, fluid past a wall's or the box's surface is pressed into it; past the first layer's centres
   // (half a spacing further) it is inside.

@@ -75,15 +75,11 @@ inline constexpr mps::RcbPartition::KindWeights box_impact_kind_weights{1.0, 0.6
 mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0);
 void add_box_impact_components(mps::Simulation3& sim, const Params& p, const BoxImpactGeometry& g);
 
-// The mean pressure of the fluid and wall particles within `reach` of the sensor's face plane and within `radius` of
-// the sensor along it, inside the face (0 if none): the 2-D probe's patch on a face of the box.
-double box_face_pressure(const mps::Particles3& s, const BoxImpactGeometry& g, const Sensor& sensor, double reach,
-                         double radius);
-// The water height at (x, y) over the floor at z = 0: the top (+ l0/2) of the water standing on the floor there, the
-// fluid particles within l0 of the vertical line counted from the floor up while they follow each other closely; 0 if
-// none lies on the floor. A wave probe reads the wetted length of its wire: a sheet of water thrown over the line is
-// not the surface (docs/dambreak3d.md).
-double water_height(const mps::Particles3& s, double x, double y, double l0);
+// The sensor's patch on its face of the box: the fluid and wall particles within `reach` of the face's plane and
+// within `radius` of the sensor along it, inside the face (the 2-D probe's patch on a face of the box).
+mps::SensorPatch3 box_face_patch(const BoxImpactGeometry& g, const Sensor& sensor, double reach, double radius);
+// The height gauges read the water level as a wave probe's wire over the floor at z = 0 (mps::LevelMethod::wire): a
+// sheet of water thrown over the line is not the surface (docs/dambreak3d.md).
 
 struct BoxImpactSample {
   double time;

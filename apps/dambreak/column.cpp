@@ -194,33 +194,6 @@ double surge_front(const mps::Particles& s, double l0) {
   return 0.0;
 }
 
-double water_level(const mps::Particles& s, double x, double l0) {
-  std::vector<std::size_t> column;
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if (s.kind[i] == mps::Kind::fluid && std::abs(s.x[i] - x) < l0) column.push_back(i);
-  std::sort(column.begin(), column.end(), [&](std::size_t a, std::size_t b) { return s.y[a] > s.y[b]; });
-  for (std::size_t i : column)
-    if (has_fluid_neighbour(s, i, 2.1 * l0)) return s.y[i] + 0.5 * l0;
-  return 0.0;
-}
-
-// The mean pressure of the fluid and wall particles within `reach` of the wall line x and within half_height of y
-// along it (half_height 0: within the disc of radius reach about (x, y)).
-double patch_pressure(const mps::Particles& s, double x, double y, double reach, double half_height) {
-  double sum = 0.0;
-  int count = 0;
-  auto inside = [&](std::size_t i) {
-    if (half_height > 0.0) return std::abs(s.x[i] - x) < reach && std::abs(s.y[i] - y) <= half_height;
-    return std::hypot(s.x[i] - x, s.y[i] - y) < reach;
-  };
-  for (std::size_t i = 0; i < s.size(); ++i)
-    if ((s.kind[i] == mps::Kind::fluid || s.kind[i] == mps::Kind::wall) && inside(i)) {
-      sum += s.p[i];
-      ++count;
-    }
-  return count > 0 ? sum / count : 0.0;
-}
-
 mps::Domain make_domain(const Params& p, const mps::Particles& particles) {
   return widened_to_hold(make_domain(p), particles, p.l0);
 }
@@ -466,11 +439,11 @@ void Scene::sample() {
   const mps::Particles& s = all_particles();
   const Params& p = params_;
   Sample sample{sim_->time(), surge_front(s, p.l0), {}, {}};
-  for (double d : p.level_probes) sample.levels.push_back(water_level(s, p.tank_length - d * p.height, p.l0));
+  for (double d : p.level_probes) sample.levels.push_back(mps::water_level<2>(s, {p.tank_length - d * p.height, 0.0}, p.l0));
   // The probe's patch is centred on the wall line; the first wall layer sits l0/2 behind it.
   for (double h : p.pressure_probes)
-    sample.pressures.push_back(
-        patch_pressure(s, p.tank_length, h * p.height, p.pressure_patch * p.l0, 0.5 * p.sensor_height * p.height));
+    sample.pressures.push_back(mps::patch_pressure<2>(
+        s, {{p.tank_length, h * p.height}, 0, p.pressure_patch * p.l0, 0.5 * p.sensor_height * p.height}));
   samples_.push_back(std::move(sample));
   // Below the walls' top, a fluid particle past a wall line is pressed towards the wall; past the first wall layer's
   // centres (half a spacing further) it is inside the wall.

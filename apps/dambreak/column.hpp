@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "mps/io/probes.hpp"
 #include "mps/parallel/rank_exchange.hpp"
 #include "mps/step/components.hpp"
 #include "mps/step/step.hpp"
@@ -105,12 +106,6 @@ void add_dam_break_components(mps::BasicSimulation<D>& sim, const Params& p,
 // The leading edge of the water: the largest x of a fluid particle with a fluid neighbour within 2.1 l0 (spray
 // ahead of the front is not the front), plus l0/2, from the upstream wall at x = 0.
 double surge_front(const mps::Particles& particles, double l0);
-// Height of the water column at x: the largest y + l0/2 of fluid particles within l0 of the line x, with a fluid
-// neighbour within 2.1 l0; 0 if none.
-double water_level(const mps::Particles& particles, double x, double l0);
-// Mean pressure of the wall and fluid particles within `reach` of the wall line x and within half_height of y along it
-// (a sensor), or with half_height 0 within the disc of radius `reach` about (x, y) (the probe's patch); 0 if none.
-double patch_pressure(const mps::Particles& particles, double x, double y, double reach, double half_height = 0.0);
 
 // A scene from a particle file's particles (docs/particle-files.md). The spacing is dx, or if dx is 0 the particles'
 // median nearest-neighbour distance to 12 significant digits (so a lattice made at 0.01 m gives 0.01). Particles equal

@@ -21,6 +21,7 @@
 #include "help.hpp"
 #include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
+#include "probe_file.hpp"
 #include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -79,7 +80,7 @@ struct Options {
   FrontTolerances front;
   BoxImpactTolerances box;
   int frames = 20;
-  std::string particles_file, write_particles;
+  std::string particles_file, write_particles, probes;
   std::vector<int> export_ppe;
   CheckpointOptions checkpoints;
   double interior_density = -1.0;  // the asymmetry test's; negative: the scene's default
@@ -164,6 +165,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--out", o.out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
+  add_probes_option(app, o.probes);
   add_export_ppe_option(app, o.export_ppe);
   add_checkpoint_options(app, o.checkpoints);
   app.add_option("--write-particles", o.write_particles,
@@ -673,7 +675,7 @@ void start_outputs(const fs::path& dir, const CLI::App& app, const std::vector<i
                    mps::BasicSimulation<D>& sim, bool restart) {
   if (!restart)  // a restart keeps what the run wrote before its checkpoint
     clear_outputs(dir, {"frames", "dambreak.pvd", "front.csv", "level.csv", "pressure.csv", "summary.json",
-                        "last_good.vtp", "config.toml", "solves.csv", "ppe", "checkpoint.cbor"});
+                        "last_good.vtp", "config.toml", "solves.csv", "ppe", "checkpoint.cbor", "probes.csv"});
   sim.template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()), scene);
   write_run_config(app, "dambreak", dir);
   fs::create_directories(dir / "frames");
@@ -756,6 +758,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
     scene_name = "particles of " + o.particles_file;
   }
   if (file && experiment) params["particle_file"] = o.particles_file;
+  if (!o.probes.empty()) params["probes_file"] = o.probes;
   std::cout << parameter_table(
       "dam break, 3-D, " + scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
           std::to_string(scene.initial_fluid()) + " fluid)" +
@@ -774,6 +777,7 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   if (ranks.root()) {
     start_outputs(dir, app, o.export_ppe, "dambreak, " + scene_name, scene.sim(), checkpoints.restart() != nullptr);
   }
+  attach_probes(series, o.probes, scene.sim(), ranks.root());
   Progress progress(p.end_time, "s");
   try {
     run<dambreak::BoxImpact>(scene, series, progress, ranks.root(), [](const dambreak::BoxImpact& sc) {
@@ -832,6 +836,7 @@ int main(int argc, char** argv) {
     const dambreak::Params& p = scene.params();
     nlohmann::json params = params_json(p, sim, o.data, ranks.size());
     if (!o.particles_file.empty()) params["particle_file"] = o.particles_file;
+    if (!o.probes.empty()) params["probes_file"] = o.probes;
     std::cout << parameter_table(
         "dam break, " + start.scene_name + ": " + std::to_string(scene.all_particles().size()) + " particles (" +
             std::to_string(scene.initial_fluid()) + " fluid)" +
@@ -852,6 +857,7 @@ int main(int argc, char** argv) {
       start_outputs(dir, app, o.export_ppe, "dambreak, " + start.scene_name, scene.sim(),
                     checkpoints.restart() != nullptr);
     }
+    attach_probes(series, o.probes, scene.sim(), ranks.root());
     Progress progress(p.end_time, "s");
     try {
       run<dambreak::Scene>(scene, series, progress, ranks.root(), [](const dambreak::Scene& sc) {

@@ -14,6 +14,7 @@
 #include "help.hpp"
 #include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
+#include "probe_file.hpp"
 #include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -29,7 +30,7 @@ namespace {
 // The command line.
 struct Options {
   fsi::Params p;
-  std::string out = "runs/fsi", scene_name = "plate", gradient;
+  std::string out = "runs/fsi", scene_name = "plate", gradient, probes;
   double dx = 0, modulus = 0, poisson = 0, end_time = 0;
   int frames = 20;
   std::vector<int> export_ppe;
@@ -74,6 +75,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--out", o.out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", o.frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
+  add_probes_option(app, o.probes);
   add_export_ppe_option(app, o.export_ppe);
   add_checkpoint_options(app, o.checkpoints);
 }
@@ -194,7 +196,7 @@ int main(int argc, char** argv) {
     const fsi::Params p = make_params(o);
     fsi::Scene scene(p);
     const mps::Simulation& sim = scene.sim();
-    const nlohmann::json params{
+    nlohmann::json params{
         {"scene", o.scene_name}, {"dx_m", p.l0}, {"water_width_m", scene.water_width},
         {"water_height_m", scene.water_height}, {"body_x_m", scene.body_x}, {"body_width_m", scene.body_width},
         {"body_height_m", scene.body_height}, {"rigid", p.rigid}, {"modulus_pa", p.youngs_modulus},
@@ -205,6 +207,7 @@ int main(int argc, char** argv) {
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()},
         {"simulation_config", mps::config_json(sim.config())},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"}};
+    if (!o.probes.empty()) params["probes_file"] = o.probes;
     std::cout << parameter_table(
         "fsi, " + o.scene_name + (p.rigid ? " (rigid): " : " (elastic): ") +
             std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid particles, " +
@@ -220,11 +223,12 @@ int main(int argc, char** argv) {
     Checkpoints checkpoints(o.checkpoints, dir, "fsi", params, {"/end_time_s"});
     if (!checkpoints.restart())  // a restart keeps what the run wrote before its checkpoint
       clear_outputs(dir, {"frames", "fsi.pvd", "tip.csv", "summary.json", "last_good.vtp", "config.toml",
-                          "solves.csv", "ppe", "checkpoint.cbor"});
+                          "solves.csv", "ppe", "checkpoint.cbor", "probes.csv"});
     scene.sim().add<SolveLog>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()), "fsi, " + o.scene_name);
     write_run_config(app, "fsi", dir);
     fs::create_directories(dir / "frames");
     FrameSeries series(dir, "fsi", o.frames, p.end_time);
+    attach_probes(series, o.probes, scene.sim());
     const auto start = std::chrono::steady_clock::now();
     Progress progress(p.end_time, "s");
     try {

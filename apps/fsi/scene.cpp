@@ -7,6 +7,7 @@
 
 #include "mps/boundaries/geometry.hpp"
 #include "mps/core/state.hpp"
+#include "mps/io/probes.hpp"
 
 namespace fsi {
 
@@ -161,7 +162,7 @@ void Scene::sample() {
     s.force_x = structure_->load()[0];
   }
   if (rigid_force_) s.force_x = rigid_force_->force()[0];
-  if (params_.scene == Case::gate) s.level = dambreak::water_level(sim_->particles(), 0.5 * water_width, params_.l0);
+  if (params_.scene == Case::gate) s.level = mps::water_level<2>(sim_->particles(), {0.5 * water_width, 0.0}, params_.l0);
   samples_.push_back(s);
 }
 

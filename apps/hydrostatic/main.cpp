@@ -12,6 +12,7 @@
 #include "help.hpp"
 #include "mps/io/io.hpp"
 #include "openmp_wait.hpp"
+#include "probe_file.hpp"
 #include "ranks.hpp"
 #include "run_config.hpp"
 #include "run_json.hpp"
@@ -37,8 +38,8 @@ nlohmann::json params_json(const tank::Params& p, const mps::BasicSimulation<D>&
 
 // The run once the options are read: the scene in D dimensions, its frames, pressure.csv and summary.json.
 template <int D>
-int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
-        const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options);
+int run(const tank::Params& p, const CLI::App& app, const std::string& out, const std::string& probes, int frames,
+        double tolerance, const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options);
 
 }  // namespace
 
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
   record_run("hydrostatic", argc, argv);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   tank::Params p;
-  std::string out = "runs/hydrostatic";
+  std::string out = "runs/hydrostatic", probes;
   int frames = 20, dim = 2;
   double tolerance = 0.05, dx = 0;
   CLI::App app{"SparseMPS hydrostatic tank: water at rest under gravity, pressure against rho g (H - y)"};
@@ -77,6 +78,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "output directory")->check(output_directory())->capture_default_str()->group("Output");
   app.add_option("--frames", frames, "number of .vtp frames to write")->capture_default_str()
       ->check(whole_in(0, 100000))->group("Output");
+  add_probes_option(app, probes);
   std::vector<int> export_ppe;
   add_export_ppe_option(app, export_ppe);
   CheckpointOptions checkpoint_options;
@@ -85,8 +87,8 @@ int main(int argc, char** argv) {
 
   p.l0 = dx > 0 ? dx : dim == 2 ? 0.01 : 0.04;
   try {
-    return dim == 2 ? run<2>(p, app, out, frames, tolerance, export_ppe, checkpoint_options)
-                    : run<3>(p, app, out, frames, tolerance, export_ppe, checkpoint_options);
+    return dim == 2 ? run<2>(p, app, out, probes, frames, tolerance, export_ppe, checkpoint_options)
+                    : run<3>(p, app, out, probes, frames, tolerance, export_ppe, checkpoint_options);
   } catch (const std::exception& e) {
     std::cerr << "error: " << error_message(e) << "\n";
     return 1;
@@ -96,14 +98,15 @@ int main(int argc, char** argv) {
 namespace {
 
 template <int D>
-int run(const tank::Params& p, const CLI::App& app, const std::string& out, int frames, double tolerance,
-        const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options) {
+int run(const tank::Params& p, const CLI::App& app, const std::string& out, const std::string& probes, int frames,
+        double tolerance, const std::vector<int>& export_ppe, const CheckpointOptions& checkpoint_options) {
   const double across = p.width / p.l0 + 10.0;
   check_run_size((D == 2 ? across : across * across) * (1.2 * p.water_height / p.l0 + 5.0), p.end_time / p.dt,
                  "raise --dx", "shorten --end-time or raise --dt");
   tank::BasicTank<D> scene(p);
   const mps::BasicSimulation<D>& sim = scene.sim();
-  const nlohmann::json params = params_json(p, sim);
+  nlohmann::json params = params_json(p, sim);
+  if (!probes.empty()) params["probes_file"] = probes;
   std::cout << parameter_table(
       "hydrostatic tank, " + std::to_string(D) + "-D: " + std::to_string(sim.particles().size()) + " particles (" +
           std::to_string(sim.particles().count(mps::Kind::fluid)) + " fluid)",
@@ -116,12 +119,13 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, int 
   Checkpoints checkpoints(checkpoint_options, dir, "hydrostatic", params, {"/end_time_s"});
   if (!checkpoints.restart())
     clear_outputs(dir, {"frames", "tank.pvd", "pressure.csv", "summary.json", "last_good.vtp", "config.toml",
-                        "solves.csv", "ppe", "checkpoint.cbor"});
+                        "solves.csv", "ppe", "checkpoint.cbor", "probes.csv"});
   scene.sim().template add<BasicSolveLog<D>>(dir, std::set<int>(export_ppe.begin(), export_ppe.end()),
                                              "hydrostatic tank, " + std::to_string(D) + "-D");
   write_run_config(app, "hydrostatic", dir);
   fs::create_directories(dir / "frames");
   FrameSeries series(dir, "tank", frames, p.end_time);
+  attach_probes(series, probes, scene.sim());
   double next_report = 0.1;
   const std::function<nlohmann::json()> save = [&] { return scene_state(scene, series, next_report); };
   if (!restore_scene(checkpoints, scene.sim(), scene, series, next_report)) series.write_if_due(sim);

@@ -28,8 +28,7 @@ APPS = poiseuille hydrostatic rotating acoustic dambreak structure fsi
 demo: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target $(APPS)
 	./build/release/apps/poiseuille/poiseuille --mode inlet --re 40 --across 20 --end-time 10 --out $(DEMO_OUT)
-	/usr/bin/python3 apps/poiseuille/plot_profile.py $(DEMO_OUT)/profile.csv $(DEMO_OUT)/profile.png
-	@echo "profile plot: $(DEMO_OUT)/profile.png"
+	/usr/bin/python3 scripts/sparsemps-plot $(DEMO_OUT)
 
 hydrostatic: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target hydrostatic

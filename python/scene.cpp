@@ -7,12 +7,15 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -264,7 +267,7 @@ void def_fields(py::class_<mps::BasicParticles<D>>& c) {
     }
     c.def_property(
         name, get,
-        [name](P& p, py::handle values) {
+        [name](P& p, Typed<ArrayLike> values) {
           const std::size_t n = p.size();
           p.for_each_field([&]<class U>(const char* f, std::vector<U>& v) {
             if (std::string_view(f) == name) field_from_python(v, values, name, n);
@@ -276,7 +279,7 @@ void def_fields(py::class_<mps::BasicParticles<D>>& c) {
   auto def_rows = [&c](const char* name, auto of, const char* unit) {
     c.def_property(
         name, [of](const P& p) { return rows_of<D>(of(p), p.size()); },
-        [of, name](P& p, py::handle values) {
+        [of, name](P& p, Typed<ArrayLike> values) {
           auto columns = columns_of<D>(values, name, static_cast<py::ssize_t>(p.size()));
           for (std::size_t d = 0; d < D; ++d) *of(p)[d] = std::move(columns[d]);
         },
@@ -287,7 +290,7 @@ void def_fields(py::class_<mps::BasicParticles<D>>& c) {
   def_rows("positions", [](auto& p) { return p.positions(); }, "m");
   def_rows("velocities", [](auto& p) { return p.velocities(); }, "m/s");
   c.def("__len__", &P::size);
-  c.def("count", [](const P& p, py::handle kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
+  c.def("count", [](const P& p, Typed<KindLike> kind) { return p.count(kind_of(kind)); }, py::arg("kind"),
         "How many particles are of this kind.");
   c.def("__repr__", [](const P& p) {
     return std::string(D == 2 ? "Particles(" : "Particles3(") + std::to_string(p.size()) + ": " +
@@ -637,7 +640,8 @@ void bind_simulation(py::module_& m) {
                                      "the GIL."
                                    : "The 3-D MPS time loop (mps::Simulation3) on a copy of the particles. Steps run without "
                                      "the GIL.")
-      .def(py::init([](const mps::BasicParticles<D>& p, py::handle domain, py::handle config, const py::kwargs& fields) {
+      .def(py::init([](const mps::BasicParticles<D>& p, Typed<std::conditional_t<D == 2, DomainLike, Domain3Like>> domain,
+                       Typed<ConfigLike> config, const py::kwargs& fields) {
              return std::make_unique<Simulation<D>>(p, domain_of<D>(domain), config_of(config, fields));
            }),
            py::arg("particles"), py::arg("domain"), py::arg("config") = py::none(),
@@ -684,7 +688,7 @@ void bind_simulation(py::module_& m) {
           "(0: no limit; the 3-D dam break's 1 keeps fluid pressed onto a wall out of the free surface).")
       .def(
           "add_wall_backstop",
-          [](Simulation<D>& s, py::handle tank, const py::list& obstacles) {
+          [](Simulation<D>& s, Typed<AxisBoxLike> tank, const py::list& obstacles) {
             const auto box = axis_box_of<D>(tank, "the tank");
             std::vector<typename mps::BasicWallBackstop<D>::AxisBox> inside;
             for (py::handle o : obstacles) inside.push_back(axis_box_of<D>(o, "an obstacle"));
@@ -697,16 +701,26 @@ void bind_simulation(py::module_& m) {
       .def(
           "add_wet_walls", [](Simulation<D>& s) { s.locked([&] { s.sim->template add<mps::BasicWetWalls<D>>(); }); },
           "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")
-      .def_property_readonly("time", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->time(); }); })
-      .def_property_readonly("steps", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
-      .def_property_readonly("last_step", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step(); }); })
       .def_property_readonly(
+          "time", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->time(); }); }, "simulation time [s]")
+      .def_property_readonly("steps", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step().step; }); }, "steps completed")
+      .def_property_readonly(
+          "last_step", [](const Simulation<D>& s) { return s.locked([&] { return s.sim->last_step(); }); },
+          "the last step's StepInfo")
+      .def_property(
           "particles",
           [](Simulation<D>& s) {
             const std::lock_guard<std::mutex> lock(s.mutex);
             return s.sim->particles();
           },
-          "a copy of the particles (reordered by cell every reorder_every steps: id follows each one)")
+          [](Simulation<D>& s, mps::BasicParticles<D> particles) {
+            const std::lock_guard<std::mutex> lock(s.mutex);
+            s.sim->set_particles(std::move(particles));
+          },
+          "a copy of the particles (reordered by cell every reorder_every steps: id follows each one). Assign an\n"
+          "edited copy to push it back: the same particles in the same order, with new positions, velocities,\n"
+          "pressures, kinds or groups (mps::Simulation::set_particles; ValueError for another count or order, a\n"
+          "non-finite value or a particle outside the domain).")
       .def_property_readonly(
           "last_ppe",
           [](Simulation<D>& s) {
@@ -716,9 +730,12 @@ void bind_simulation(py::module_& m) {
             return out;
           },
           "the PPE of the last step (a copy)")
-      .def_property_readonly("solver_spec", [](const Simulation<D>& s) { return s.sim->solver().spec(); })
+      .def_property_readonly(
+          "solver_spec", [](const Simulation<D>& s) { return s.sim->solver().spec(); },
+          "the pressure solver's spec, every key spelled out")
       .def_property_readonly("config", [](const Simulation<D>& s) { return s.sim->config(); }, "a copy")
-      .def_property_readonly("domain", [](const Simulation<D>& s) { return s.sim->domain(); })
+      .def_property_readonly(
+          "domain", [](const Simulation<D>& s) { return s.sim->domain(); }, "the domain (a copy)")
       .def_property_readonly(
           "phase_times",
           [](const Simulation<D>& s) {
@@ -764,6 +781,79 @@ void def_write_vtp(py::module_& m) {
       "with 3 components.");
 }
 
+// Frames, their series and particle files, read back (mps/io/io.hpp), and particle files written.
+void bind_readers(py::module_& m) {
+  auto check_dim = [](int dim) {
+    if (dim != 2 && dim != 3) throw py::value_error("dim must be 2 or 3, got " + std::to_string(dim));
+  };
+  auto is_frame = [](const std::string& path) { return path.size() >= 4 && path.substr(path.size() - 4) == ".vtp"; };
+  m.def(
+      "read_particles",
+      [=](const std::string& path, int dim) -> Typed<EitherParticles> {
+        check_dim(dim);
+        if (dim == 2) return {py::cast(is_frame(path) ? mps::read_vtp<2>(path) : mps::read_particles_csv<2>(path))};
+        return {py::cast(is_frame(path) ? mps::read_vtp<3>(path) : mps::read_particles_csv<3>(path))};
+      },
+      py::arg("path"), py::arg("dim") = 2,
+      "Particles (dim 2) or Particles3 (dim 3) from a particle file (CSV: x, y[, z], kind and optionally u, v[, w], p,\n"
+      "group; docs/particle-files.md) or an app's .vtp frame, in the file's order, bit for bit. RuntimeError naming\n"
+      "the file, the line and what to change for a malformed file.");
+  m.def(
+      "read_frame",
+      [=](const std::string& path, int dim) -> py::tuple {
+        check_dim(dim);
+        double time = 0.0;
+        if (dim == 2) {
+          mps::Particles particles = mps::read_vtp<2>(path, &time);
+          return py::make_tuple(std::move(particles), time);
+        }
+        mps::Particles3 particles = mps::read_vtp<3>(path, &time);
+        return py::make_tuple(std::move(particles), time);
+      },
+      py::arg("path"), py::arg("dim") = 2,
+      "(particles, time) of an app's or write_vtp's .vtp frame: Particles or Particles3 and the frame's simulation\n"
+      "time [s] (its TIME array; nan for a frame without one).");
+  m.def(
+      "read_series",
+      [](const std::string& path) {
+        std::ifstream in(path);
+        if (!in) throw std::runtime_error("cannot read the series " + path);
+        const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+        static const std::regex dataset(R"re(<DataSet\s[^>]*timestep="([^"]*)"[^>]*file="([^"]*)")re");
+        std::vector<std::pair<double, std::string>> frames;
+        std::string line;
+        for (int number = 1; std::getline(in, line); ++number) {
+          std::smatch found;
+          if (!std::regex_search(line, found, dataset)) continue;
+          const std::string text = found[1].str();
+          char* end = nullptr;
+          const double t = std::strtod(text.c_str(), &end);
+          if (end == text.c_str() || !std::isfinite(t))
+            throw std::runtime_error(path + ":" + std::to_string(number) + ": timestep '" + text +
+                                     "' is no finite number");
+          frames.emplace_back(t, (folder / found[2].str()).lexically_normal().string());
+        }
+        return frames;
+      },
+      py::arg("path"),
+      "[(time, frame path), ...] of a .pvd series as the apps write it (dambreak.pvd, ...), the paths made from the\n"
+      "series' folder; read each frame with read_frame (the .pvd's times have 6 digits, the frame's TIME all 17).");
+  m.def(
+      "write_particles_csv",
+      [](const std::string& path, const mps::Particles& particles, const std::vector<std::string>& comments) {
+        mps::write_particles_csv(path, particles, comments);
+      },
+      py::arg("path"), py::arg("particles"), py::arg("comments") = std::vector<std::string>{},
+        "Writes the particles as read_particles reads them (17 significant digits: every bit comes back), each\n"
+        "comment as a '# ' line first.");
+  m.def(
+      "write_particles_csv",
+      [](const std::string& path, const mps::Particles3& particles, const std::vector<std::string>& comments) {
+        mps::write_particles_csv(path, particles, comments);
+      },
+      py::arg("path"), py::arg("particles"), py::arg("comments") = std::vector<std::string>{}, "The same for Particles3.");
+}
+
 // The 3-D scene: Particles3 (positions and velocities as (N, 3) arrays, and the field list), Domain3, Simulation3.
 void bind_dimension3(py::module_& m) {
   py::class_<mps::Domain3>(m, "Domain3", "A 3-D domain; a periodic axis wraps positions (mps::Domain3).")
@@ -775,15 +865,15 @@ void bind_dimension3(py::module_& m) {
            }),
            py::arg("xmin"), py::arg("xmax"), py::arg("ymin"), py::arg("ymax"), py::arg("zmin"), py::arg("zmax"),
            py::arg("periodic_x") = false, py::arg("periodic_y") = false, py::arg("periodic_z") = false)
-      .def_readwrite("xmin", &mps::Domain3::xmin)
-      .def_readwrite("xmax", &mps::Domain3::xmax)
-      .def_readwrite("ymin", &mps::Domain3::ymin)
-      .def_readwrite("ymax", &mps::Domain3::ymax)
-      .def_readwrite("zmin", &mps::Domain3::zmin)
-      .def_readwrite("zmax", &mps::Domain3::zmax)
-      .def_readwrite("periodic_x", &mps::Domain3::periodic_x)
-      .def_readwrite("periodic_y", &mps::Domain3::periodic_y)
-      .def_readwrite("periodic_z", &mps::Domain3::periodic_z)
+      .def_readwrite("xmin", &mps::Domain3::xmin, "lower bound along x [m]")
+      .def_readwrite("xmax", &mps::Domain3::xmax, "upper bound along x [m]")
+      .def_readwrite("ymin", &mps::Domain3::ymin, "lower bound along y [m]")
+      .def_readwrite("ymax", &mps::Domain3::ymax, "upper bound along y [m]")
+      .def_readwrite("zmin", &mps::Domain3::zmin, "lower bound along z [m]")
+      .def_readwrite("zmax", &mps::Domain3::zmax, "upper bound along z [m]")
+      .def_readwrite("periodic_x", &mps::Domain3::periodic_x, "whether x wraps around")
+      .def_readwrite("periodic_y", &mps::Domain3::periodic_y, "whether y wraps around")
+      .def_readwrite("periodic_z", &mps::Domain3::periodic_z, "whether z wraps around")
       .def("contains", [](const mps::Domain3& d, double x, double y, double z) { return d.contains({x, y, z}); },
            py::arg("x"), py::arg("y"), py::arg("z"))
       .def("__repr__", [](const mps::Domain3& d) {
@@ -802,7 +892,8 @@ void bind_dimension3(py::module_& m) {
       "list), and positions, velocities of shape (N, 3). Reading gives a NumPy copy; assigning takes an array of the\n"
       "same length (positions, velocities and pressures finite).");
   particles
-      .def(py::init([](py::handle positions, py::handle kind, py::handle velocities, py::handle p, py::handle group) {
+      .def(py::init([](Typed<OptionalArray> positions, Typed<KindsLike> kind, Typed<OptionalArray> velocities,
+                       Typed<OptionalArray> p, Typed<OptionalArray> group) {
              mps::Particles3 out;
              if (positions.is_none()) {
                if (!kind.is_none() || !velocities.is_none() || !p.is_none() || !group.is_none())
@@ -829,7 +920,7 @@ void bind_dimension3(py::module_& m) {
            "velocities (N, 3), p and group default to 0.")
       .def(
           "fill_box",
-          [](mps::Particles3& p, py::handle box_in, double l0, py::handle kind, int group) -> mps::Particles3& {
+          [](mps::Particles3& p, Typed<BoxLike> box_in, double l0, Typed<KindLike> kind, int group) -> mps::Particles3& {
             const mps::Box box = box_of(box_in, "box");
             if (l0 > 0.0 && std::isfinite(l0))  // else the library names l0
               check_particle_count(cells(box.x1 - box.x0, l0) * cells(box.y1 - box.y0, l0) * cells(box.z1 - box.z0, l0),
@@ -843,7 +934,7 @@ void bind_dimension3(py::module_& m) {
           "returns self.")
       .def(
           "add_box_walls",
-          [](mps::Particles3& p, py::handle inner, double l0, py::handle faces, int wall_layers, int dummy_layers,
+          [](mps::Particles3& p, Typed<BoxLike> inner, double l0, Typed<SidesLike> faces, int wall_layers, int dummy_layers,
              int group) -> mps::Particles3& {
             const mps::Box box = box_of(inner, "inner");
             if (l0 > 0.0 && std::isfinite(l0) && wall_layers >= 0 && dummy_layers >= 0) {  // else the library says why
@@ -885,12 +976,12 @@ void bind_scene(py::module_& m) {
            }),
            py::arg("xmin"), py::arg("xmax"), py::arg("ymin"), py::arg("ymax"), py::arg("periodic_x") = false,
            py::arg("periodic_y") = false)
-      .def_readwrite("xmin", &mps::Domain::xmin)
-      .def_readwrite("xmax", &mps::Domain::xmax)
-      .def_readwrite("ymin", &mps::Domain::ymin)
-      .def_readwrite("ymax", &mps::Domain::ymax)
-      .def_readwrite("periodic_x", &mps::Domain::periodic_x)
-      .def_readwrite("periodic_y", &mps::Domain::periodic_y)
+      .def_readwrite("xmin", &mps::Domain::xmin, "lower bound along x [m]")
+      .def_readwrite("xmax", &mps::Domain::xmax, "upper bound along x [m]")
+      .def_readwrite("ymin", &mps::Domain::ymin, "lower bound along y [m]")
+      .def_readwrite("ymax", &mps::Domain::ymax, "upper bound along y [m]")
+      .def_readwrite("periodic_x", &mps::Domain::periodic_x, "whether x wraps around")
+      .def_readwrite("periodic_y", &mps::Domain::periodic_y, "whether y wraps around")
       .def("contains", [](const mps::Domain& d, double x, double y) { return d.contains(x, y); }, py::arg("x"),
            py::arg("y"))
       .def("__repr__", [](const mps::Domain& d) {
@@ -909,8 +1000,8 @@ void bind_scene(py::module_& m) {
       "array of the same length (positions, velocities and pressures finite). id is each particle's index at\n"
       "creation and follows it through the reorderings a Simulation makes.");
   particles_class
-      .def(py::init([](py::handle x, py::handle y, py::handle kind, py::handle u, py::handle v, py::handle p,
-                       py::handle group) {
+      .def(py::init([](Typed<OptionalArray> x, Typed<OptionalArray> y, Typed<KindsLike> kind, Typed<OptionalArray> u,
+                       Typed<OptionalArray> v, Typed<OptionalArray> p, Typed<OptionalArray> group) {
              if (x.is_none() && y.is_none()) return mps::Particles{};
              if (kind.is_none()) throw py::value_error("Particles(x, y, kind): kind is required with positions");
              mps::Particles out = particles_from_arrays(x, y, u, v, kind);
@@ -926,7 +1017,7 @@ void bind_scene(py::module_& m) {
            "default to 0.")
       .def(
           "fill_rectangle",
-          [](mps::Particles& p, py::handle rect_in, double l0, py::handle kind, int group) -> mps::Particles& {
+          [](mps::Particles& p, Typed<RectLike> rect_in, double l0, Typed<KindLike> kind, int group) -> mps::Particles& {
             const mps::Rect rect = rect_of(rect_in, "rect");
             if (l0 > 0.0 && std::isfinite(l0))  // else the library names l0
               check_particle_count(cells(rect.x1 - rect.x0, l0) * cells(rect.y1 - rect.y0, l0), p.size(),
@@ -939,7 +1030,7 @@ void bind_scene(py::module_& m) {
           "Adds a square lattice of spacing l0 filling rect = (x0, y0, x1, y1), points at cell centres; returns self.")
       .def(
           "add_rectangle_walls",
-          [](mps::Particles& p, py::handle inner, double l0, py::handle sides, int wall_layers, int dummy_layers,
+          [](mps::Particles& p, Typed<RectLike> inner, double l0, Typed<SidesLike> sides, int wall_layers, int dummy_layers,
              int group) -> mps::Particles& {
             const mps::Rect rect = rect_of(inner, "inner");
             if (l0 > 0.0 && std::isfinite(l0) && wall_layers >= 0 && dummy_layers >= 0) {  // else the library says why
@@ -977,16 +1068,17 @@ void bind_scene(py::module_& m) {
   for (const Field& f : config_fields())
     config_class.def_property(
         f.name.c_str(), [get = f.get](const Config& c) { return get(c); },
-        [set = f.set](Config& c, py::handle v) { set(c, v); }, f.doc.c_str());
+        [set = f.set](Config& c, Typed<FieldValue> v) { set(c, v); }, f.doc.c_str());
 
   py::class_<mps::StepInfo>(m, "StepInfo", "What the last step did (mps::StepInfo).")
       .def_readonly("step", &mps::StepInfo::step, "steps completed")
-      .def_readonly("time", &mps::StepInfo::time)
-      .def_readonly("dt", &mps::StepInfo::dt)
+      .def_readonly("time", &mps::StepInfo::time, "simulation time after the step [s]")
+      .def_readonly("dt", &mps::StepInfo::dt, "the step's time step [s]")
       .def_readonly("dt_limit", &mps::StepInfo::dt_limit, "which bound set dt: dt_max, cfl or viscous")
       .def_readonly("solve", &mps::StepInfo::solve, "the pressure solve's SolveReport")
-      .def_readonly("viscosity_iterations", &mps::StepInfo::viscosity_iterations)
-      .def_readonly("unknowns", &mps::StepInfo::unknowns)
+      .def_readonly("viscosity_iterations", &mps::StepInfo::viscosity_iterations,
+                    "iterations of the implicit viscous solves (0 with explicit viscosity)")
+      .def_readonly("unknowns", &mps::StepInfo::unknowns, "the PPE's unknowns")
       .def_readonly("free_surface", &mps::StepInfo::free_surface, "particles flagged free surface")
       .def_readonly("floating_groups", &mps::StepInfo::floating_groups, "closed groups given the gauge")
       .def_readonly("max_speed", &mps::StepInfo::max_speed, "largest fluid speed [m/s]")
@@ -1026,7 +1118,7 @@ void bind_scene(py::module_& m) {
           "per particle: x solves for P - offset (the hydrostatic split), None when x is P")
       .def(
           "pressures",
-          [](const Ppe& p, py::handle x, bool clamp_negative) {
+          [](const Ppe& p, Typed<ArrayLike> x, bool clamp_negative) {
             const std::vector<double> solution =
                 to_finite_doubles(x, "x", static_cast<py::ssize_t>(p.system.size()));
             mps::Particles scratch;
@@ -1049,7 +1141,7 @@ void bind_scene(py::module_& m) {
 
   m.def(
       "assemble_ppe",
-      [](const mps::Particles& particles, double dt, py::handle domain, py::handle config, double asymmetry,
+      [](const mps::Particles& particles, double dt, Typed<OptionalDomain> domain, Typed<ConfigLike> config, double asymmetry,
          bool wet_walls, const py::kwargs& fields) {
         return assemble(particles, dt, domain, config_of(config, fields), asymmetry, wet_walls);
       },
@@ -1057,8 +1149,8 @@ void bind_scene(py::module_& m) {
       py::arg("config") = py::none(), py::arg("asymmetry") = 0.0, py::arg("wet_walls") = false, assemble_doc);
   m.def(
       "assemble_ppe",
-      [](py::handle x, py::handle y, py::handle u, py::handle v, py::handle kind, double dt, py::handle domain,
-         py::handle config, double asymmetry, bool wet_walls, const py::kwargs& fields) {
+      [](Typed<ArrayLike> x, Typed<ArrayLike> y, Typed<ArrayLike> u, Typed<ArrayLike> v, Typed<ArrayLike> kind, double dt,
+         Typed<OptionalDomain> domain, Typed<ConfigLike> config, double asymmetry, bool wet_walls, const py::kwargs& fields) {
         return assemble(particles_from_arrays(x, y, u, v, kind), dt, domain, config_of(config, fields), asymmetry,
                         wet_walls);
       },
@@ -1069,6 +1161,7 @@ void bind_scene(py::module_& m) {
 
   def_write_vtp<2>(m);
   def_write_vtp<3>(m);
+  bind_readers(m);
   bind_simulation<2>(m);
   bind_dimension3(m);
 }

@@ -21,7 +21,8 @@ struct Solver {
 
   explicit Solver(const std::string& spec) : solver(mps::make_solver(spec)) {}
 
-  std::pair<py::array_t<double>, mps::SolveReport> solve(py::handle a_in, py::handle b_in, py::handle x0) {
+  std::pair<py::array_t<double>, mps::SolveReport> solve(Typed<SparseLike> a_in, Typed<ArrayLike> b_in,
+                                                         Typed<OptionalArray> x0) {
     const mps::CsrMatrix a = to_csr(a_in);
     // A length that differs is the library's to report (with both sizes); any other shape is refused here.
     const py::array b_array = py::array::ensure(b_in);
@@ -56,11 +57,11 @@ const char* solve_doc =
 void bind_solvers(py::module_& m) {
   py::class_<mps::SolveReport>(m, "SolveReport", "What one solve did (mps::SolveReport).")
       .def_readonly("backend", &mps::SolveReport::backend, "the backend that solved, e.g. 'eigen-cg'")
-      .def_readonly("iterations", &mps::SolveReport::iterations)
+      .def_readonly("iterations", &mps::SolveReport::iterations, "iterations the solve took")
       .def_readonly("relative_residual", &mps::SolveReport::relative_residual,
                     "||b - A x|| / ||b|| of the returned x, computed afresh")
       .def_readonly("setup_seconds", &mps::SolveReport::setup_seconds, "preconditioner or factorisation")
-      .def_readonly("solve_seconds", &mps::SolveReport::solve_seconds)
+      .def_readonly("solve_seconds", &mps::SolveReport::solve_seconds, "wall-clock seconds of the solve itself")
       .def_readonly("setup_reused", &mps::SolveReport::setup_reused,
                     "hypre: AMG hierarchy kept (reuse=N); cholmod: symbolic analysis kept")
       .def_property_readonly(
@@ -86,7 +87,7 @@ void bind_solvers(py::module_& m) {
 
   m.def(
       "solve",
-      [](py::handle a, py::handle b, const std::string& spec, py::handle x0) {
+      [](Typed<SparseLike> a, Typed<ArrayLike> b, const std::string& spec, Typed<OptionalArray> x0) {
         Solver solver(spec);
         return solver.solve(a, b, x0);
       },

@@ -22,6 +22,7 @@ packages=(
   doxygen                # the API reference (make docs) and the test that every public member is documented
   python3-matplotlib python3-numpy   # charts from bench/ and apps/
   pybind11-dev python3-dev python3-scipy python3-pytest   # the Python module sparsemps and its tests (python/)
+  python3-pip python3-venv   # pip install . into a virtual environment (PipInstall, docs/python.md#pip)
 )
 
 missing=()

@@ -140,5 +140,24 @@ foreach(app IN ITEMS dambreak structure)
     message(FATAL_ERROR "install test (${KIND}): installed ${app} read its data from '${data_line}', not the prefix")
   endif()
 endforeach()
+# 6. The Python module, when the build made it: installed where Debian's Python looks for a prefix (under /usr/local,
+# make install's default, lib/python3.X/dist-packages is on its sys.path), importable from there with no PYTHONPATH
+# (-I: isolated), finding the installed library by its run path.
+file(GLOB module "${prefix}/lib/python3*/dist-packages/sparsemps.*.so")
+set(python_checked "")
+if(module)
+  get_filename_component(site "${module}" DIRECTORY)
+  file(RELATIVE_PATH relative "${prefix}" "${site}")
+  run(/usr/bin/python3 -I -c "import sys; print('/usr/local/${relative}' in sys.path)" OUTPUT on_path)
+  if(NOT on_path MATCHES "True")
+    message(FATAL_ERROR "install test (${KIND}): the module went to ${relative}, which /usr/local does not put on "
+                        "Debian's Python path")
+  endif()
+  run(/usr/bin/python3 -I -c "import site; site.addsitedir('${site}'); import sparsemps, numpy as np, scipy.sparse as sp
+x, r = sparsemps.solve(sp.identity(5, format='csr') * 2.0, np.ones(5), 'cholmod')
+assert sparsemps.__file__.startswith('${site}') and np.allclose(x, 0.5), (sparsemps.__file__, x)
+print(sparsemps.__version__)" OUTPUT out)
+  set(python_checked ", the Python module")
+endif()
 list(LENGTH APPS app_count)
-message(STATUS "install test (${KIND}): headers, find_package, pkg-config and ${app_count} apps checked")
+message(STATUS "install test (${KIND}): headers, find_package, pkg-config, ${app_count} apps${python_checked} checked")

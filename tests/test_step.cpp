@@ -186,6 +186,46 @@ TEST(Simulation, ColdStartSolvesFromZerosAndWarmStartFromThePreviousPressure) {
   EXPECT_LT(diff, 1e-5 * scale);
 }
 
+// Particles handed back (set_particles) are the run's from there on: handed back before the first step they run bitwise
+// as a simulation made from them; another count or order, a non-finite value or a particle outside the domain is
+// refused and the run goes on as it was; an open step refuses it.
+TEST(Simulation, EditedParticlesHandedBackRunAsASimulationMadeFromThemAndBadOnesAreRefused) {
+  tank::Params p;
+  mps::Particles edited = tank::make_particles(p);
+  for (std::size_t i = 0; i < edited.size(); ++i)
+    if (edited.kind[i] == mps::Kind::fluid) edited.v[i] = -0.02;
+  mps::Simulation pushed(tank::make_particles(p), tank::make_domain(p), tank::make_config(p));
+  pushed.set_particles(edited);
+  mps::Simulation made(edited, tank::make_domain(p), tank::make_config(p));
+  for (int s = 0; s < 5; ++s) {
+    pushed.step();
+    made.step();
+  }
+  EXPECT_EQ(pushed.particles().y, made.particles().y);
+  EXPECT_EQ(pushed.particles().p, made.particles().p);
+
+  const mps::Particles before = pushed.particles();
+  mps::Particles fewer = before;  // the last particle left out
+  for (auto* field : {&fewer.x, &fewer.y, &fewer.u, &fewer.v, &fewer.p}) field->pop_back();
+  fewer.kind.pop_back();
+  fewer.group.pop_back();
+  fewer.id.pop_back();
+  EXPECT_THROW(pushed.set_particles(fewer), std::invalid_argument);
+  mps::Particles swapped = before;
+  std::swap(swapped.id[0], swapped.id[1]);
+  EXPECT_THROW(pushed.set_particles(swapped), std::invalid_argument);
+  mps::Particles nan = before;
+  nan.u[7] = std::nan("");
+  EXPECT_THROW(pushed.set_particles(nan), std::invalid_argument);
+  mps::Particles outside = before;
+  outside.x[3] = 1e3;
+  EXPECT_THROW(pushed.set_particles(outside), std::invalid_argument);
+  EXPECT_EQ(pushed.particles().x, before.x);  // every refusal left the run as it was
+  pushed.advance_to(mps::Stage::assembly);
+  EXPECT_THROW(pushed.set_particles(before), std::logic_error);
+  pushed.step();
+}
+
 TEST(Simulation, SameInputGivesTheSameNumbersAndReorderingChangesNothingButRoundOff) {
   tank::Params p;
   auto run = [&](int reorder_every) {

@@ -8,6 +8,7 @@ Each RUN_DIR is an --out directory (for --model both: OUT/moving and OUT/fixed);
 steady flow of bench/rotating_reference.py).
 """
 import csv
+import json
 import os
 import sys
 
@@ -22,6 +23,18 @@ def read(path):
         rows = list(csv.reader(f))
     header, data = rows[0], [[float(v) for v in r] for r in rows[1:]]
     return header, [[r[k] for r in data] for k in range(len(header))]
+
+
+def scene_of(run):
+    """The run's geometry and Reynolds number from its summary.json (for --model both, from the folder above)."""
+    for folder in (run, os.path.dirname(os.path.normpath(run))):
+        path = os.path.join(folder, "summary.json")
+        if os.path.isfile(path):
+            with open(path) as f:
+                p = json.load(f)["parameters"]
+            return (f"R = {p['outer_radius_m']:g}, r = {p['inner_radius_m']:g}, {p['span_rad']:g} rad, "
+                    f"omega = {p['omega_rad_per_s']:g} {p['sense'].split()[-1]}, Re = {p['re']:g}")
+    return "parameters unknown: no summary.json"
 
 
 def label(run):
@@ -78,8 +91,8 @@ def channel(out, runs):
             ax.set_title("corners (|phi| > 0.45) off scale", fontsize=8)
         ax.axhline(0, color="k", lw=0.4)
     axes[0].legend(fontsize=7)
-    fig.suptitle("Seed 000 screw channel (R = 2, r = 1, 1 rad, omega = 1 clockwise, Re = 1): relative velocity "
-                 "and barrel pressure in the channel frame", fontsize=9)
+    fig.suptitle(f"Screw channel ({scene_of(runs[0])}): relative velocity and barrel pressure in the channel frame",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
 

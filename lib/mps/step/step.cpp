@@ -942,6 +942,41 @@ void BasicSimulation<D>::restore(const nlohmann::json& state) {
   }
 }
 
+template <int D>
+void BasicSimulation<D>::set_particles(Particles particles) {
+  if (next_stage_ != 0)
+    throw std::logic_error("simulation: set_particles() between steps only; step " + std::to_string(info_.step + 1) +
+                           " is open at stage " + to_string(next_stage()));
+  if (exchange_->processes() > 1)
+    throw std::logic_error("simulation: set_particles() on one process only: on MPI ranks each holds its own");
+  const std::size_t n = particles_.size();
+  std::string wrong;
+  particles.for_each_field([&](const char* name, const auto& values) {
+    if (values.size() != n && wrong.empty())
+      wrong = "field " + std::string(name) + " holds " + std::to_string(values.size()) + " values";
+  });
+  if (!wrong.empty() || particles.id != particles_.id)
+    throw std::invalid_argument("simulation: set_particles() takes this simulation's " + std::to_string(n) +
+                                " particles in their order (the ids of particles()), edited" +
+                                (wrong.empty() ? std::string(": the ids differ") : "; " + wrong));
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec<D> r = particles.position(i), u = particles.velocity(i);
+    bool finite = std::isfinite(particles.p[i]);
+    for (std::size_t a = 0; a < D; ++a) finite = finite && std::isfinite(r[a]) && std::isfinite(u[a]);
+    if (!finite)
+      throw std::invalid_argument("simulation: set_particles(): particle " + std::to_string(i) +
+                                  " has a non-finite position, velocity or pressure");
+    if (static_cast<int>(particles.kind[i]) > static_cast<int>(Kind::ghost))
+      throw std::invalid_argument("simulation: set_particles(): particle " + std::to_string(i) + " has no kind");
+    if (particles.kind[i] != Kind::ghost && !domain_.contains(r))
+      throw std::invalid_argument("simulation: set_particles(): particle " + std::to_string(i) + " at " + fmt<D>(r) +
+                                  " is outside the domain");
+  }
+  if (particles.count(Kind::fluid) == 0) throw std::invalid_argument("simulation: set_particles(): no fluid left");
+  particles_ = std::move(particles);
+  solver_->renumbered();
+}
+
 template double max_fluid_speed_squared(const BasicParticles<2>&);
 template double max_fluid_speed_squared(const BasicParticles<3>&);
 template class BasicSimulation<2>;

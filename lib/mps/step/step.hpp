@@ -203,6 +203,13 @@ class BasicSimulation {
   /// uninterrupted one within the solver's tolerance. Throws std::runtime_error naming what does not match
   /// (dimension, particle fields, components) and std::logic_error while a step is open. Collective on ranks.
   void restore(const nlohmann::json& state);
+  /// Replaces the particles between steps with an edited copy of them (particles() changed and handed back; Python's
+  /// `sim.particles = p`): the same particles in the same order (their ids), with any positions, velocities,
+  /// pressures (the next solve's first guess), kinds and groups. The solver drops a kept AMG hierarchy (the unknowns
+  /// may change). Throws std::invalid_argument, leaving the run as it was, for another count or order, a field of
+  /// another length, a non-finite value, a particle outside the domain or no fluid left; std::logic_error while a step
+  /// is open or on MPI ranks (each process holds only its own particles).
+  void set_particles(Particles particles);
   /// Whether a checkpoint taken now continues bitwise: the solver keeps no setup made from an earlier matrix, or the
   /// next step renumbers the unknowns (reorder_every; on ranks the placements, migrate_every), which sets it up afresh
   /// anyway.

@@ -3,13 +3,13 @@
 
 For each case the app runs plainly, then under `mpirun -np P`, with hypre-pcg at a relative residual of 1e-10. Asserted:
 the exit status, step count and particle counts agree; frame and sample times agree to TIME_RELATIVE (dt follows
-|u|max); rank 0 wrote every output the serial run wrote (one summary,
-one set of frames, the same .pvd times); the last frame's particles, matched by id, agree in position to POSITION_L0
-of l0 and in pressure to PRESSURE of the largest pressure; and the sampled series agree to the same bound in their
-units (the dam break's front.csv to POSITION_L0 l0, the channel's profile.csv to POSITION_L0 U), as written, to 10
-digits. The bounds are those of tests/mpi/test_distributed_step.cpp (a solve at tol 1e-10 is within
-cond(A) tol ~ 1e-7 of the largest pressure; the correction then moves particles by at most ~2e-9 l0 a step, 2e-7 l0
-over 100 steps). Each case runs about 100 steps.
+|u|max); rank 0 wrote every output the serial run wrote (one summary, one set of frames, the same .pvd times); the
+last frame's particles, matched by id, agree in position to POSITION_L0 of l0 and in pressure to PRESSURE of the
+largest pressure; and the sampled series agree to the same bound in their units (the dam break's front.csv to
+POSITION_L0 l0, the channel's profile.csv to POSITION_L0 U), as written, to 10 digits. So do the water levels of the
+dam breaks' probes (--probes: rank 0 samples the gathered particles), in l0. The bounds are those of
+tests/mpi/test_distributed_step.cpp (a solve at tol 1e-10 is within cond(A) tol ~ 1e-7 of the largest pressure; the
+correction then moves particles by at most ~2e-9 l0 a step, 2e-7 l0 over 100 steps). Each case runs about 100 steps.
 
   tests/apps_on_ranks.py BUILD_DIR MPIEXEC RANKS
 """
@@ -33,12 +33,14 @@ SOLVER = "hypre-pcg:tol=1e-10"
 # app: (options, l0 [m], its .pvd, the series compared column by column: file and the factor taking its values to
 # the bound's units, l0 for lengths, U for velocities)
 CASES = {
-    "dambreak": ("--column classic --dx 0.0073 --end-time 0.0610 --frames 2", 0.0073, "dambreak.pvd",
-                 [("front.csv", 20.0)]),  # x / a, a = 20 l0
+    # With probes (docs/probes.md): rank 0 samples the gathered particles; the water levels, in m.
+    "dambreak": ("--column classic --dx 0.0073 --end-time 0.0610 --frames 2 --probes {probes2}", 0.0073,
+                 "dambreak.pvd", [("front.csv", 20.0), ("probes.csv", 1 / 0.0073)]),  # x / a, a = 20 l0
     # The inlet channel at 10 across: its plate, ghost pool and outflow buffer; the profile at the station summed over
     # the ranks (u / U, averaged over the last 0.5 D/U).
     # SPHERIC Test 2 in 3-D at its coarsest spacing, past P1's first rise: the gauges' heights, in m (l0 = 0.1 m)
-    "dambreak-3d": ("--dim 3 --dx 0.1 --end-time 0.6 --frames 2", 0.1, "dambreak.pvd", [("level.csv", 10.0)]),
+    "dambreak-3d": ("--dim 3 --dx 0.1 --end-time 0.6 --frames 2 --probes {probes3}", 0.1, "dambreak.pvd",
+                    [("level.csv", 10.0), ("probes.csv", 10.0)]),
     "poiseuille": ("--mode inlet --re 40 --across 10 --end-time 1.5 --profiles 1 --average 0.5 --frames 2", 0.02,
                    "channel.pvd", [("profile.csv", 1.0)]),
 }
@@ -75,10 +77,15 @@ def main() -> int:
     build, mpiexec, ranks = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
+        probes = {"probes2": Path(tmp) / "levels2.toml", "probes3": Path(tmp) / "levels3.toml"}
+        probes["probes2"].write_text('interval = 0.01\n[[probe]]\nname = "h"\nquantity = "level"\n'
+                                     'points = [[0.05, 0.0], [0.16, 0.0]]\n')
+        probes["probes3"].write_text('interval = 0.05\n[[probe]]\nname = "h"\nquantity = "level"\nmethod = "wire"\n'
+                                     'points = [[2.9, 0.5, 0.0], [2.3, 0.5, 0.0]]\n')
         for case, (options, l0, pvd, series) in CASES.items():
             app = case.removesuffix("-3d")
             binary = str(build / "apps" / app / app)
-            command = [binary] + options.split() + ["--solver", SOLVER]
+            command = [binary] + options.format(**probes).split() + ["--solver", SOLVER]
             serial_out, ranks_out = Path(tmp) / f"{case}_serial", Path(tmp) / f"{case}_ranks"
             status = run(command, serial_out)
             status_ranks = run([mpiexec, "--oversubscribe", "--mca", "btl", "self,vader", "-np", str(ranks)] + command,

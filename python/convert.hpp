@@ -36,9 +36,6 @@ struct SparseLike {
 struct KindLike {
   static constexpr auto name = py::detail::const_name("sparsemps.Kind | str | int");
 };
-struct KindsLike {
-  static constexpr auto name = py::detail::const_name("numpy.typing.ArrayLike | None");
-};
 struct RectLike {
   static constexpr auto name = py::detail::const_name("tuple[float, float, float, float]");
 };

@@ -892,7 +892,7 @@ void bind_dimension3(py::module_& m) {
       "list), and positions, velocities of shape (N, 3). Reading gives a NumPy copy; assigning takes an array of the\n"
       "same length (positions, velocities and pressures finite).");
   particles
-      .def(py::init([](Typed<OptionalArray> positions, Typed<KindsLike> kind, Typed<OptionalArray> velocities,
+      .def(py::init([](Typed<OptionalArray> positions, Typed<OptionalArray> kind, Typed<OptionalArray> velocities,
                        Typed<OptionalArray> p, Typed<OptionalArray> group) {
              mps::Particles3 out;
              if (positions.is_none()) {
@@ -1000,7 +1000,7 @@ void bind_scene(py::module_& m) {
       "array of the same length (positions, velocities and pressures finite). id is each particle's index at\n"
       "creation and follows it through the reorderings a Simulation makes.");
   particles_class
-      .def(py::init([](Typed<OptionalArray> x, Typed<OptionalArray> y, Typed<KindsLike> kind, Typed<OptionalArray> u,
+      .def(py::init([](Typed<OptionalArray> x, Typed<OptionalArray> y, Typed<OptionalArray> kind, Typed<OptionalArray> u,
                        Typed<OptionalArray> v, Typed<OptionalArray> p, Typed<OptionalArray> group) {
              if (x.is_none() && y.is_none()) return mps::Particles{};
              if (kind.is_none()) throw py::value_error("Particles(x, y, kind): kind is required with positions");

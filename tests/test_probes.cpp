@@ -5,12 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 
 #include "mps/boundaries/geometry.hpp"
-#include "mps/core/state.hpp"
-#include "mps/io/io.hpp"
 #include "mps/io/probes.hpp"
 #include "mps/solids/fsi.hpp"
 #include "mps/step/step.hpp"

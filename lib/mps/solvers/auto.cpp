@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "mps/core/state.hpp"
 #include "mps/solvers/registry.hpp"
@@ -35,6 +36,7 @@ class AutoSolver final : public LinearSolver {
     jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol + jacobi_max_iter, context)
                            : make_solver("eigen-cg:precond=jacobi," + tol + jacobi_max_iter);
     amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol;
+    rescue_spec_ = (distributed_ ? "hypre-pcg:precond=jacobi," : "eigen-cg:precond=jacobi,") + tol + ",max_iter=100000";
     context_ = context;
   }
 
@@ -56,9 +58,7 @@ class AutoSolver final : public LinearSolver {
         steady_ >= steady_solves_ && (on_amg_ || last_jacobi_iterations_ > switch_iterations_);
     if (always_amg_ || steady_and_slow) {
       on_amg_ = true;
-      // Made at its first solve: a run that never leaves Jacobi-CG (a free surface) then never starts MPI and hypre.
-      if (!amg_) amg_ = make_solver(amg_spec_, context_);
-      return amg_->solve(a, b, x);
+      return amg_solve(a, b, x);
     }
     on_amg_ = false;
     try {
@@ -71,8 +71,29 @@ class AutoSolver final : public LinearSolver {
       // Bad input stops Jacobi before its last iteration and is the caller's to hear.
       if (e.report().iterations < jacobi_max_iter_) throw;
       always_amg_ = on_amg_ = true;
-      if (!amg_) amg_ = make_solver(amg_spec_, context_);
+      return amg_solve(a, b, x);
+    }
+  }
+  // AMG-PCG; should it break down, the same solve by Jacobi-CG from the same guess, uncapped. A filtered hierarchy
+  // broke down on a free surface torn by a moving paddle (examples/scenes/wave_paddle.toml, docs/solvers.md) where
+  // IC-CG and unfiltered AMG converged. The hierarchy is set up afresh at the next solve.
+  SolveReport amg_solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) {
+    // Made at its first solve: a run that never leaves Jacobi-CG (a free surface) then never starts MPI and hypre.
+    if (!amg_) amg_ = make_solver(amg_spec_, context_);
+    guess_.assign(x.begin(), x.end());
+    try {
       return amg_->solve(a, b, x);
+    } catch (const SolverError& amg_failure) {
+      std::copy(guess_.begin(), guess_.end(), x.begin());
+      amg_->renumbered();
+      if (!rescue_) rescue_ = make_solver(rescue_spec_, context_);
+      try {
+        SolveReport report = rescue_->solve(a, b, x);
+        report.backend += " (hypre-pcg broke down)";
+        return report;
+      } catch (const SolverError& e) {
+        throw SolverError(std::string(amg_failure.what()) + "; Jacobi-CG from the same guess: " + e.what(), e.report());
+      }
     }
   }
   [[nodiscard]] std::string spec() const override { return spec_; }
@@ -95,9 +116,10 @@ class AutoSolver final : public LinearSolver {
   [[nodiscard]] bool keeps_setup() const override { return amg_ && amg_->keeps_setup(); }
 
  private:
-  std::unique_ptr<LinearSolver> jacobi_, amg_;
+  std::unique_ptr<LinearSolver> jacobi_, amg_, rescue_;
+  std::vector<double> guess_;  // the guess of an AMG-PCG solve, for Jacobi-CG to start from should AMG break down
   int switch_iterations_, rebuild_iterations_, steady_solves_, jacobi_max_iter_ = 1;
-  std::string spec_, amg_spec_;
+  std::string spec_, amg_spec_, rescue_spec_;
   SolverContext context_;
   bool distributed_ = false, on_amg_ = false, always_amg_ = false;
   MPI_Comm comm_ = MPI_COMM_SELF;
@@ -113,7 +135,8 @@ SolverEntry auto_entry() {
           "iterations or the unknowns change from step to step; hypre-pcg with its AMG hierarchy reused once the "
           "unknowns (on ranks, every rank's) stay the same and Jacobi needed more than switch_iterations, or for good once a "
           "Jacobi solve reached rebuild_iterations without converging (AMG-PCG then finishes that solve from "
-          "Jacobi's iterate). Each solve's report names the backend that finished it.",
+          "Jacobi's iterate). Should AMG-PCG break down, Jacobi-CG solves again from the same guess, uncapped. Each "
+          "solve's report names the backend that finished it.",
           {{"tol", "1e-8", "relative residual ||b-Ax||/||b|| to reach, for either backend"},
            {"switch_iterations", "50", "Jacobi iterations above which an unchanged system moves to AMG-PCG"},
            {"rebuild_iterations", "150",

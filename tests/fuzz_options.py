@@ -129,7 +129,7 @@ def special_inputs(build, tmp):
                       (["--probes", "", "--out", str(tmp / "p")], "empty"),
                       (["--probes", str(tmp / "a_file"), "--out", str(tmp / "p")], "a_file, line 1"),
                       (["--probes", str(tmp / "no_probes.toml"), "--out", str(tmp / "p")],
-                       "lists its probes as [[probe]] tables")]
+                       "probes are listed as [[probe]] tables")]
         if app == "dambreak":
             cases += [(["--write-particles", "/dev/full", "--out", str(tmp / "w")], "not a regular file"),
                       (["--particles", "", "--out", str(tmp / "w")], "empty")]

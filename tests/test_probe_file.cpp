@@ -79,7 +79,7 @@ group = 1
 TEST(ProbeFile, MalformedFilesAreRefusedWithTheLineAndTheKey) {
   const std::string head = "[[probe]]\nname = \"p\"\nquantity = \"pressure\"\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"interval = 0.01\n", "lists its probes as [[probe]] tables"},
+      {"interval = 0.01\n", "probes are listed as [[probe]] tables"},
       {"intervall = 0.01\n" + head + "points = [[0.1, 0.1]]\n", "line 1: 'intervall' is no key of a probe file"},
       {head + "points = [[0.1, 0.1]]\nradius = 2\n", "line 5: 'radius' is no key of a [[probe]]"},
       {head + "points = [[0.1, 0.1, 0.2]]\n", "line 4: 'points' must be a point of 2 numbers"},

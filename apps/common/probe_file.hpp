@@ -30,9 +30,20 @@ inline void add_probes_option(CLI::App& app, std::string& file) {
 
 namespace probe_file_detail {
 
+// `file` names the file as the messages do: "probe file P" or "scene file P".
 [[noreturn]] inline void fail(const std::string& file, const toml::node& at, const std::string& what) {
-  throw std::invalid_argument("probe file " + file + ", line " + std::to_string(at.source().begin.line) + ": " +
+  throw std::invalid_argument(file + ", line " + std::to_string(at.source().begin.line) + ": " +
                               what);
+}
+
+// The TOML file at `path`, its syntax errors named with the line and column.
+inline toml::table parse(const std::string& file, const std::filesystem::path& path) {
+  try {
+    return toml::parse_file(path.string());
+  } catch (const toml::parse_error& e) {
+    throw std::invalid_argument(file + ", line " + std::to_string(e.source().begin.line) + ", column " +
+                                std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
+  }
 }
 
 inline double number(const std::string& file, const toml::node& node, const std::string& key) {
@@ -133,27 +144,17 @@ std::vector<mps::Vec<D>> probe_points(const std::string& file, const toml::table
 
 }  // namespace probe_file_detail
 
-// The probes `path` describes for `sim` (its spacing, kernel weight and dimension). A force probe adds a WallForce
-// for its group to `sim` (2-D, a run that solves the whole pressure). Throws std::invalid_argument naming the line.
+// Adds the [[probe]] tables `list` holds (a probe file's or a scene file's, `file`) to `series`, for `sim` (its
+// spacing, kernel weight and dimension). A force probe adds a WallForce for its group to `sim` (2-D, a run that solves
+// the whole pressure). Throws std::invalid_argument naming the line.
 template <int D>
-mps::BasicProbeSeries<D> read_probe_file(const std::filesystem::path& path, mps::BasicSimulation<D>& sim) {
+void add_probes(const std::string& file, const toml::node* list, mps::BasicProbeSeries<D>& series,
+                mps::BasicSimulation<D>& sim) {
   using namespace probe_file_detail;
-  const std::string file = path.string();
-  toml::table root;
-  try {
-    root = toml::parse_file(file);
-  } catch (const toml::parse_error& e) {
-    throw std::invalid_argument("probe file " + file + ", line " + std::to_string(e.source().begin.line) +
-                                ", column " + std::to_string(e.source().begin.column) + ": " +
-                                std::string(e.description()));
-  }
-  const Keys top(file, root, "a probe file", {"interval", "probe"});
-  mps::BasicProbeSeries<D> series(top.number_or("interval", 0.0));
-  const toml::node* list = top.find("probe");
   const toml::array* probes = list != nullptr ? list->as_array() : nullptr;
   if (probes == nullptr || probes->empty() || !probes->is_array_of_tables())
-    fail(file, list != nullptr ? *list : static_cast<const toml::node&>(root),
-         "a probe file lists its probes as [[probe]] tables");
+    throw std::invalid_argument(file + (list != nullptr ? ", line " + std::to_string(list->source().begin.line) : "") +
+                                ": probes are listed as [[probe]] tables");
   const double l0 = sim.config().l0;
   for (const toml::node& node : *probes) {
     const toml::table& t = *node.as_table();
@@ -211,10 +212,21 @@ mps::BasicProbeSeries<D> read_probe_file(const std::filesystem::path& path, mps:
       }
     } catch (const std::invalid_argument& e) {
       const std::string what = e.what();
-      if (what.rfind("probe file ", 0) == 0) throw;
+      if (what.rfind(file + ", line ", 0) == 0) throw;
       fail(file, t, what);  // the library's refusal (a name taken, a bad radius), at the probe's line
     }
   }
+}
+
+// The probes `path` describes for `sim`. Throws std::invalid_argument naming the line.
+template <int D>
+mps::BasicProbeSeries<D> read_probe_file(const std::filesystem::path& path, mps::BasicSimulation<D>& sim) {
+  using namespace probe_file_detail;
+  const std::string file = "probe file " + path.string();
+  const toml::table root = parse(file, path);
+  const Keys top(file, root, "a probe file", {"interval", "probe"});
+  mps::BasicProbeSeries<D> series(top.number_or("interval", 0.0));
+  add_probes<D>(file, top.find("probe"), series, sim);
   return series;
 }
 

@@ -324,8 +324,8 @@ template <int D>
 nlohmann::json BasicProbeSeries<D>::describe() const {
   nlohmann::json probes = nlohmann::json::array();
   for (const BasicProbe<D>& probe : probes_)
-    probes.push_back({{"name", probe.name}, {"quantity", probe.quantity}, {"points", probe.points},
-                      {"components", probe.components}});
+    probes.push_back({{"name", probe.name}, {"quantity", probe.quantity}, {"points_m", probe.points},
+                      {"component_count", probe.components}});
   return {{"interval_s", interval_}, {"probes", probes}, {"columns", columns()}};
 }
 

@@ -140,7 +140,7 @@ class BasicProbeSeries {
   [[nodiscard]] double interval() const { return interval_; }                        ///< as constructed
   /// Writes columns() and rows() as CSV by write_csv (mps/io/io.hpp: 10 significant digits, written atomically).
   void write_csv(const std::filesystem::path& path) const;
-  /// Each probe's name, quantity, points and columns, for a run's summary.
+  /// Each probe's name, quantity, points (points_m) and component count, and the columns, for a run's summary.
   [[nodiscard]] nlohmann::json describe() const;
   /// @{ For a checkpoint: the rows and the next mark. restore_state() refuses a state whose columns differ from
   /// this series' (other probes) with std::runtime_error.

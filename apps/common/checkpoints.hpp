@@ -232,3 +232,40 @@ int report_stop(const std::filesystem::path& dir, const RunStopped& stop, const 
   write_solves(dir, sim);
   return report_stop(dir, stop, params, sim.last_step().step, sim.time(), checkpoints);
 }
+
+// The loop of a scene that steps one simulation (hydrostatic, run): step() until done(), and after each step the
+// progress line, the frames and probes due, a line every `report_every` of simulated time and a checkpoint when due.
+// A stop by a signal or by the guard is reported (report_stop, report_guard_stop) and its exit status returned;
+// a run that reached its end returns nothing.
+template <int D, class Step, class Done>
+std::optional<int> step_to_end(mps::BasicSimulation<D>& sim, Step step, Done done, double end_time,
+                               double report_every, double& next_report, FrameSeries& series,
+                               Checkpoints& checkpoints, const std::function<nlohmann::json()>& save,
+                               const std::filesystem::path& dir, const nlohmann::json& params) {
+  Progress progress(end_time, "s");
+  try {
+    while (!done()) {
+      step();
+      progress.update(sim.time(), sim.last_step().step);
+      series.write_if_due(sim);
+      if (sim.time() >= next_report - 1e-12) {
+        const auto& s = sim.last_step();
+        progress.clear();
+        std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",
+                    s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.solve.backend.c_str(), s.solve.iterations,
+                    s.max_speed);
+        next_report += report_every;
+      }
+      checkpoints.after_step(sim, save, progress);
+    }
+  } catch (const RunStopped& stop) {
+    progress.finish(sim.time(), sim.last_step().step);
+    return report_stop(dir, stop, params, sim, checkpoints);
+  } catch (const mps::SimulationError& e) {
+    progress.finish(sim.time(), sim.last_step().step);
+    checkpoints.write(sim, save);  // the last good state, to restart from
+    return report_guard_stop(dir, e, params, sim);
+  }
+  progress.finish(sim.time(), sim.last_step().step);
+  return std::nullopt;
+}

@@ -129,31 +129,11 @@ int run(const tank::Params& p, const CLI::App& app, const std::string& out, cons
   double next_report = 0.1;
   const std::function<nlohmann::json()> save = [&] { return scene_state(scene, series, next_report); };
   if (!restore_scene(checkpoints, scene.sim(), scene, series, next_report)) series.write_if_due(sim);
-  Progress progress(p.end_time, "s");
-  try {
-    while (!scene.done()) {
-      scene.step();
-      progress.update(sim.time(), sim.last_step().step);
-      series.write_if_due(sim);
-      if (sim.time() >= next_report - 1e-12) {
-        const auto& s = sim.last_step();
-        progress.clear();
-        std::printf("t = %.3f s  step %d  dt %.2e (%s)  unknowns %zu  %s iterations %d  |u|max %.2e m/s\n",
-                    s.time, s.step, s.dt, s.dt_limit.c_str(), s.unknowns, s.solve.backend.c_str(), s.solve.iterations,
-                    s.max_speed);
-        next_report += 0.1;
-      }
-      checkpoints.after_step(sim, save, progress);
-    }
-  } catch (const RunStopped& stop) {
-    progress.finish(sim.time(), sim.last_step().step);
-    return report_stop(dir, stop, params, sim, checkpoints);
-  } catch (const mps::SimulationError& e) {
-    progress.finish(sim.time(), sim.last_step().step);
-    checkpoints.write(sim, save);  // the last good state, to restart from
-    return report_guard_stop(dir, e, params, sim);
-  }
-  progress.finish(sim.time(), sim.last_step().step);
+  const auto step = [&] { scene.step(); };
+  const auto done = [&] { return scene.done(); };
+  if (const auto stopped =
+          step_to_end(scene.sim(), step, done, p.end_time, 0.1, next_report, series, checkpoints, save, dir, params))
+    return *stopped;
 
   const tank::Result r = scene.result();
   std::vector<double> y, measured, exact, error;

@@ -24,7 +24,7 @@ build/release/CMakeCache.txt: | deps
 # Every app is built (the README runs them from build/release next); the demo is the paper's Poiseuille set-up
 # (seed 004: pushing-plate inlet, open outlet, 15 D, station at 10 D, to U t/D = 10) at Re = 40, coarse: 20 particles
 # across instead of 50. About two minutes of running.
-APPS = poiseuille hydrostatic rotating acoustic dambreak structure fsi
+APPS = poiseuille hydrostatic rotating acoustic dambreak structure fsi run
 demo: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target $(APPS)
 	./build/release/apps/poiseuille/poiseuille --mode inlet --re 40 --across 20 --end-time 10 --out $(DEMO_OUT)

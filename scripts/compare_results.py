@@ -52,6 +52,9 @@ CASES = {
     "fsi-plate": ("fsi", "--end-time 0.16 --frames 2"),
     "fsi-plate-min-reference": ("fsi", "--end-time 0.16 --frames 2 --pressure-gradient min-reference --relaxation 0.1"),
     "fsi-gate": ("fsi", "--scene gate --end-time 0.01 --frames 2"),
+    # a scene file: a moving obstacle, probes, and auto's Jacobi-CG rescue where AMG-PCG breaks down (from step 436)
+    "scene-wave-paddle": ("run", str(Path(__file__).resolve().parent.parent / "examples" / "scenes" / "wave_paddle.toml") +
+                          " --end-time 0.5 --frames 2"),
 }
 # Wall-clock figures differ run to run; "run" records the command line (its --out) and the commit, which a refactor
 # changes by definition.

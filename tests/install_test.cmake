@@ -140,6 +140,16 @@ foreach(app IN ITEMS dambreak structure)
     message(FATAL_ERROR "install test (${KIND}): installed ${app} read its data from '${data_line}', not the prefix")
   endif()
 endforeach()
+# The installed scene files, run by the installed sparsemps-run from a folder of the user's: the output goes under it.
+if("run" IN_LIST APPS)
+  execute_process(COMMAND "${prefix}/bin/sparsemps-run" "${prefix}/share/sparsemps/scenes/hydrostatic.toml"
+                          --end-time 0.005 --frames 0
+                  WORKING_DIRECTORY "${WORK}" RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0 OR NOT EXISTS "${WORK}/runs/hydrostatic/summary.json")
+    message(FATAL_ERROR "install test (${KIND}): the installed hydrostatic.toml did not run into ./runs (${rc}):\n"
+                        "${out}\n${err}")
+  endif()
+endif()
 # 6. The Python module, when the build made it: installed where Debian's Python looks for a prefix (under /usr/local,
 # make install's default, lib/python3.X/dist-packages is on its sys.path), importable from there with no PYTHONPATH
 # (-I: isolated), finding the installed library by its run path.

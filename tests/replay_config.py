@@ -36,6 +36,9 @@ CASES = {
     "rotating-3d": "--scene couette --dim 3 --across 6 --times 0.02 --frames 2 --walls mirror",
     # a scene from a particle file (written first by --write-particles): config.toml records the file's path
     "dambreak-particles": "--particles {tmp}/classic.csv --end-time 0.02 --frames 2 --gamma 0.05",
+    # a scene file (sparsemps-run): config.toml records the file's path, the file is copied beside the results
+    "run": str(Path(__file__).resolve().parent.parent / "examples" / "scenes" / "wave_paddle.toml") +
+           " --end-time 0.05 --frames 2",
 }
 APP = {"dambreak-particles": "dambreak", "dambreak-3d": "dambreak", "rotating-3d": "rotating"}  # a case's app, where the case is not named after it
 # A line each case's config.toml must hold: a switch given, and a path relative to the file's folder (tmp/CASE/first/).

@@ -45,6 +45,8 @@ APPS = [
      "--scene csm3 --dx 0.004 --end-time 0.3 --frames 10 --cfl 0.2"),
     ("fsi", "--dx 0.004 --end-time 0.22 --frames 5 --probes {examples}/probes/fsi_plate.toml",
      "--dx 0.004 --end-time 0.22 --frames 5 --relaxation 0.5 --probes {examples}/probes/fsi_plate.toml"),
+    ("run", "{examples}/scenes/wave_paddle.toml --end-time 0.3 --frames 6",
+     "{examples}/scenes/hydrostatic.toml --end-time 0.3 --frames 6"),
     ("fsi", "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5",
      "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5 --modulus 5e6"),
 ]

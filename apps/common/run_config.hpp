@@ -25,7 +25,8 @@
 
 // The options whose values are paths: in a config file they are relative to the file's folder.
 inline const std::set<std::string>& path_options() {
-  static const std::set<std::string> names = {"out", "data", "particles", "restart", "write-particles", "probes"};
+  static const std::set<std::string> names = {"out",   "data",           "particles", "restart",
+                                              "write-particles", "probes", "scene-file"};
   return names;
 }
 
@@ -104,6 +105,7 @@ class StrictConfig : public CLI::ConfigBase {
            const std::string& key, const toml::node& value) const {
     const int line = static_cast<int>(value.source().begin.line);
     const CLI::Option* option = app_->get_option_no_throw("--" + key);
+    if (option == nullptr) option = app_->get_option_no_throw(key);  // a positional (sparsemps-run's scene file)
     if (option == nullptr || key == "config")
       fail(value, "'" + key + "' is not an option of this app (--help lists them, without their leading --)");
     if (!section.empty() && section_of(*option) != section)

@@ -1,0 +1,648 @@
+#include "scene_file.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <set>
+#include <stdexcept>
+
+#include <toml++/toml.h>
+
+#include "mps/boundaries/geometry.hpp"
+#include "mps/io/io.hpp"
+#include "mps/step/components.hpp"
+#include "probe_file.hpp"
+
+namespace scene_file {
+
+namespace {
+
+using probe_file_detail::fail;
+using probe_file_detail::Keys;
+using probe_file_detail::number;
+
+std::string label(const std::filesystem::path& file) { return "scene file " + file.string(); }
+
+toml::table parse(const std::filesystem::path& path) { return probe_file_detail::parse(label(path), path); }
+
+std::string text(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.6g", v);
+  return s;
+}
+
+// The table under `key`, or nullptr; anything else there is refused.
+const toml::table* table_at(const std::string& file, const Keys& keys, const std::string& key) {
+  const toml::node* node = keys.find(key);
+  if (node == nullptr) return nullptr;
+  if (!node->is_table()) fail(file, *node, "'" + key + "' must be a table, as [" + key + "] or " + key + " = {...}");
+  return node->as_table();
+}
+
+template <int D>
+mps::Vec<D> vector_of(const std::string& file, const toml::node& node, const std::string& key, const char* unit) {
+  const toml::array* a = node.as_array();
+  if (a == nullptr || a->size() != D)
+    fail(file, node, "'" + key + "' must be " + std::to_string(D) + " numbers [" + unit + "], as [" +
+                         (D == 2 ? "x, y" : "x, y, z") + "]");
+  mps::Vec<D> r{};
+  for (std::size_t d = 0; d < D; ++d) {
+    r[d] = number(file, *a->get(d), key);
+    if (!std::isfinite(r[d])) fail(file, *a->get(d), "'" + key + "' must be finite");
+  }
+  return r;
+}
+
+double number_in(const std::string& file, const Keys& keys, const std::string& key, double otherwise, double lo,
+                 double hi, const std::string& range) {
+  const toml::node* node = keys.find(key);
+  if (node == nullptr) return otherwise;
+  const double v = number(file, *node, key);
+  if (!(v >= lo && v <= hi)) fail(file, *node, "'" + key + "' must be " + range + ", got " + text(v));
+  return v;
+}
+
+int whole_in(const std::string& file, const Keys& keys, const std::string& key, int otherwise, int lo, int hi) {
+  const toml::node* node = keys.find(key);
+  if (node == nullptr) return otherwise;
+  const auto* i = node->as_integer();
+  if (i == nullptr || i->get() < lo || i->get() > hi)
+    fail(file, *node, "'" + key + "' must be a whole number from " + std::to_string(lo) + " to " + std::to_string(hi));
+  return static_cast<int>(i->get());
+}
+
+bool switch_at(const std::string& file, const Keys& keys, const std::string& key) {
+  const toml::node* node = keys.find(key);
+  if (node == nullptr) return false;
+  if (!node->is_boolean()) fail(file, *node, "'" + key + "' must be true or false");
+  return node->as_boolean()->get();
+}
+
+// A box: min and max corners, at least one spacing apart on every axis.
+template <int D>
+Block<D> box_of(const std::string& file, const toml::table& table, const Keys& keys, const std::string& where,
+                double l0) {
+  Block<D> b;
+  b.line = static_cast<int>(table.source().begin.line);
+  b.lo = vector_of<D>(file, keys.need("min", where), "min", "m");
+  b.hi = vector_of<D>(file, keys.need("max", where), "max", "m");
+  for (std::size_t a = 0; a < D; ++a)
+    if (!(b.hi[a] - b.lo[a] >= l0 * (1 - 1e-9)))
+      fail(file, *keys.find("max"), where + ": 'max' must lie at least a spacing (" + text(l0) + " m) beyond 'min' on "
+                                    "every axis");
+  return b;
+}
+
+// Face names, as a list: x_low, x_high, y_low, y_high (and z_low, z_high in 3-D).
+template <int D>
+unsigned faces_of(const std::string& file, const toml::node& node) {
+  static const std::map<std::string, unsigned> names = {{"x_low", mps::x_low}, {"x_high", mps::x_high},
+                                                        {"y_low", mps::y_low}, {"y_high", mps::y_high},
+                                                        {"z_low", mps::z_low}, {"z_high", mps::z_high}};
+  const std::string valid = D == 2 ? "x_low, x_high, y_low, y_high" : "x_low, x_high, y_low, y_high, z_low, z_high";
+  const toml::array* a = node.as_array();
+  if (a == nullptr) fail(file, node, "'walls' must be a list of faces, as [\"x_low\", \"x_high\"] (" + valid + ")");
+  unsigned faces = 0;
+  for (const toml::node& face : *a) {
+    const auto* s = face.as_string();
+    const auto found = s != nullptr ? names.find(s->get()) : names.end();
+    if (found == names.end() || (D == 2 && found->second >= mps::z_low))
+      fail(file, face, "'walls' lists faces, each one of " + valid);
+    if ((faces & found->second) != 0) fail(file, face, "the face " + s->get() + " is listed twice");
+    faces |= found->second;
+  }
+  return faces;
+}
+
+// The faces' names, for the summary.
+template <int D>
+std::vector<std::string> face_names(unsigned faces) {
+  static const char* names[] = {"x_low", "x_high", "y_low", "y_high", "z_low", "z_high"};
+  std::vector<std::string> out;
+  for (int f = 0; f < 2 * D; ++f)
+    if ((faces & (1u << f)) != 0) out.emplace_back(names[f]);
+  return out;
+}
+
+// The first axis on which block b reaches through one of `faces` of box (their walls), or -1.
+template <int D>
+int axis_through_walls(const Block<D>& b, const Block<D>& box, unsigned faces, double l0) {
+  for (std::size_t a = 0; a < D; ++a) {
+    const bool low = (faces & (1u << (2 * a))) != 0, high = (faces & (2u << (2 * a))) != 0;
+    if ((low && b.lo[a] < box.lo[a] - 1e-9 * l0) || (high && b.hi[a] > box.hi[a] + 1e-9 * l0))
+      return static_cast<int>(a);
+  }
+  return -1;
+}
+
+template <int D>
+bool overlap(const Block<D>& a, const Block<D>& b, double l0) {
+  for (std::size_t d = 0; d < D; ++d)
+    if (std::min(a.hi[d], b.hi[d]) - std::max(a.lo[d], b.lo[d]) <= 1e-9 * l0) return false;
+  return true;
+}
+
+template <int D>
+nlohmann::json box_json(const Block<D>& b) {
+  return {{"min_m", std::vector<double>(b.lo.begin(), b.lo.end())}, {"max_m", std::vector<double>(b.hi.begin(), b.hi.end())}};
+}
+
+// [physics], [numerics] and [solver]: SimulationConfig's fields by their schema names (docs/step.md), each in its
+// range; `gravity` is g along -y (2-D) or -z (3-D); `pressure_treatment` takes mps::set_pressure_treatment's names.
+const std::set<std::string>& physics_names() {
+  static const std::set<std::string> names = {"rho", "nu", "fx", "fy", "fz"};
+  return names;
+}
+const std::set<std::string>& solver_names() {
+  static const std::set<std::string> names = {"solver", "warm_start", "viscosity_solver"};
+  return names;
+}
+// Whether SimulationConfig's field `name` belongs in [section] (physics, numerics or solver).
+bool in_section(const std::string& section, const std::string& name) {
+  if (section == "physics") return physics_names().count(name) != 0;
+  if (section == "solver") return solver_names().count(name) != 0;
+  return name != "l0" && name != "dt_option" && physics_names().count(name) == 0 && solver_names().count(name) == 0;
+}
+
+template <int D>
+void read_config_section(const std::string& file, const toml::table& section, const std::string& name,
+                         mps::SimulationConfig& c) {
+  for (auto&& [key_name, node] : section) {
+    const std::string key(key_name.str());
+    if (name == "physics" && key == "gravity") {
+      const double g = number(file, node, key);
+      if (!std::isfinite(g)) fail(file, node, "'gravity' must be finite [m/s^2]");
+      (D == 2 ? c.fy : c.fz) = -g;
+      continue;
+    }
+    if (name == "numerics" && key == "pressure_treatment") {
+      if (!node.is_string()) fail(file, node, "'pressure_treatment' must be a \"quoted string\", as \"hs+ecs\"");
+      try {
+        mps::set_pressure_treatment(c, node.as_string()->get());
+      } catch (const std::invalid_argument& e) {
+        fail(file, node, e.what());
+      }
+      continue;
+    }
+    bool found = false;
+    mps::for_each_parameter([&](const auto& p) {
+      using T = std::remove_cvref_t<decltype(c.*(p.member))>;
+      if (found || key != p.name || !in_section(name, key)) return;
+      found = true;
+      const std::string unit = *p.unit != '\0' ? std::string(" [") + p.unit + "]" : std::string();
+      if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+        double v = 0;
+        if constexpr (std::is_same_v<T, int>) {
+          if (!node.is_integer()) fail(file, node, "'" + key + "' must be a whole number");
+          v = static_cast<double>(node.as_integer()->get());
+        } else {
+          v = number(file, node, key);
+        }
+        if (!mps::in_range(v, p.min, p.max, p.min_open, p.max_open))
+          fail(file, node, "'" + key + "' must be " + mps::range_text(p.min, p.max, p.min_open, p.max_open) + unit +
+                               ", got " + text(v) + " (" + p.doc + ")");
+        c.*(p.member) = static_cast<T>(v);
+      } else if constexpr (std::is_same_v<T, bool>) {
+        if (!node.is_boolean()) fail(file, node, "'" + key + "' must be true or false (" + p.doc + ")");
+        c.*(p.member) = node.as_boolean()->get();
+      } else {
+        if (!node.is_string()) fail(file, node, "'" + key + "' must be a \"quoted string\" (" + p.doc + ")");
+        const std::string value = node.as_string()->get();
+        try {
+          if constexpr (std::is_same_v<T, std::string>) c.*(p.member) = value;
+          else if constexpr (std::is_same_v<T, mps::Weight>) c.*(p.member) = mps::parse_weight(value);
+          else c.*(p.member) = mps::gradient_variant_from_name(value);
+        } catch (const std::invalid_argument& e) {
+          fail(file, node, e.what());
+        }
+      }
+    });
+    if (found) continue;
+    std::string known;
+    mps::for_each_parameter([&](const auto& p) {
+      if (in_section(name, p.name)) known += (known.empty() ? "" : ", ") + std::string(p.name);
+    });
+    if (name == "physics") known += ", gravity";
+    if (name == "numerics") known += ", pressure_treatment";
+    bool elsewhere = false;
+    mps::for_each_parameter([&](const auto& p) { elsewhere = elsewhere || key == p.name; });
+    fail(file, node, "'" + key + "' is no key of [" + name + "]" +
+                         (elsewhere || key == "gravity" || key == "pressure_treatment"
+                              ? " (it belongs to " +
+                                    std::string(key == "l0"                                         ? "the top level, as 'spacing'"
+                                                : in_section("physics", key) || key == "gravity" ? "[physics]"
+                                                : in_section("solver", key)                      ? "[solver]"
+                                                                                                 : "[numerics]") +
+                                    ")"
+                              : "; it takes " + known));
+  }
+}
+
+}  // namespace
+
+int dimensions_of(const std::filesystem::path& path) {
+  const toml::table root = parse(path);
+  const toml::node* node = root.get("dimensions");
+  if (node == nullptr)
+    throw std::invalid_argument(label(path) + ": it needs 'dimensions = 2' or 'dimensions = 3' at its top");
+  const auto* d = node->as_integer();
+  if (d == nullptr || (d->get() != 2 && d->get() != 3)) fail(label(path), *node, "'dimensions' must be 2 or 3");
+  return static_cast<int>(d->get());
+}
+
+template <int D>
+Scene<D> read_scene(const std::filesystem::path& path) {
+  const toml::table root = parse(path);
+  const std::string file = label(path);
+  const Keys top(file, root, "a scene file",
+                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "domain", "physics",
+                  "numerics", "solver", "components", "run", "output", "probe"});
+  Scene<D> s;
+  s.file = path;
+  s.title = top.text("title", "a scene file", path.stem().string());
+  {
+    const toml::node& spacing = top.need("spacing", "a scene file");
+    s.l0 = number(file, spacing, "spacing");
+    if (!(s.l0 > 0 && s.l0 <= 1e3)) fail(file, spacing, "'spacing' (l0) must be positive and at most 1000 m");
+  }
+  const double l0 = s.l0;
+  nlohmann::json json = {{"title", s.title}, {"dimensions", D}, {"spacing_m", l0}};
+
+  if (const toml::table* tank = table_at(file, top, "tank")) {
+    const Keys k(file, *tank, "[tank]", {"min", "max", "walls", "wall_layers", "dummy_layers"});
+    s.has_tank = true;
+    s.tank = box_of<D>(file, *tank, k, "[tank]", l0);
+    const unsigned top_face = D == 2 ? unsigned{mps::top} : unsigned{mps::z_high};
+    s.tank_walls = k.find("walls") != nullptr ? faces_of<D>(file, *k.find("walls"))
+                                              : ((D == 2 ? 15u : 63u) & ~top_face);
+    s.wall_layers = whole_in(file, k, "wall_layers", 1, 1, 10);
+    s.dummy_layers = whole_in(file, k, "dummy_layers", 4, 0, 10);
+    json["tank"] = box_json(s.tank);
+    json["tank"]["walls"] = face_names<D>(s.tank_walls);
+    json["tank"]["wall_layers"] = s.wall_layers;
+    json["tank"]["dummy_layers"] = s.dummy_layers;
+  }
+
+  const toml::node* fluid = top.find("fluid");
+  if (fluid == nullptr || !fluid->is_array_of_tables() || fluid->as_array()->empty())
+    fail(file, fluid != nullptr ? *fluid : static_cast<const toml::node&>(root),
+         "a scene lists its water as [[fluid]] tables, each with min and max corners");
+  for (const toml::node& node : *fluid->as_array()) {
+    const toml::table& t = *node.as_table();
+    const Keys k(file, t, "a [[fluid]]", {"min", "max", "velocity"});
+    Block<D> b = box_of<D>(file, t, k, "a [[fluid]]", l0);
+    if (const toml::node* v = k.find("velocity")) b.velocity = vector_of<D>(file, *v, "velocity", "m/s");
+    if (const int a = s.has_tank ? axis_through_walls(b, s.tank, s.tank_walls, l0) : -1; a >= 0)
+      fail(file, t, "this [[fluid]] block reaches through a wall of the tank (line " + std::to_string(s.tank.line) +
+                        ") on axis " + "xyz"[a] + ": keep it inside the tank's min and max");
+    for (const Block<D>& other : s.fluid)
+      if (overlap(b, other, l0))
+        fail(file, t, "this [[fluid]] block overlaps the one on line " + std::to_string(other.line) +
+                          ": two particles would sit in one place");
+    s.fluid.push_back(b);
+    json["fluid"].push_back(box_json(b));
+    json["fluid"].back()["velocity_m_per_s"] = std::vector<double>(b.velocity.begin(), b.velocity.end());
+  }
+
+  if (const toml::node* list = top.find("wall")) {
+    if (!list->is_array_of_tables()) fail(file, *list, "walls are listed as [[wall]] tables");
+    for (const toml::node& node : *list->as_array()) {
+      const toml::table& t = *node.as_table();
+      const Keys k(file, t, "a [[wall]]",
+                   {"min", "max", "walls", "group", "wall_layers", "dummy_layers", "no_slip", "velocity"});
+      Wall<D> w;
+      w.box = box_of<D>(file, t, k, "a [[wall]]", l0);
+      w.walls = faces_of<D>(file, k.need("walls", "a [[wall]]"));
+      w.group = whole_in(file, k, "group", 0, 0, 1000000);
+      w.wall_layers = whole_in(file, k, "wall_layers", 1, 1, 10);
+      w.dummy_layers = whole_in(file, k, "dummy_layers", 4, 0, 10);
+      w.no_slip = switch_at(file, k, "no_slip");
+      if (const toml::node* v = k.find("velocity")) w.velocity = vector_of<D>(file, *v, "velocity", "m/s");
+      if (w.no_slip && std::popcount(w.walls) != 1)
+        fail(file, t, "a no-slip [[wall]] lies on one face (its mirror plane): list one in 'walls'");
+      if (w.no_slip && w.group == 0)
+        fail(file, t, "a no-slip [[wall]] needs a 'group' of its own (1, 2, ...): the mirror finds its particles by it");
+      if (k.find("velocity") != nullptr && !w.no_slip)
+        fail(file, *k.find("velocity"), "'velocity' is a no-slip wall's sliding velocity: set no_slip = true");
+      for (const Block<D>& b : s.fluid)
+        if (axis_through_walls(b, w.box, w.walls, l0) >= 0)
+          fail(file, t, "this [[wall]] cuts through the [[fluid]] block on line " + std::to_string(b.line));
+      s.walls.push_back(w);
+      nlohmann::json j = box_json(w.box);
+      j["walls"] = face_names<D>(w.walls);
+      j["group_number"] = w.group;
+      j["wall_layers"] = w.wall_layers;
+      j["dummy_layers"] = w.dummy_layers;
+      j["no_slip"] = w.no_slip;
+      j["velocity_m_per_s"] = std::vector<double>(w.velocity.begin(), w.velocity.end());
+      json["walls"].push_back(j);
+    }
+  }
+
+  if (const toml::node* list = top.find("obstacle")) {
+    if (!list->is_array_of_tables()) fail(file, *list, "obstacles are listed as [[obstacle]] tables");
+    std::set<int> moving_groups;
+    for (const toml::node& node : *list->as_array()) {
+      const toml::table& t = *node.as_table();
+      const Keys k(file, t, "an [[obstacle]]", {"min", "max", "walls", "group", "motion"});
+      Obstacle<D> o;
+      o.box = box_of<D>(file, t, k, "an [[obstacle]]", l0);
+      // By default a wall layer under every face but those lying on the tank's faces (a block on the floor).
+      if (const toml::node* walls = k.find("walls")) {
+        o.walls = faces_of<D>(file, *walls);
+      } else {
+        for (std::size_t a = 0; a < D; ++a) {
+          if (!(s.has_tank && std::abs(o.box.lo[a] - s.tank.lo[a]) <= 1e-9 * l0)) o.walls |= 1u << (2 * a);
+          if (!(s.has_tank && std::abs(o.box.hi[a] - s.tank.hi[a]) <= 1e-9 * l0)) o.walls |= 2u << (2 * a);
+        }
+      }
+      o.group = whole_in(file, k, "group", 0, 0, 1000000);
+      for (const Block<D>& b : s.fluid)
+        if (overlap(o.box, b, l0))
+          fail(file, t, "this [[obstacle]] overlaps the [[fluid]] block on line " + std::to_string(b.line) +
+                            ": make the block stop at the obstacle's faces");
+      if (const toml::table* motion = table_at(file, k, "motion")) {
+        const Keys m(file, *motion, "an obstacle's motion", {"axis", "amplitude", "period"});
+        o.axis = whole_in(file, m, "axis", -1, 0, D - 1);
+        if (o.axis < 0) fail(file, *motion, "an obstacle's motion needs 'axis' (0: x, 1: y" + std::string(D == 3 ? ", 2: z" : "") + ")");
+        if (m.find("amplitude") == nullptr || m.find("period") == nullptr)
+          fail(file, *motion, "an obstacle's motion needs 'amplitude' [m] and 'period' [s]");
+        o.amplitude = number_in(file, m, "amplitude", 0, 1e-12, 1e3, "positive (at most 1000 m)");
+        o.period = number_in(file, m, "period", 0, 1e-9, 1e6, "positive (at most 1e6 s)");
+        if (o.group == 0 || moving_groups.count(o.group) != 0)
+          fail(file, t, "a moving obstacle needs a 'group' of its own (1, 2, ...): its particles are found by it");
+        moving_groups.insert(o.group);
+      }
+      for (const Obstacle<D>& other : s.obstacles)
+        if (o.amplitude > 0 && other.group == o.group)
+          fail(file, t, "a moving obstacle needs a 'group' of its own; line " + std::to_string(other.box.line) +
+                            " has group " + std::to_string(o.group) + " too");
+      s.obstacles.push_back(o);
+      nlohmann::json j = box_json(o.box);
+      j["walls"] = face_names<D>(o.walls);
+      j["group_number"] = o.group;
+      if (o.amplitude > 0)
+        j["motion"] = {{"axis", std::string(1, "xyz"[o.axis])}, {"amplitude_m", o.amplitude}, {"period_s", o.period}};
+      json["obstacles"].push_back(j);
+    }
+  }
+
+  // The physics and numerics: SimulationConfig's defaults, then the file's.
+  s.config.l0 = l0;
+  s.config.dt_option = "dt_max or cfl in [numerics] of " + path.filename().string();
+  for (const char* section : {"physics", "numerics", "solver"})
+    if (const toml::table* t = table_at(file, top, section)) read_config_section<D>(file, *t, section, s.config);
+  if (!(s.config.dt_max > 0))
+    throw std::invalid_argument(file + ": [numerics] needs 'dt_max' [s], the step when neither the CFL (cfl) nor the "
+                                "viscous limit binds; about cfl l0 / sqrt(2 g H) for water H deep");
+  try {
+    s.config.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(file + ": " + e.what());
+  }
+  json["simulation_config"] = mps::config_json(s.config);
+
+  if (const toml::table* c = table_at(file, top, "components")) {
+    const Keys k(file, *c, "[components]",
+                 {"free_surface", "collision", "asymmetry_surface", "wet_walls", "remove_escaped", "wall_backstop"});
+    if (k.find("free_surface") != nullptr) {
+      if (!k.find("free_surface")->is_boolean()) fail(file, *k.find("free_surface"), "'free_surface' must be true or false");
+      s.free_surface = k.find("free_surface")->as_boolean()->get();
+    }
+    if (const toml::table* t = table_at(file, k, "collision")) {
+      const Keys ck(file, *t, "collision", {"distance", "restitution"});
+      if (ck.find("distance") == nullptr) fail(file, *t, "collision needs 'distance' [l0]");
+      s.collision = number_in(file, ck, "distance", 0, 1e-6, 0.999, "in (0, 1) l0");
+      s.restitution = number_in(file, ck, "restitution", 0.2, 0, 1, "in [0, 1]");
+    }
+    if (const toml::table* t = table_at(file, k, "asymmetry_surface")) {
+      const Keys ak(file, *t, "asymmetry_surface", {"fraction", "interior_density"});
+      if (ak.find("fraction") == nullptr) fail(file, *t, "asymmetry_surface needs 'fraction'");
+      s.asymmetry = number_in(file, ak, "fraction", 0, 1e-6, 10, "in (0, 10]");
+      s.asymmetry_interior_density = number_in(file, ak, "interior_density", 0, 0, 10, "in [0, 10] n0 (0: no limit)");
+    }
+    s.wet_walls = switch_at(file, k, "wet_walls");
+    s.remove_escaped = switch_at(file, k, "remove_escaped");
+    s.wall_backstop = switch_at(file, k, "wall_backstop");
+    if ((s.remove_escaped || s.wall_backstop) && !s.has_tank)
+      fail(file, *c, "remove_escaped and wall_backstop act on the tank's walls; this scene has no [tank]");
+  }
+  json["components"] = {{"free_surface", s.free_surface}, {"collision_l0", s.collision}, {"restitution", s.restitution},
+                        {"asymmetry", s.asymmetry}, {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
+                        {"wet_walls", s.wet_walls}, {"remove_escaped", s.remove_escaped},
+                        {"wall_backstop", s.wall_backstop}};
+
+  {
+    const toml::table* run = table_at(file, top, "run");
+    if (run == nullptr) throw std::invalid_argument(file + ": it needs [run] with 'end_time' [s]");
+    const Keys k(file, *run, "[run]", {"end_time"});
+    if (k.find("end_time") == nullptr) fail(file, *run, "[run] needs 'end_time' [s]");
+    s.end_time = number_in(file, k, "end_time", 0, 1e-12, 1e6, "positive (at most 1e6 s)");
+  }
+  s.out = std::filesystem::path("runs") / path.stem();  // as every app's --out: under the current folder
+  if (const toml::table* output = table_at(file, top, "output")) {
+    const Keys k(file, *output, "[output]", {"out", "frames", "probe_interval"});
+    if (k.find("out") != nullptr) {
+      const std::filesystem::path out = k.text("out", "[output]", "");
+      s.out = out.is_relative() ? (path.parent_path() / out).lexically_normal() : out;
+    }
+    s.frames = whole_in(file, k, "frames", 20, 0, 100000);
+    s.probe_interval = number_in(file, k, "probe_interval", 0, 0, 1e6, "at least 0 s (0: every step)");
+  }
+  s.has_probes = top.find("probe") != nullptr;
+
+  // The domain: the file's, or the particles' box with 6 spacings around it and room above for half its height.
+  const mps::BasicParticles<D> particles = make_particles(s);
+  mps::Vec<D> lo, hi;
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi.fill(-std::numeric_limits<double>::infinity());
+  const auto r = particles.positions();
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    for (std::size_t a = 0; a < D; ++a) lo[a] = std::min(lo[a], (*r[a])[i]), hi[a] = std::max(hi[a], (*r[a])[i]);
+  if (const toml::table* domain = table_at(file, top, "domain")) {
+    const Keys k(file, *domain, "[domain]", {"min", "max", "periodic"});
+    const Block<D> b = box_of<D>(file, *domain, k, "[domain]", l0);
+    if (const toml::node* periodic = k.find("periodic")) {
+      const toml::array* axes = periodic->as_array();
+      if (axes == nullptr) fail(file, *periodic, "'periodic' lists axes, as [\"x\"]");
+      for (const toml::node& axis : *axes) {
+        const auto* name = axis.as_string();
+        const std::string valid = D == 2 ? "x, y" : "x, y, z";
+        if (name == nullptr || name->get().size() != 1 || valid.find(name->get()) == std::string::npos)
+          fail(file, axis, "'periodic' lists axes, each one of " + valid);
+        const std::size_t a = static_cast<std::size_t>(name->get()[0] - 'x');
+        if (a == 0) s.domain.periodic_x = true;
+        if (a == 1) s.domain.periodic_y = true;
+        if constexpr (D == 3) if (a == 2) s.domain.periodic_z = true;
+      }
+    }
+    for (std::size_t a = 0; a < D; ++a)
+      if (!(b.lo[a] < lo[a] && b.hi[a] > hi[a]))
+        fail(file, *domain, std::string("the domain must hold every particle: on axis ") + "xyz"[a] + " they reach from " +
+                                text(lo[a]) + " to " + text(hi[a]) + " m");
+    for (std::size_t a = 0; a < D; ++a) lo[a] = b.lo[a], hi[a] = b.hi[a];
+  } else {
+    const double margin = 6 * l0, room = 0.5 * (hi[D - 1] - lo[D - 1]);
+    for (std::size_t a = 0; a < D; ++a) lo[a] -= margin, hi[a] += margin;
+    hi[D - 1] += room;
+  }
+  s.domain.xmin = lo[0], s.domain.xmax = hi[0], s.domain.ymin = lo[1], s.domain.ymax = hi[1];
+  if constexpr (D == 3) s.domain.zmin = lo[2], s.domain.zmax = hi[2];
+  std::vector<std::string> periodic;
+  for (std::size_t a = 0; a < D; ++a)
+    if (s.domain.periodic()[a]) periodic.emplace_back(1, "xyz"[a]);
+  json["domain"] = {{"min_m", std::vector<double>(lo.begin(), lo.end())},
+                    {"max_m", std::vector<double>(hi.begin(), hi.end())}, {"periodic", periodic}};
+  json["end_time_s"] = s.end_time;
+  json["frame_count"] = s.frames;
+  json["probe_interval_s"] = s.probe_interval;
+  s.parameters = std::move(json);
+  return s;
+}
+
+template <int D>
+mps::BasicParticles<D> make_particles(const Scene<D>& s) {
+  mps::BasicParticles<D> particles;
+  const auto fill = [&](const Block<D>& b, mps::Kind kind) {
+    if constexpr (D == 2) mps::fill_rectangle(particles, {b.lo[0], b.lo[1], b.hi[0], b.hi[1]}, s.l0, kind);
+    else mps::fill_box(particles, {b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]}, s.l0, kind);
+  };
+  for (const Block<D>& b : s.fluid) {
+    const std::size_t first = particles.size();
+    fill(b, mps::Kind::fluid);
+    const auto v = particles.velocities();
+    for (std::size_t i = first; i < particles.size(); ++i)
+      for (std::size_t a = 0; a < D; ++a) (*v[a])[i] = b.velocity[a];
+  }
+  if (s.has_tank) {
+    const Block<D>& t = s.tank;
+    if constexpr (D == 2)
+      mps::add_rectangle_walls(particles, {t.lo[0], t.lo[1], t.hi[0], t.hi[1]}, s.l0, s.tank_walls, s.wall_layers,
+                               s.dummy_layers);
+    else
+      mps::add_box_walls(particles, {t.lo[0], t.lo[1], t.lo[2], t.hi[0], t.hi[1], t.hi[2]}, s.l0, s.tank_walls,
+                         s.wall_layers, s.dummy_layers);
+  }
+  for (const Wall<D>& w : s.walls) {
+    const Block<D>& b = w.box;
+    if constexpr (D == 2)
+      mps::add_rectangle_walls(particles, {b.lo[0], b.lo[1], b.hi[0], b.hi[1]}, s.l0, w.walls, w.wall_layers,
+                               w.dummy_layers, w.group);
+    else
+      mps::add_box_walls(particles, {b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]}, s.l0, w.walls,
+                         w.wall_layers, w.dummy_layers, w.group);
+  }
+  // An obstacle: dummies, and wall particles within wall_layers spacings of its walled faces.
+  const double reach = s.wall_layers * s.l0;
+  for (const Obstacle<D>& o : s.obstacles) {
+    const std::size_t first = particles.size();
+    fill(o.box, mps::Kind::dummy);
+    const auto r = particles.positions();
+    for (std::size_t i = first; i < particles.size(); ++i) {
+      particles.group[i] = o.group;
+      for (std::size_t a = 0; a < D; ++a) {
+        const double x = (*r[a])[i];
+        if (((o.walls & (1u << (2 * a))) != 0 && x - o.box.lo[a] < reach) ||
+            ((o.walls & (2u << (2 * a))) != 0 && o.box.hi[a] - x < reach))
+          particles.kind[i] = mps::Kind::wall;
+      }
+    }
+  }
+  return particles;
+}
+
+template <int D>
+std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
+  const mps::BasicParticles<D> particles = make_particles(s);
+  auto sim = std::make_unique<mps::BasicSimulation<D>>(particles, s.domain, s.config);
+  if (!s.free_surface)
+    sim->template add<mps::BasicSurfaceRegion<D>>(
+        typename mps::BasicSurfaceRegion<D>::Region([](const mps::Vec<D>&) { return false; }));
+  for (const Wall<D>& w : s.walls) {
+    if (!w.no_slip) continue;
+    // The mirror plane is the wall's face, its normal into the box.
+    const int face = std::countr_zero(w.walls);
+    const std::size_t axis = static_cast<std::size_t>(face / 2);
+    const bool low = face % 2 == 0;
+    if constexpr (D == 2) {
+      mps::MirrorWall m;
+      m.px = axis == 0 ? (low ? w.box.lo[0] : w.box.hi[0]) : 0.0;
+      m.py = axis == 1 ? (low ? w.box.lo[1] : w.box.hi[1]) : 0.0;
+      m.nx = axis == 0 ? (low ? 1.0 : -1.0) : 0.0;
+      m.ny = axis == 1 ? (low ? 1.0 : -1.0) : 0.0;
+      m.u = w.velocity[0];
+      m.v = w.velocity[1];
+      m.group = w.group;
+      sim->template add<mps::MirrorNoSlip>(m);
+    } else {
+      mps::MirrorPlane<3> m;
+      m.point[axis] = low ? w.box.lo[axis] : w.box.hi[axis];
+      m.normal[axis] = low ? 1.0 : -1.0;
+      m.velocity = w.velocity;
+      m.group = w.group;
+      sim->template add<mps::MirrorPlaneNoSlip3>(m);
+    }
+  }
+  for (const Obstacle<D>& o : s.obstacles) {
+    if (!(o.amplitude > 0)) continue;
+    // Each of its particles at its start + amplitude sin(omega t) along the axis, moving at the derivative.
+    std::vector<double> start(particles.size(), 0.0);
+    const auto r0 = particles.positions();
+    for (std::size_t i = 0; i < particles.size(); ++i) start[static_cast<std::size_t>(particles.id[i])] = (*r0[o.axis])[i];
+    const double omega = 2 * std::numbers::pi / o.period;
+    sim->template add<mps::BasicBoundaryMotion<D>>(
+        [start = std::move(start), o, omega](mps::BasicParticles<D>& p, double t) {
+          const auto r = p.positions();
+          const auto v = p.velocities();
+          for (std::size_t i = 0; i < p.size(); ++i) {
+            if (p.group[i] != o.group || p.kind[i] == mps::Kind::fluid) continue;
+            (*r[o.axis])[i] = start[static_cast<std::size_t>(p.id[i])] + o.amplitude * std::sin(omega * t);
+            (*v[o.axis])[i] = o.amplitude * omega * std::cos(omega * t);
+          }
+        });
+  }
+  if (s.collision > 0) sim->template add<mps::BasicParticleCollision<D>>(s.collision, s.restitution);
+  if (s.asymmetry > 0) sim->template add<mps::BasicAsymmetrySurface<D>>(s.asymmetry, s.asymmetry_interior_density);
+  if (s.wet_walls) sim->template add<mps::BasicWetWalls<D>>();
+  const Block<D> tank = s.tank;
+  if (s.remove_escaped) {
+    // Fluid over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below the walls' top stays.
+    const double ceiling = s.domain.upper()[D - 1] - 2 * s.l0;
+    sim->template add<mps::BasicRemoveEscaped<D>>(typename mps::BasicRemoveEscaped<D>::Region([=](const mps::Vec<D>& r) {
+      if (!(r[D - 1] < ceiling)) return false;
+      if (r[D - 1] < tank.hi[D - 1]) return true;
+      for (std::size_t a = 0; a + 1 < D; ++a)
+        if (!(r[a] > tank.lo[a] && r[a] < tank.hi[a])) return false;
+      return true;
+    }));
+  }
+  if (s.wall_backstop) {
+    std::vector<typename mps::BasicWallBackstop<D>::AxisBox> boxes;
+    for (const Obstacle<D>& o : s.obstacles) boxes.push_back({o.box.lo, o.box.hi});
+    sim->template add<mps::BasicWallBackstop<D>>(typename mps::BasicWallBackstop<D>::AxisBox{tank.lo, tank.hi},
+                                                 std::move(boxes));
+  }
+  return sim;
+}
+
+template <int D>
+mps::BasicProbeSeries<D> read_probes(const Scene<D>& s, mps::BasicSimulation<D>& sim) {
+  mps::BasicProbeSeries<D> series(s.probe_interval);
+  if (!s.has_probes) return series;
+  const toml::table root = parse(s.file);
+  add_probes<D>(label(s.file), root.get("probe"), series, sim);
+  return series;
+}
+
+template Scene<2> read_scene<2>(const std::filesystem::path&);
+template Scene<3> read_scene<3>(const std::filesystem::path&);
+template mps::BasicParticles<2> make_particles<2>(const Scene<2>&);
+template mps::BasicParticles<3> make_particles<3>(const Scene<3>&);
+template std::unique_ptr<mps::BasicSimulation<2>> make_simulation<2>(const Scene<2>&);
+template std::unique_ptr<mps::BasicSimulation<3>> make_simulation<3>(const Scene<3>&);
+template mps::BasicProbeSeries<2> read_probes<2>(const Scene<2>&, mps::BasicSimulation<2>&);
+template mps::BasicProbeSeries<3> read_probes<3>(const Scene<3>&, mps::BasicSimulation<3>&);
+
+}  // namespace scene_file

@@ -1,0 +1,97 @@
+#pragma once
+// Scene files (docs/scene-files.md): a case described as data in TOML, 2-D or 3-D — a walled tank, blocks of fluid,
+// solid box obstacles (fixed or oscillating), the domain, the physics and numerics by SimulationConfig's own names,
+// the components a scene adds, the run's length, its outputs and its probes. sparsemps-run runs them; every error
+// names the file, the line and the key.
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mps/core/domain.hpp"
+#include "mps/core/particles.hpp"
+#include "mps/io/probes.hpp"
+#include "mps/step/step.hpp"
+
+namespace scene_file {
+
+// An axis-aligned box [lo, hi] of the scene's dimension, and the file's line that gave it (for errors).
+template <int D>
+struct Block {
+  mps::Vec<D> lo{}, hi{};
+  mps::Vec<D> velocity{};  // fluid blocks: the initial velocity [m/s]
+  int line = 0;
+};
+
+// A solid box: dummy particles inside, `wall_layers` layers of wall particles under its faces `walls` (the Face bits
+// of mps::add_box_walls; by default every face that does not lie on the tank's). It oscillates when `amplitude` > 0:
+// its particles are at start + amplitude sin(2 pi t / period) along `axis`.
+template <int D>
+struct Obstacle {
+  Block<D> box;
+  unsigned walls = 0;
+  int group = 0;
+  int axis = 0;
+  double amplitude = 0, period = 0;
+};
+
+// Walls outside a box on its faces `walls`, as the tank's, with a group of their own, for a wall that is not a tank's
+// (a channel's). With `no_slip` (one face only) the fluid meets it by mirror velocities (mps::MirrorNoSlip in 2-D,
+// mps::MirrorPlaneNoSlip3 in 3-D), the wall sliding at `velocity` (its particles stay where they are).
+template <int D>
+struct Wall {
+  Block<D> box;
+  unsigned walls = 0;
+  int group = 0, wall_layers = 1, dummy_layers = 4;
+  bool no_slip = false;
+  mps::Vec<D> velocity{};
+};
+
+template <int D>
+struct Scene {
+  std::filesystem::path file;
+  std::string title;
+  double l0 = 0;
+  bool has_tank = false;
+  Block<D> tank;            // the tank's inner box; its walls outside it on the faces `tank_walls`
+  unsigned tank_walls = 0;  // Face bits (Side bits in 2-D: the same values)
+  int wall_layers = 1, dummy_layers = 4;
+  std::vector<Block<D>> fluid;
+  std::vector<Wall<D>> walls;
+  std::vector<Obstacle<D>> obstacles;
+  mps::BasicDomain<D> domain;  // periodic on the axes the file's [domain] lists
+  mps::SimulationConfig config;
+  // Components, added in this order (each off unless the file asks for it): no free surface anywhere (a closed
+  // liquid: mps::SurfaceRegion), the walls' no-slip, the obstacles' motion, then these.
+  bool free_surface = true;
+  double collision = 0, restitution = 0.2;  // mps::ParticleCollision: distance [l0] (0: off), restitution
+  double asymmetry = 0, asymmetry_interior_density = 0;  // mps::AsymmetrySurface (0: off)
+  bool wet_walls = false;       // mps::WetWalls
+  bool remove_escaped = false;  // mps::RemoveEscaped: fluid over the tank's walls or near the domain's ceiling
+  bool wall_backstop = false;   // mps::WallBackstop: fluid kept inside the tank and out of the obstacles
+  double end_time = 0;          // [s]
+  std::filesystem::path out;    // the file's out relative to its folder; by default runs/<file stem>
+  int frames = 20;
+  double probe_interval = 0;    // [s] (0: every step)
+  bool has_probes = false;
+  nlohmann::json parameters;    // the scene as its summary records it
+};
+
+// The scene file's dimension: its `dimensions` key (2 or 3). Throws std::invalid_argument naming the line.
+int dimensions_of(const std::filesystem::path& file);
+// The whole scene, every key checked. Throws std::invalid_argument naming the file, the line and the key.
+template <int D>
+Scene<D> read_scene(const std::filesystem::path& file);
+// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles.
+template <int D>
+mps::BasicParticles<D> make_particles(const Scene<D>& scene);
+// The simulation with the scene's components (and each moving obstacle's motion).
+template <int D>
+std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& scene);
+// The file's [[probe]] tables for `sim` (an empty series when it has none).
+template <int D>
+mps::BasicProbeSeries<D> read_probes(const Scene<D>& scene, mps::BasicSimulation<D>& sim);
+
+}  // namespace scene_file

@@ -1,0 +1,326 @@
+// Scene files (apps/run/scene_file.hpp): the particles a file describes, its physics and numerics in the simulation's
+// configuration, a moving obstacle on its prescribed motion, and every malformed file refused with its line and key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+#include "mps/step/components.hpp"
+#include "scene_file.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path write_file(const std::string& name, const std::string& text) {
+  const fs::path path = fs::temp_directory_path() / ("sparsemps_scene_file_" + name + ".toml");
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A 2-D tank 0.4 m x 0.3 m at l0 = 0.02 m with water 0.2 m x 0.1 m in it; `extra` is appended.
+std::string tank(const std::string& extra = "") {
+  return R"(dimensions = 2
+spacing = 0.02
+[tank]
+min = [0.0, 0.0]
+max = [0.4, 0.3]
+[[fluid]]
+min = [0.0, 0.0]
+max = [0.2, 0.1]
+[physics]
+gravity = 9.81
+[numerics]
+dt_max = 1e-3
+[run]
+end_time = 0.01
+)" + extra;
+}
+
+// The message of read_scene's refusal of `text` ("" if it was read).
+std::string refusal(const std::string& name, const std::string& text) {
+  const fs::path path = write_file(name, text);
+  try {
+    if (scene_file::dimensions_of(path) == 2) static_cast<void>(scene_file::read_scene<2>(path));
+    else static_cast<void>(scene_file::read_scene<3>(path));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The lattice gives every count: 10 x 5 fluid; the walls one layer, the dummies four, on three sides with their
+// corners; the obstacle's four spacings square, its top and sides wall (not its bottom, on the floor).
+TEST(SceneFile, ParticlesAreTheBlocksWallsAndObstaclesTheFileDescribes) {
+  const fs::path path = write_file("counts", tank(R"([[obstacle]]
+min = [0.28, 0.0]
+max = [0.36, 0.08]
+)"));
+  const auto scene = scene_file::read_scene<2>(path);
+  const auto s = scene_file::make_particles(scene);
+  EXPECT_EQ(s.count(mps::Kind::fluid), 50u);
+  // The tank is 20 x 15 cells: its layer k (1 to 5) has 20 + 2k floor cells and 15 + k - 1 in each side below the top.
+  std::size_t walls = 0, dummies = 0;
+  for (int k = 1; k <= 5; ++k) (k == 1 ? walls : dummies) += static_cast<std::size_t>(20 + 2 * k + 2 * (15 + k - 1));
+  std::size_t obstacle_walls = 0, obstacle_dummies = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.x[i] > 0.28 && s.x[i] < 0.36 && s.y[i] > 0.0 && s.y[i] < 0.08)
+      ++(s.kind[i] == mps::Kind::wall ? obstacle_walls : obstacle_dummies);
+  EXPECT_EQ(obstacle_walls, 10u);   // 4 x 4 cells, all but the 2 x 3 inner ones below the top row
+  EXPECT_EQ(obstacle_dummies, 6u);
+  EXPECT_EQ(s.count(mps::Kind::wall), walls + obstacle_walls);
+  EXPECT_EQ(s.count(mps::Kind::dummy), dummies + obstacle_dummies);
+  // The default domain: the particles' box with 6 l0 around it and half its height above.
+  const double lowest = -4.5 * 0.02, highest = 0.3 - 0.5 * 0.02;
+  EXPECT_NEAR(scene.domain.ymin, lowest - 0.12, 1e-12);
+  EXPECT_NEAR(scene.domain.ymax, highest + 0.12 + 0.5 * (highest - lowest), 1e-12);
+}
+
+// [physics], [numerics] and [solver] set SimulationConfig's fields by their schema names; gravity points down the
+// last axis; the treatments by their names.
+TEST(SceneFile, PhysicsAndNumericsSetTheConfigurationByName) {
+  const auto c2 = scene_file::read_scene<2>(write_file("config", tank(R"(
+[solver]
+solver = "eigen-cg"
+warm_start = false
+)"))).config;
+  EXPECT_EQ(c2.fy, -9.81);
+  EXPECT_EQ(c2.solver, "eigen-cg");
+  EXPECT_FALSE(c2.warm_start);
+  std::string text = tank();
+  text.replace(text.find("dt_max = 1e-3"), 13,
+               "dt_max = 1e-3\ngamma = 0.25\nweight = \"classic\"\nreorder_every = 0\npressure_treatment = \"hs+ecs\"");
+  const auto c = scene_file::read_scene<2>(write_file("numerics", text)).config;
+  EXPECT_EQ(c.gamma, 0.25);
+  EXPECT_EQ(c.weight, mps::Weight::classic);
+  EXPECT_EQ(c.reorder_every, 0);
+  EXPECT_TRUE(c.higher_order_source && c.error_compensating_source && !c.higher_order_laplacian);
+  EXPECT_EQ(c.l0, 0.02);
+  const auto c3 = scene_file::read_scene<3>(write_file("config3", R"(dimensions = 3
+spacing = 0.05
+[[fluid]]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.2]
+[physics]
+gravity = 9.81
+[numerics]
+dt_max = 1e-3
+[run]
+end_time = 0.01
+)")).config;
+  EXPECT_EQ(c3.fz, -9.81);
+  EXPECT_EQ(c3.fy, 0.0);
+}
+
+// A moving obstacle is where its motion puts it at every step, and moves at its derivative; the fixed walls stay.
+TEST(SceneFile, MovingObstacleFollowsItsMotion) {
+  const fs::path path = write_file("paddle", R"(dimensions = 2
+spacing = 0.02
+[tank]
+min = [0.0, 0.0]
+max = [0.8, 0.4]
+[[fluid]]
+min = [0.2, 0.0]
+max = [0.8, 0.2]
+[[obstacle]]
+min = [0.1, 0.0]
+max = [0.2, 0.3]
+group = 3
+motion = {axis = 0, amplitude = 0.01, period = 0.2}
+[physics]
+gravity = 9.81
+[numerics]
+dt_max = 1e-3
+[run]
+end_time = 0.05
+)");
+  const auto scene = scene_file::read_scene<2>(path);
+  auto sim = scene_file::make_simulation(scene);
+  const mps::Particles start = sim->particles();
+  while (sim->time() < 0.05 - 1e-12) sim->step();
+  const mps::Particles& s = sim->particles();
+  const double t = sim->time(), omega = 2 * std::numbers::pi / 0.2;
+  std::size_t paddle = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const auto k = static_cast<std::size_t>(s.id[i]);
+    if (s.kind[i] == mps::Kind::fluid) continue;
+    if (s.group[i] == 3) {
+      ++paddle;
+      ASSERT_DOUBLE_EQ(s.x[i], start.x[k] + 0.01 * std::sin(omega * t));
+      ASSERT_DOUBLE_EQ(s.u[i], 0.01 * omega * std::cos(omega * t));
+      ASSERT_EQ(s.y[i], start.y[k]);
+    } else {
+      ASSERT_EQ(s.x[i], start.x[k]);
+      ASSERT_EQ(s.y[i], start.y[k]);
+    }
+  }
+  EXPECT_EQ(paddle, 5u * 15u);
+  // The paddle has pushed into the water (x = start + 0.01 sin(omega t) > start for t < 0.1 s): the water moves +x.
+  double momentum = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (s.kind[i] == mps::Kind::fluid) momentum += s.u[i];
+  EXPECT_GT(momentum, 0.0);
+}
+
+// Each fault is refused naming the file's line and the key, or the two lines that clash.
+TEST(SceneFile, MalformedFilesAreRefusedWithTheirLineAndKey) {
+  const auto expect = [](const std::string& name, const std::string& text, const std::string& part) {
+    const std::string message = refusal(name, text);
+    EXPECT_NE(message.find(part), std::string::npos) << name << ": " << message;
+  };
+  expect("syntax", "dimensions = 2\nspacing = = 1\n", "line 2, column");
+  expect("no_dimensions", "spacing = 0.1\n", "needs 'dimensions = 2'");
+  expect("dimensions", "dimensions = 4\n", "line 1: 'dimensions' must be 2 or 3");
+  expect("unknown_top", "colour = \"blue\"\n" + tank(), "line 1: 'colour' is no key of a scene file");
+  expect("spacing", [] { std::string t = tank(); t.replace(t.find("0.02"), 4, "-1"); return t; }(),
+         "line 2: 'spacing' (l0) must be positive");
+  expect("table_twice", tank("[numerics]\ngamma = 0.5\n"), "line 15, column");  // TOML's own error
+  {
+    std::string t = tank();
+    t.replace(t.find("dt_max = 1e-3"), 13, "dt_max = 1e-3\ngamma = 2");
+    expect("gamma_range", t, "line 13: 'gamma' must be in [0, 1]");
+    t = tank();
+    t.replace(t.find("dt_max = 1e-3"), 13, "dt_max = 1e-3\nrho = 1000");
+    expect("wrong_section", t, "line 13: 'rho' is no key of [numerics] (it belongs to [physics])");
+    t = tank();
+    t.replace(t.find("dt_max = 1e-3"), 13, "dt_max = 1e-3\nweight = \"gaussian\"");
+    expect("weight", t, "line 13:");
+    t = tank();
+    t.replace(t.find("dt_max = 1e-3"), 13, "cfl = 0.1");
+    expect("no_dt", t, "[numerics] needs 'dt_max'");
+  }
+  expect("block_overlap", tank("[[fluid]]\nmin = [0.1, 0.05]\nmax = [0.3, 0.2]\n"),
+         "line 15: this [[fluid]] block overlaps the one on line 6");
+  expect("through_wall", tank("[[fluid]]\nmin = [0.3, 0.0]\nmax = [0.5, 0.1]\n"),
+         "line 15: this [[fluid]] block reaches through a wall of the tank (line 3) on axis x");
+  expect("obstacle_in_water", tank("[[obstacle]]\nmin = [0.1, 0.0]\nmax = [0.3, 0.1]\n"),
+         "line 15: this [[obstacle]] overlaps the [[fluid]] block on line 6");
+  expect("moving_no_group",
+         tank("[[obstacle]]\nmin = [0.3, 0.0]\nmax = [0.38, 0.1]\nmotion = {axis = 0, amplitude = 0.01, period = 1}\n"),
+         "line 15: a moving obstacle needs a 'group' of its own");
+  expect("motion_axis",
+         tank("[[obstacle]]\nmin = [0.3, 0.0]\nmax = [0.38, 0.1]\ngroup = 1\nmotion = {axis = 2, amplitude = 0.01, "
+              "period = 1}\n"),
+         "line 19: 'axis' must be a whole number from 0 to 1");
+  expect("walls", [] { std::string t = tank(); t.insert(t.find("[[fluid]]"), "walls = [\"left\"]\n"); return t; }(),
+         "line 6: 'walls' lists faces, each one of x_low, x_high, y_low, y_high");
+  expect("point", [] { std::string t = tank(); t.replace(t.find("max = [0.2, 0.1]"), 16, "max = [0.2]"); return t; }(),
+         "line 8: 'max' must be 2 numbers [m]");
+  expect("thin", [] { std::string t = tank(); t.replace(t.find("max = [0.2, 0.1]"), 16, "max = [0.2, 0.01]"); return t; }(),
+         "line 8: a [[fluid]]: 'max' must lie at least a spacing");
+  expect("domain", tank("[domain]\nmin = [-0.05, -0.05]\nmax = [0.5, 0.5]\n"),
+         "line 15: the domain must hold every particle: on axis x");
+  expect("no_run", [] { std::string t = tank(); t.erase(t.find("[run]")); return t; }(),
+         "it needs [run] with 'end_time'");
+  expect("component", tank("[components]\nsplash = true\n"), "line 16: 'splash' is no key of [components]");
+  expect("no_slip_faces",
+         tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\", \"y_high\"]\ngroup = 1\nno_slip = true\n"),
+         "line 15: a no-slip [[wall]] lies on one face");
+  expect("no_slip_group", tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\"]\nno_slip = true\n"),
+         "line 15: a no-slip [[wall]] needs a 'group' of its own");
+  expect("periodic_axis", tank("[domain]\nmin = [-0.2, -0.2]\nmax = [0.6, 0.5]\nperiodic = [\"z\"]\n"),
+         "line 18: 'periodic' lists axes, each one of x, y");
+}
+
+// A periodic channel between no-slip [[wall]]s, the top one sliding (Couette start-up): the walls in their groups on
+// either side, the domain periodic along x, and the fluid set moving along the sliding wall, not across the walls.
+TEST(SceneFile, PeriodicChannelBetweenNoSlipWalls) {
+  const fs::path path = write_file("couette", R"(dimensions = 2
+spacing = 0.02
+[[fluid]]
+min = [0.0, 0.0]
+max = [0.32, 0.2]
+[[wall]]
+min = [0.0, 0.0]
+max = [0.32, 0.2]
+walls = ["y_low"]
+group = 1
+no_slip = true
+[[wall]]
+min = [0.0, 0.0]
+max = [0.32, 0.2]
+walls = ["y_high"]
+group = 2
+no_slip = true
+velocity = [0.01, 0.0]
+[domain]
+min = [0.0, -0.12]
+max = [0.32, 0.32]
+periodic = ["x"]
+[numerics]
+dt_max = 0.01
+[components]
+free_surface = false
+[run]
+end_time = 1.0
+)");
+  const auto scene = scene_file::read_scene<2>(path);
+  EXPECT_TRUE(scene.domain.periodic_x);
+  EXPECT_FALSE(scene.domain.periodic_y);
+  auto sim = scene_file::make_simulation(scene);
+  const mps::Particles& s0 = sim->particles();
+  std::size_t below = 0, above = 0;
+  for (std::size_t i = 0; i < s0.size(); ++i) {
+    if (s0.group[i] == 1) {
+      ASSERT_LT(s0.y[i], 0.0);
+      ++below;
+    }
+    if (s0.group[i] == 2) {
+      ASSERT_GT(s0.y[i], 0.2);
+      ++above;
+    }
+  }
+  EXPECT_EQ(below, 16u * 5u);
+  EXPECT_EQ(above, 16u * 5u);
+  for (int k = 0; k < 20; ++k) sim->step();
+  // Momentum diffuses in from the top wall: the fluid near it moves along +x, the fluid near the bottom barely.
+  double top = 0, bottom = 0, across = 0;
+  const mps::Particles& s = sim->particles();
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] != mps::Kind::fluid) continue;
+    if (s.y[i] > 0.18) top += s.u[i];
+    if (s.y[i] < 0.02) bottom += s.u[i];
+    across = std::max(across, std::abs(s.v[i]));
+  }
+  EXPECT_GT(top, 0.0);
+  EXPECT_GT(top, 100 * std::abs(bottom));
+  EXPECT_LT(across, 1e-3 * 0.01 * 16);
+}
+
+// A probe's fault is the probe reader's, with the scene file's name and line.
+TEST(SceneFile, ProbesAreReadWithTheSceneFilesLines) {
+  const fs::path path = write_file("probes", tank(R"([output]
+probe_interval = 0.005
+[[probe]]
+name = "depth"
+quantity = "level"
+points = [[0.1, 0.0]]
+[[probe]]
+name = "p"
+quantity = "density"
+points = [[0.1, 0.05]]
+)"));
+  const auto scene = scene_file::read_scene<2>(path);
+  auto sim = scene_file::make_simulation(scene);
+  try {
+    static_cast<void>(scene_file::read_probes(scene, *sim));
+    FAIL() << "a probe of no known quantity was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("scene file " + path.string() + ", line 23: probe 'p': quantity 'density'"),
+              std::string::npos)
+        << e.what();
+  }
+  std::string good = tank("[output]\nprobe_interval = 0.005\n[[probe]]\nname = \"depth\"\nquantity = \"level\"\n"
+                          "points = [[0.1, 0.0]]\n");
+  const auto ok = scene_file::read_scene<2>(write_file("probes_ok", good));
+  auto sim_ok = scene_file::make_simulation(ok);
+  auto series = scene_file::read_probes(ok, *sim_ok);
+  ASSERT_EQ(series.probes().size(), 1u);
+  ASSERT_TRUE(series.sample(0.0, sim_ok->particles()));
+  EXPECT_NEAR(series.rows().back().at(1), 0.1, 1e-12);  // the water's depth
+}
+
+}  // namespace

@@ -34,6 +34,8 @@ CASES = {
                    {"profile.png": "exact", "centerline.png": "exact"}),
     "rotating": ("rotating", "--scene couette --across 8 --times 0.05,0.1 --frames 1", {"couette.png": "exact"}),
     "hydrostatic": ("hydrostatic", "--end-time 0.2 --window 0.1 --frames 1", {"pressure.png": "rho g (H - y)"}),
+    # a scene file's run: its probes, titled from the file's title
+    "run": ("run", "{examples}/scenes/hydrostatic.toml --end-time 0.1 --frames 1", {"probes.png": "middle"}),
 }
 
 
@@ -64,9 +66,11 @@ def main():
                 if image.shape[0] < 200 or np.ptp(image[..., :3]) == 0:
                     failures.append(f"{name}: {figure} is no picture ({image.shape})")
                 title, series = index[figure]["title"], index[figure]["series"]
-                dx = params.get("dx_m")
+                dx = params.get("dx_m") or params.get("spacing_m")
                 if dx and f"{dx:.4g}" not in title:
                     failures.append(f"{name}: {figure}'s title {title!r} does not give the run's dx {dx}")
+                if app == "run" and params["title"] not in title:
+                    failures.append(f"run: {figure}'s title {title!r} does not give the scene file's title")
                 if app == "rotating" and f"Re = {params['re']:g}" not in title:
                     failures.append(f"{name}: {figure}'s title {title!r} does not give the run's Re {params['re']}")
                 if words and not any(words in s for s in series):

@@ -216,6 +216,8 @@ TEST(SceneFile, MalformedFilesAreRefusedWithTheirLineAndKey) {
   expect("no_run", [] { std::string t = tank(); t.erase(t.find("[run]")); return t; }(),
          "it needs [run] with 'end_time'");
   expect("component", tank("[components]\nsplash = true\n"), "line 16: 'splash' is no key of [components]");
+  expect("too_fine", [] { std::string t = tank(); t.replace(t.find("spacing = 0.02"), 14, "spacing = 1e-5"); return t; }(),
+         "line 2: at spacing 1e-05 m the scene's boxes hold up to");
   expect("no_slip_faces",
          tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\", \"y_high\"]\ngroup = 1\nno_slip = true\n"),
          "line 15: a no-slip [[wall]] lies on one face");

@@ -453,6 +453,25 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
   s.has_probes = top.find("probe") != nullptr;
 
+  // Before any particle is made: a spacing too fine for the boxes would fill the memory. The lattice over the box
+  // holding every block, with ten layers around it, bounds the count.
+  {
+    Block<D> all = s.fluid.front();
+    const auto hold = [&](const Block<D>& b) {
+      for (std::size_t a = 0; a < D; ++a) all.lo[a] = std::min(all.lo[a], b.lo[a]), all.hi[a] = std::max(all.hi[a], b.hi[a]);
+    };
+    if (s.has_tank) hold(s.tank);
+    for (const Block<D>& b : s.fluid) hold(b);
+    for (const Wall<D>& w : s.walls) hold(w.box);
+    for (const Obstacle<D>& o : s.obstacles) hold(o.box);
+    double bound = 1;
+    for (std::size_t a = 0; a < D; ++a) bound *= (all.hi[a] - all.lo[a]) / l0 + 20;
+    if (!(bound <= 2e7))
+      fail(file, top.need("spacing", "a scene file"),
+           "at spacing " + text(l0) + " m the scene's boxes hold up to " + text(bound) +
+               " particles, more than the 2e7 a run may hold: raise the spacing");
+  }
+
   // The domain: the file's, or the particles' box with 6 spacings around it and room above for half its height.
   const mps::BasicParticles<D> particles = make_particles(s);
   mps::Vec<D> lo, hi;
@@ -620,7 +639,8 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
   }
   if (s.wall_backstop) {
     std::vector<typename mps::BasicWallBackstop<D>::AxisBox> boxes;
-    for (const Obstacle<D>& o : s.obstacles) boxes.push_back({o.box.lo, o.box.hi});
+    for (const Obstacle<D>& o : s.obstacles)
+      if (!(o.amplitude > 0)) boxes.push_back({o.box.lo, o.box.hi});  // a moving box is not where it started
     sim->template add<mps::BasicWallBackstop<D>>(typename mps::BasicWallBackstop<D>::AxisBox{tank.lo, tank.hi},
                                                  std::move(boxes));
   }

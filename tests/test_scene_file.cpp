@@ -198,6 +198,11 @@ TEST(SceneFile, MalformedFilesAreRefusedWithTheirLineAndKey) {
          "line 15: this [[fluid]] block reaches through a wall of the tank (line 3) on axis x");
   expect("obstacle_in_water", tank("[[obstacle]]\nmin = [0.1, 0.0]\nmax = [0.3, 0.1]\n"),
          "line 15: this [[obstacle]] overlaps the [[fluid]] block on line 6");
+  expect("obstacles_overlap",
+         tank("[[obstacle]]\nmin = [0.3, 0.0]\nmax = [0.38, 0.1]\n[[obstacle]]\nmin = [0.34, 0.0]\nmax = [0.4, 0.1]\n"),
+         "line 18: this [[obstacle]] overlaps the one on line 15");
+  expect("obstacle_in_wall", tank("[[obstacle]]\nmin = [0.3, 0.0]\nmax = [0.44, 0.1]\n"),
+         "line 15: this [[obstacle]] reaches into a wall of the tank (line 3) on axis x");
   expect("moving_no_group",
          tank("[[obstacle]]\nmin = [0.3, 0.0]\nmax = [0.38, 0.1]\nmotion = {axis = 0, amplitude = 0.01, period = 1}\n"),
          "line 15: a moving obstacle needs a 'group' of its own");

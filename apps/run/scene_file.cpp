@@ -363,6 +363,13 @@ Scene<D> read_scene(const std::filesystem::path& path) {
         if (overlap(o.box, b, l0))
           fail(file, t, "this [[obstacle]] overlaps the [[fluid]] block on line " + std::to_string(b.line) +
                             ": make the block stop at the obstacle's faces");
+      for (const Obstacle<D>& other : s.obstacles)
+        if (overlap(o.box, other.box, l0))
+          fail(file, t, "this [[obstacle]] overlaps the one on line " + std::to_string(other.box.line) +
+                            ": two particles would sit in one place");
+      if (const int a = s.has_tank ? axis_through_walls(o.box, s.tank, s.tank_walls, l0) : -1; a >= 0)
+        fail(file, t, "this [[obstacle]] reaches into a wall of the tank (line " + std::to_string(s.tank.line) +
+                          ") on axis " + "xyz"[a] + ": keep it inside the tank's min and max");
       if (const toml::table* motion = table_at(file, k, "motion")) {
         const Keys m(file, *motion, "an obstacle's motion", {"axis", "amplitude", "period"});
         o.axis = whole_in(file, m, "axis", -1, 0, D - 1);

@@ -214,17 +214,28 @@ TEST(SceneFile, MalformedFilesAreRefusedWithTheirLineAndKey) {
          "line 6: 'walls' lists faces, each one of x_low, x_high, y_low, y_high");
   expect("point", [] { std::string t = tank(); t.replace(t.find("max = [0.2, 0.1]"), 16, "max = [0.2]"); return t; }(),
          "line 8: 'max' must be 2 numbers [m]");
-  expect("thin", [] { std::string t = tank(); t.replace(t.find("max = [0.2, 0.1]"), 16, "max = [0.2, 0.01]"); return t; }(),
+  expect("thin",
+         [] {
+           std::string t = tank();
+           t.replace(t.find("max = [0.2, 0.1]"), 16, "max = [0.2, 0.01]");
+           return t;
+         }(),
          "line 8: a [[fluid]]: 'max' must lie at least a spacing");
   expect("domain", tank("[domain]\nmin = [-0.05, -0.05]\nmax = [0.5, 0.5]\n"),
          "line 15: the domain must hold every particle: on axis x");
   expect("no_run", [] { std::string t = tank(); t.erase(t.find("[run]")); return t; }(),
          "it needs [run] with 'end_time'");
   expect("component", tank("[components]\nsplash = true\n"), "line 16: 'splash' is no key of [components]");
-  expect("too_fine", [] { std::string t = tank(); t.replace(t.find("spacing = 0.02"), 14, "spacing = 1e-5"); return t; }(),
+  expect("too_fine",
+         [] {
+           std::string t = tank();
+           t.replace(t.find("spacing = 0.02"), 14, "spacing = 1e-5");
+           return t;
+         }(),
          "line 2: at spacing 1e-05 m the scene's boxes hold up to");
   expect("no_slip_faces",
-         tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\", \"y_high\"]\ngroup = 1\nno_slip = true\n"),
+         tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\", \"y_high\"]\ngroup = 1\n"
+              "no_slip = true\n"),
          "line 15: a no-slip [[wall]] lies on one face");
   expect("no_slip_group", tank("[[wall]]\nmin = [0.0, 0.0]\nmax = [0.4, 0.3]\nwalls = [\"y_low\"]\nno_slip = true\n"),
          "line 15: a no-slip [[wall]] needs a 'group' of its own");

@@ -123,7 +123,8 @@ int run(const Options& o, const CLI::App& app) {
   nlohmann::json counts = {{"fluid", sim.particles().count(mps::Kind::fluid)},
                            {"wall", sim.particles().count(mps::Kind::wall)},
                            {"dummy", sim.particles().count(mps::Kind::dummy)}};
-  if (const auto* removed = sim.template find<mps::BasicRemoveEscaped<D>>()) counts["removed_as_spray"] = removed->removed();
+  if (const auto* removed = sim.template find<mps::BasicRemoveEscaped<D>>())
+    counts["removed_as_spray"] = removed->removed();
   write_summary(dir, {{"status", "completed"}, {"scene_file", fs::path(o.scene).string()}, {"parameters", params},
                       {"particles", counts}, {"steps", sim.last_step().step}, {"time_s", sim.time()},
                       {"dt_limit", sim.last_step().dt_limit}, {"probes", series.probes()},

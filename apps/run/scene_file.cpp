@@ -146,7 +146,8 @@ bool overlap(const Block<D>& a, const Block<D>& b, double l0) {
 
 template <int D>
 nlohmann::json box_json(const Block<D>& b) {
-  return {{"min_m", std::vector<double>(b.lo.begin(), b.lo.end())}, {"max_m", std::vector<double>(b.hi.begin(), b.hi.end())}};
+  return {{"min_m", std::vector<double>(b.lo.begin(), b.lo.end())},
+          {"max_m", std::vector<double>(b.hi.begin(), b.hi.end())}};
 }
 
 // [physics], [numerics] and [solver]: SimulationConfig's fields by their schema names (docs/step.md), each in its
@@ -226,17 +227,15 @@ void read_config_section(const std::string& file, const toml::table& section, co
     });
     if (name == "physics") known += ", gravity";
     if (name == "numerics") known += ", pressure_treatment";
-    bool elsewhere = false;
+    bool elsewhere = key == "gravity" || key == "pressure_treatment";
     mps::for_each_parameter([&](const auto& p) { elsewhere = elsewhere || key == p.name; });
-    fail(file, node, "'" + key + "' is no key of [" + name + "]" +
-                         (elsewhere || key == "gravity" || key == "pressure_treatment"
-                              ? " (it belongs to " +
-                                    std::string(key == "l0"                                         ? "the top level, as 'spacing'"
-                                                : in_section("physics", key) || key == "gravity" ? "[physics]"
-                                                : in_section("solver", key)                      ? "[solver]"
-                                                                                                 : "[numerics]") +
-                                    ")"
-                              : "; it takes " + known));
+    const std::string home = key == "l0"                                        ? "the top level, as 'spacing'"
+                             : in_section("physics", key) || key == "gravity" ? "[physics]"
+                             : in_section("solver", key)                      ? "[solver]"
+                                                                              : "[numerics]";
+    fail(file, node,
+         "'" + key + "' is no key of [" + name + "]" +
+             (elsewhere ? " (it belongs to " + home + ")" : "; it takes " + known));
   }
 }
 
@@ -323,7 +322,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       if (w.no_slip && std::popcount(w.walls) != 1)
         fail(file, t, "a no-slip [[wall]] lies on one face (its mirror plane): list one in 'walls'");
       if (w.no_slip && w.group == 0)
-        fail(file, t, "a no-slip [[wall]] needs a 'group' of its own (1, 2, ...): the mirror finds its particles by it");
+        fail(file, t,
+             "a no-slip [[wall]] needs a 'group' of its own (1, 2, ...): the mirror finds its particles by it");
       if (k.find("velocity") != nullptr && !w.no_slip)
         fail(file, *k.find("velocity"), "'velocity' is a no-slip wall's sliding velocity: set no_slip = true");
       for (const Block<D>& b : s.fluid)
@@ -373,7 +373,9 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       if (const toml::table* motion = table_at(file, k, "motion")) {
         const Keys m(file, *motion, "an obstacle's motion", {"axis", "amplitude", "period"});
         o.axis = whole_in(file, m, "axis", -1, 0, D - 1);
-        if (o.axis < 0) fail(file, *motion, "an obstacle's motion needs 'axis' (0: x, 1: y" + std::string(D == 3 ? ", 2: z" : "") + ")");
+        if (o.axis < 0)
+          fail(file, *motion,
+               "an obstacle's motion needs 'axis' (0: x, 1: y" + std::string(D == 3 ? ", 2: z" : "") + ")");
         if (m.find("amplitude") == nullptr || m.find("period") == nullptr)
           fail(file, *motion, "an obstacle's motion needs 'amplitude' [m] and 'period' [s]");
         o.amplitude = number_in(file, m, "amplitude", 0, 1e-12, 1e3, "positive (at most 1000 m)");
@@ -415,7 +417,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     const Keys k(file, *c, "[components]",
                  {"free_surface", "collision", "asymmetry_surface", "wet_walls", "remove_escaped", "wall_backstop"});
     if (k.find("free_surface") != nullptr) {
-      if (!k.find("free_surface")->is_boolean()) fail(file, *k.find("free_surface"), "'free_surface' must be true or false");
+      if (!k.find("free_surface")->is_boolean())
+        fail(file, *k.find("free_surface"), "'free_surface' must be true or false");
       s.free_surface = k.find("free_surface")->as_boolean()->get();
     }
     if (const toml::table* t = table_at(file, k, "collision")) {
@@ -437,7 +440,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       fail(file, *c, "remove_escaped and wall_backstop act on the tank's walls; this scene has no [tank]");
   }
   json["components"] = {{"free_surface", s.free_surface}, {"collision_l0", s.collision}, {"restitution", s.restitution},
-                        {"asymmetry", s.asymmetry}, {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
+                        {"asymmetry", s.asymmetry},
+                        {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
                         {"wet_walls", s.wet_walls}, {"remove_escaped", s.remove_escaped},
                         {"wall_backstop", s.wall_backstop}};
 
@@ -465,7 +469,10 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   {
     Block<D> all = s.fluid.front();
     const auto hold = [&](const Block<D>& b) {
-      for (std::size_t a = 0; a < D; ++a) all.lo[a] = std::min(all.lo[a], b.lo[a]), all.hi[a] = std::max(all.hi[a], b.hi[a]);
+      for (std::size_t a = 0; a < D; ++a) {
+        all.lo[a] = std::min(all.lo[a], b.lo[a]);
+        all.hi[a] = std::max(all.hi[a], b.hi[a]);
+      }
     };
     if (s.has_tank) hold(s.tank);
     for (const Block<D>& b : s.fluid) hold(b);
@@ -506,7 +513,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     }
     for (std::size_t a = 0; a < D; ++a)
       if (!(b.lo[a] < lo[a] && b.hi[a] > hi[a]))
-        fail(file, *domain, std::string("the domain must hold every particle: on axis ") + "xyz"[a] + " they reach from " +
+        fail(file, *domain,
+             std::string("the domain must hold every particle: on axis ") + "xyz"[a] + " they reach from " +
                                 text(lo[a]) + " to " + text(hi[a]) + " m");
     for (std::size_t a = 0; a < D; ++a) lo[a] = b.lo[a], hi[a] = b.hi[a];
   } else {
@@ -616,7 +624,8 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
     // Each of its particles at its start + amplitude sin(omega t) along the axis, moving at the derivative.
     std::vector<double> start(particles.size(), 0.0);
     const auto r0 = particles.positions();
-    for (std::size_t i = 0; i < particles.size(); ++i) start[static_cast<std::size_t>(particles.id[i])] = (*r0[o.axis])[i];
+    for (std::size_t i = 0; i < particles.size(); ++i)
+      start[static_cast<std::size_t>(particles.id[i])] = (*r0[o.axis])[i];
     const double omega = 2 * std::numbers::pi / o.period;
     sim->template add<mps::BasicBoundaryMotion<D>>(
         [start = std::move(start), o, omega](mps::BasicParticles<D>& p, double t) {
@@ -636,13 +645,14 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
   if (s.remove_escaped) {
     // Fluid over a wall's top, or up to the domain's ceiling, leaves the scene; fluid below the walls' top stays.
     const double ceiling = s.domain.upper()[D - 1] - 2 * s.l0;
-    sim->template add<mps::BasicRemoveEscaped<D>>(typename mps::BasicRemoveEscaped<D>::Region([=](const mps::Vec<D>& r) {
+    const typename mps::BasicRemoveEscaped<D>::Region inside = [=](const mps::Vec<D>& r) {
       if (!(r[D - 1] < ceiling)) return false;
       if (r[D - 1] < tank.hi[D - 1]) return true;
       for (std::size_t a = 0; a + 1 < D; ++a)
         if (!(r[a] > tank.lo[a] && r[a] < tank.hi[a])) return false;
       return true;
-    }));
+    };
+    sim->template add<mps::BasicRemoveEscaped<D>>(inside);
   }
   if (s.wall_backstop) {
     std::vector<typename mps::BasicWallBackstop<D>::AxisBox> boxes;

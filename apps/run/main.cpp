@@ -81,12 +81,13 @@ int run(const Options& o, const CLI::App& app) {
   if (o.frames >= 0) scene.parameters["frame_count"] = scene.frames = o.frames;
   if (!o.out.empty()) scene.out = o.out;
   const mps::SimulationConfig& c = scene.config;
-  const mps::BasicParticles<D> particles = scene_file::make_particles(scene);
+  // read_scene bounded the particle count before making any; the simulation holds the scene's particles.
+  std::unique_ptr<mps::BasicSimulation<D>> simulation = scene_file::make_simulation(scene);
+  mps::BasicSimulation<D>& sim = *simulation;
+  const mps::BasicParticles<D>& particles = sim.particles();
   check_run_size(static_cast<double>(particles.size()),
                  scene.end_time / std::min(c.dt_max, c.viscous_number * c.l0 * c.l0 / c.nu),
                  "raise the spacing", "shorten [run] end_time or raise [numerics] dt_max");
-  std::unique_ptr<mps::BasicSimulation<D>> simulation = scene_file::make_simulation(scene);
-  mps::BasicSimulation<D>& sim = *simulation;
   mps::BasicProbeSeries<D> probes = scene_file::read_probes(scene, sim);
   nlohmann::json params = scene.parameters;
   params["solver"] = sim.solver().spec();

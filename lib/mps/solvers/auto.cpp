@@ -36,7 +36,8 @@ class AutoSolver final : public LinearSolver {
     jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol + jacobi_max_iter, context)
                            : make_solver("eigen-cg:precond=jacobi," + tol + jacobi_max_iter);
     amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol;
-    rescue_spec_ = (distributed_ ? "hypre-pcg:precond=jacobi," : "eigen-cg:precond=jacobi,") + tol + ",max_iter=100000";
+    rescue_spec_ =
+        (distributed_ ? "hypre-pcg:precond=jacobi," : "eigen-cg:precond=jacobi,") + tol + ",max_iter=100000";
     context_ = context;
   }
 

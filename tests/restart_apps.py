@@ -5,7 +5,7 @@ table and index (probes.csv of the runs with --probes too), solves.csv but for i
 timings and run record. A run with --checkpoint-every restarted from its last checkpoint must match too, and a
 restart with other parameters, or from a file that is no checkpoint, is refused naming why.
 
-  tests/restart_apps.py BUILD_DIR [APP]   (APP: only that app's cases)
+  tests/restart_apps.py BUILD_DIR [APP]   (APP: only that app's cases; ranks: only the runs on MPI ranks)
 """
 import csv
 import io
@@ -128,6 +128,8 @@ def format_problems(path, steps):
 
 def main():
     build = sys.argv[1]
+    if len(sys.argv) > 2 and sys.argv[2] not in {app for app, _, _ in APPS} | {"ranks"}:
+        sys.exit(f"FAIL: no restart case for '{sys.argv[2]}'")
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

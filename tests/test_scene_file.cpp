@@ -1,5 +1,6 @@
 // Scene files (apps/run/scene_file.hpp): the particles a file describes, its physics and numerics in the simulation's
-// configuration, a moving obstacle on its prescribed motion, and every malformed file refused with its line and key.
+// configuration, a moving obstacle on its prescribed motion, an annulus's rings and turning walls, and every malformed
+// file refused with its line and key.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -339,6 +340,92 @@ points = [[0.1, 0.05]]
   ASSERT_EQ(series.probes().size(), 1u);
   ASSERT_TRUE(series.sample(0.0, sim_ok->particles()));
   EXPECT_NEAR(series.rows().back().at(1), 0.1, 1e-12);  // the water's depth
+}
+
+// An annular channel: every ring holds round(r span / l0) fluid particles over the opening at r = R1 + (k + 1/2) l0, the
+// walls and flights lie outside the fluid's radii and angles, and the walls turn as the file says: the barrel carried
+// round at -1 rad/s but at rest, the flights carried and moving at their rigid velocity.
+TEST(SceneFile, AnnulusIsRingsOfFluidBetweenTurningWalls) {
+  const std::string text = R"(dimensions = 2
+spacing = 0.1
+[annulus]
+inner_radius = 1.0
+outer_radius = 2.0
+span = 1.0
+inner = {omega = -1.0}
+flights = {omega = -1.0}
+outer = {omega = 0.0, turns = -1.0}
+[physics]
+nu = 1.0
+rho = 1.0
+[numerics]
+dt_max = 0.01
+[components]
+free_surface = false
+[run]
+end_time = 0.01
+)";
+  const auto scene = scene_file::read_scene<2>(write_file("annulus", text));
+  const mps::Particles p = scene_file::make_particles(scene);
+  long expected_fluid = 0;
+  for (int k = 0; k < 10; ++k) expected_fluid += std::lround((1.0 + (k + 0.5) * 0.1) * 1.0 / 0.1);
+  long fluid = 0;
+  const double centre = std::numbers::pi / 2;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double r = std::hypot(p.x[i], p.y[i]), phi = std::atan2(p.y[i], p.x[i]) - centre;
+    if (p.kind[i] == mps::Kind::fluid) {
+      ++fluid;
+      EXPECT_EQ(p.group[i], 0);
+      EXPECT_TRUE(r > 1.0 && r < 2.0 && std::abs(phi) < 0.5) << "fluid at r = " << r << ", phi = " << phi;
+    } else if (p.group[i] == 1) {
+      EXPECT_LT(r, 1.0);
+    } else if (p.group[i] == 2) {
+      EXPECT_GT(r, 2.0);
+    } else {
+      EXPECT_EQ(p.group[i], 3);
+      EXPECT_GT(std::abs(phi), 0.5);
+    }
+  }
+  EXPECT_EQ(fluid, expected_fluid);
+
+  auto sim = scene_file::make_simulation(scene);
+  for (int n = 0; n < 5; ++n) sim->step();
+  const mps::Particles& s = sim->particles();
+  const double t = sim->time(), c = std::cos(-t), sn = std::sin(-t);
+  std::size_t barrel = 0, flights = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.kind[i] == mps::Kind::fluid || s.group[i] == 1) continue;
+    const auto k = static_cast<std::size_t>(s.id[i]);
+    ASSERT_NEAR(s.x[i], c * p.x[k] - sn * p.y[k], 1e-12);  // every wall turned by -t
+    ASSERT_NEAR(s.y[i], sn * p.x[k] + c * p.y[k], 1e-12);
+    if (s.group[i] == 2) {
+      ++barrel;
+      ASSERT_EQ(s.u[i], 0.0);
+      ASSERT_EQ(s.v[i], 0.0);
+    } else {
+      ++flights;
+      ASSERT_NEAR(s.u[i], s.y[i], 1e-12);  // omega = -1 about z: (-omega y, omega x)
+      ASSERT_NEAR(s.v[i], -s.x[i], 1e-12);
+    }
+  }
+  EXPECT_GT(barrel, 0u);
+  EXPECT_GT(flights, 0u);
+
+  // Its faults, each with its line and key.
+  const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
+    std::string bad = text;
+    bad.replace(bad.find(from), from.size(), to);
+    const std::string message = refusal("annulus_bad", bad);
+    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+  };
+  expect("outer_radius = 2.0", "outer_radius = 2.05", "line 5: the gap outer_radius - inner_radius must be a whole");
+  expect("span = 1.0", "span = 6.0", "line 6: a sector's 'span' must be from 0.3 rad");
+  expect("span = 1.0\n", "", "line 7: flights close a sector");
+  expect("inner_radius = 1.0", "inner_radius = 0.5", "line 4: the inner wall's 5 rings would reach past the centre");
+  expect("[physics]", "height = 1.0\n[physics]", "'height' extrudes an annulus in 3-D");
+  expect("[physics]", "[tank]\nmin = [0.0, 0.0]\nmax = [1.0, 1.0]\n[physics]", "line 3: an [annulus] is a scene of its own");
+  expect("inner = {omega = -1.0}", "inner = {omega = -1.0, spin = 2}", "'spin' is no key of [annulus.inner]");
+  expect("dimensions = 2", "dimensions = 3", "a 3-D [annulus] needs 'height' [m]");
 }
 
 }  // namespace

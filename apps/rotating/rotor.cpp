@@ -37,7 +37,7 @@ constexpr double kCentre = std::numbers::pi / 2;  // the channel's centre line a
 double ring_radius(const Params& p, int k) { return p.R1 + (k + 0.5) * p.l0(); }
 // Particles a ring of the channel holds over the opening. r span / l0 is a half-integer on the barrel's wall ring,
 // so the layout and every sampler of that ring must round the same radius, computed the same way.
-int ring_count(const Params& p, double r) { return std::max(1, static_cast<int>(std::lround(r * p.span / p.l0()))); }
+int ring_count(const Params& p, double r) { return mps::annulus_ring_count(r, p.span, p.l0()); }
 }  // namespace
 
 void Params::validate() const {
@@ -68,34 +68,10 @@ double couette_exact(const Params& p, double r) {
 
 mps::Particles make_particles(const Params& p) {
   p.validate();
-  const double l0 = p.l0();
-  const int rings = static_cast<int>(std::lround(p.across));
   mps::Particles s;
-  // Ring k at R1 + (k + 1/2) l0; k < 0 the inner wall, k >= rings the outer. Layer 1 is the wall layer.
-  const auto ring_kind = [&](int layer) { return layer == 0 ? mps::Kind::fluid : layer == 1 ? mps::Kind::wall : mps::Kind::dummy; };
-  for (int k = -kLayers; k < rings + kLayers; ++k) {
-    const double r = ring_radius(p, k);
-    const int layer_r = k < 0 ? -k : k >= rings ? k - rings + 1 : 0;
-    if (p.scene == Scene::couette) {
-      mps::fill_annular_sector(s, r - 0.5 * l0, r + 0.5 * l0, 0.0, 2.0 * std::numbers::pi, l0, ring_kind(layer_r),
-                               mps::Lattice::rings, k < 0 ? kInnerGroup : k >= rings ? kOuterGroup : kFluidGroup);
-      continue;
-    }
-    // Channel: the ring's particles over the opening as fill_annular_sector spaces them (spacing span/m), and
-    // five more on either side at the same spacing, the flights. Layers count outwards from the fluid, the
-    // larger of the radial and the angular count (so the corners are filled); the corner blocks beyond the
-    // barrel are barrel, those below the bottom are channel.
-    const double theta0 = kCentre - 0.5 * p.span;
-    const int m = ring_count(p, r);
-    const double dq = p.span / m;
-    for (int q = -kLayers; q < m + kLayers; ++q) {
-      const int layer_q = q < 0 ? -q : q >= m ? q - m + 1 : 0;
-      const int layer = std::max(layer_r, layer_q);
-      const double th = theta0 + (q + 0.5) * dq;
-      const int group = layer == 0 ? kFluidGroup : k >= rings ? kOuterGroup : k < 0 ? kInnerGroup : kFlightGroup;
-      s.add(r * std::cos(th), r * std::sin(th), ring_kind(layer), group);
-    }
-  }
+  mps::fill_walled_annulus(s, p.R1, static_cast<int>(std::lround(p.across)), p.l0(), 1, kLayers - 1,
+                           p.scene == Scene::couette ? 2.0 * std::numbers::pi : p.span, kCentre,
+                           {kFluidGroup, kInnerGroup, kOuterGroup, kFlightGroup});
   return s;
 }
 

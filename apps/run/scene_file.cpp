@@ -239,7 +239,87 @@ void read_config_section(const std::string& file, const toml::table& section, co
   }
 }
 
+// [annulus.inner], [annulus.outer] or [annulus.flights]: the wall's rotation rates (both 0 when it is absent).
+AnnulusWall annulus_wall(const std::string& file, const Keys& keys, const std::string& key) {
+  AnnulusWall w;
+  const toml::table* t = table_at(file, keys, key);
+  if (t == nullptr) return w;
+  const Keys k(file, *t, "[annulus." + key + "]", {"omega", "turns"});
+  w.omega = number_in(file, k, "omega", 0, -1e6, 1e6, "in [-1e6, 1e6] rad/s");
+  w.turns = number_in(file, k, "turns", w.omega, -1e6, 1e6, "in [-1e6, 1e6] rad/s");
+  return w;
+}
+
+template <int D>
+Annulus read_annulus(const std::string& file, const toml::table& t, double l0) {
+  const Keys k(file, t, "[annulus]",
+               {"inner_radius", "outer_radius", "wall_layers", "dummy_layers", "span", "centre_angle", "height",
+                "mirror", "inner", "outer", "flights"});
+  Annulus a;
+  if (k.find("inner_radius") == nullptr || k.find("outer_radius") == nullptr)
+    fail(file, t, "[annulus] needs 'inner_radius' and 'outer_radius' [m]");
+  a.r_inner = number_in(file, k, "inner_radius", 0, 1e-12, 1e6, "positive (at most 1e6 m)");
+  a.r_outer = number_in(file, k, "outer_radius", 0, 1e-12, 1e6, "positive (at most 1e6 m)");
+  const double gap = (a.r_outer - a.r_inner) / l0;
+  a.rings = static_cast<int>(std::lround(std::clamp(gap, 0.0, 1e8)));
+  if (!(a.rings >= 4 && std::abs(gap - a.rings) <= 1e-6 * gap))
+    fail(file, *k.find("outer_radius"),
+         "the gap outer_radius - inner_radius must be a whole number of spacings, at least 4 (it is " + text(gap) +
+             " spacings of " + text(l0) + " m)");
+  a.wall_layers = whole_in(file, k, "wall_layers", 1, 1, 10);
+  a.dummy_layers = whole_in(file, k, "dummy_layers", 4, 0, 10);
+  const int layers = a.wall_layers + a.dummy_layers;
+  if (a.r_inner - layers * l0 < 0.5 * l0)
+    fail(file, *k.find("inner_radius"),
+         "the inner wall's " + std::to_string(layers) + " rings would reach past the centre: 'inner_radius' must be "
+         "at least " + text((layers + 0.5) * l0) + " m at this spacing");
+  const double two_pi = 2 * std::numbers::pi;
+  a.span = number_in(file, k, "span", two_pi, 1e-9, two_pi, "in (0, 2 pi] rad");
+  if (!a.full()) {
+    // Three particles on the inner ring at least, and the flights apart where they are closest, by the centre.
+    const double innermost = a.r_inner - (layers - 0.5) * l0, widest = two_pi - 2 * (layers + 0.5) * l0 / innermost;
+    if (!(a.span * a.r_inner >= 3 * l0 && a.span <= widest))
+      fail(file, *k.find("span"),
+           "a sector's 'span' must be from " + text(3 * l0 / a.r_inner) + " rad (three spacings of the inner "
+           "wall) to " + text(widest) + " rad (its flights apart by the centre), or 2 pi for a whole annulus");
+  }
+  a.centre = number_in(file, k, "centre_angle", std::numbers::pi / 2, -two_pi, two_pi, "in [-2 pi, 2 pi] rad");
+  if (const toml::node* mirror = k.find("mirror")) {
+    if (!mirror->is_boolean()) fail(file, *mirror, "'mirror' must be true or false");
+    a.mirror = mirror->as_boolean()->get();
+  }
+  a.inner = annulus_wall(file, k, "inner");
+  a.outer = annulus_wall(file, k, "outer");
+  a.flights = annulus_wall(file, k, "flights");
+  if (a.full() && k.find("flights") != nullptr)
+    fail(file, *k.find("flights"), "flights close a sector: give the annulus a 'span' below 2 pi");
+  if constexpr (D == 3) {
+    if (k.find("height") == nullptr)
+      fail(file, t, "a 3-D [annulus] needs 'height' [m]: its rings are extruded along z over 0 < z < height, periodic");
+    a.height = number_in(file, k, "height", 0, 1e-12, 1e6, "positive (at most 1e6 m)");
+    a.layers_z = static_cast<int>(std::lround(std::min(a.height / l0, 1e8)));
+    if (!(a.layers_z >= 1 && std::abs(a.height / l0 - a.layers_z) <= 1e-6 * a.layers_z))
+      fail(file, *k.find("height"), "'height' must be a whole number of spacings (it is " + text(a.height / l0) + ")");
+  } else if (k.find("height") != nullptr) {
+    fail(file, *k.find("height"), "'height' extrudes an annulus in 3-D; this scene has dimensions = 2");
+  }
+  return a;
+}
+
+nlohmann::json annulus_json(const Annulus& a) {
+  const auto wall = [](const AnnulusWall& w) { return nlohmann::json{{"omega_rad_per_s", w.omega}, {"turns_rad_per_s", w.turns}}; };
+  nlohmann::json j = {{"inner_radius_m", a.r_inner}, {"outer_radius_m", a.r_outer}, {"ring_count", a.rings},
+                      {"wall_layers", a.wall_layers}, {"dummy_layers", a.dummy_layers}, {"span_rad", a.span},
+                      {"centre_angle_rad", a.centre}, {"mirror", a.mirror}, {"inner", wall(a.inner)},
+                      {"outer", wall(a.outer)}};
+  if (!a.full()) j["flights"] = wall(a.flights);
+  if (a.layers_z > 0) j["height_m"] = a.height;
+  return j;
+}
+
 }  // namespace
+
+bool Annulus::full() const { return span >= 2 * std::numbers::pi; }
 
 int dimensions_of(const std::filesystem::path& path) {
   const toml::table root = parse(path);
@@ -256,8 +336,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   const toml::table root = parse(path);
   const std::string file = label(path);
   const Keys top(file, root, "a scene file",
-                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "domain", "physics",
-                  "numerics", "solver", "components", "run", "output", "probe"});
+                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "annulus", "domain",
+                  "physics", "numerics", "solver", "components", "run", "output", "probe"});
   Scene<D> s;
   s.file = path;
   s.title = top.text("title", "a scene file", path.stem().string());
@@ -284,11 +364,22 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     json["tank"]["dummy_layers"] = s.dummy_layers;
   }
 
+  if (const toml::table* annulus = table_at(file, top, "annulus")) {
+    for (const char* other : {"tank", "fluid", "wall", "obstacle"})
+      if (top.find(other) != nullptr)
+        fail(file, *annulus, std::string("an [annulus] is a scene of its own, with its fluid and walls: this file "
+                                         "has a ") + (other == std::string("tank") ? "[tank]" : "[[" + std::string(other) + "]]") + " too");
+    s.has_annulus = true;
+    s.annulus = read_annulus<D>(file, *annulus, l0);
+    json["annulus"] = annulus_json(s.annulus);
+  }
+
   const toml::node* fluid = top.find("fluid");
-  if (fluid == nullptr || !fluid->is_array_of_tables() || fluid->as_array()->empty())
+  if (!s.has_annulus && (fluid == nullptr || !fluid->is_array_of_tables() || fluid->as_array()->empty()))
     fail(file, fluid != nullptr ? *fluid : static_cast<const toml::node&>(root),
-         "a scene lists its water as [[fluid]] tables, each with min and max corners");
-  for (const toml::node& node : *fluid->as_array()) {
+         "a scene lists its water as [[fluid]] tables, each with min and max corners (or is an [annulus])");
+  const toml::array none;
+  for (const toml::node& node : s.has_annulus ? none : *fluid->as_array()) {
     const toml::table& t = *node.as_table();
     const Keys k(file, t, "a [[fluid]]", {"min", "max", "velocity"});
     Block<D> b = box_of<D>(file, t, k, "a [[fluid]]", l0);
@@ -467,19 +558,25 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   // Before any particle is made: a spacing too fine for the boxes would fill the memory. The lattice over the box
   // holding every block, with ten layers around it, bounds the count.
   {
-    Block<D> all = s.fluid.front();
-    const auto hold = [&](const Block<D>& b) {
-      for (std::size_t a = 0; a < D; ++a) {
-        all.lo[a] = std::min(all.lo[a], b.lo[a]);
-        all.hi[a] = std::max(all.hi[a], b.hi[a]);
-      }
-    };
-    if (s.has_tank) hold(s.tank);
-    for (const Block<D>& b : s.fluid) hold(b);
-    for (const Wall<D>& w : s.walls) hold(w.box);
-    for (const Obstacle<D>& o : s.obstacles) hold(o.box);
     double bound = 1;
-    for (std::size_t a = 0; a < D; ++a) bound *= (all.hi[a] - all.lo[a]) / l0 + 20;
+    if (s.has_annulus) {
+      const Annulus& a = s.annulus;
+      const double reach = a.r_outer / l0 + a.wall_layers + a.dummy_layers + 1;
+      bound = std::numbers::pi * reach * reach * std::max(1, a.layers_z);
+    } else {
+      Block<D> all = s.fluid.front();
+      const auto hold = [&](const Block<D>& b) {
+        for (std::size_t a = 0; a < D; ++a) {
+          all.lo[a] = std::min(all.lo[a], b.lo[a]);
+          all.hi[a] = std::max(all.hi[a], b.hi[a]);
+        }
+      };
+      if (s.has_tank) hold(s.tank);
+      for (const Block<D>& b : s.fluid) hold(b);
+      for (const Wall<D>& w : s.walls) hold(w.box);
+      for (const Obstacle<D>& o : s.obstacles) hold(o.box);
+      for (std::size_t a = 0; a < D; ++a) bound *= (all.hi[a] - all.lo[a]) / l0 + 20;
+    }
     if (!(bound <= 2e7))
       fail(file, top.need("spacing", "a scene file"),
            "at spacing " + text(l0) + " m the scene's boxes hold up to " + text(bound) +
@@ -517,6 +614,17 @@ Scene<D> read_scene(const std::filesystem::path& path) {
              std::string("the domain must hold every particle: on axis ") + "xyz"[a] + " they reach from " +
                                 text(lo[a]) + " to " + text(hi[a]) + " m");
     for (std::size_t a = 0; a < D; ++a) lo[a] = b.lo[a], hi[a] = b.hi[a];
+  } else if (s.has_annulus) {
+    // A square a spacing beyond the outer wall's last ring; in 3-D the annulus's height, periodic.
+    const Annulus& a = s.annulus;
+    const double half = a.r_outer + (a.wall_layers + a.dummy_layers + 1) * l0;
+    lo[0] = lo[1] = -half;
+    hi[0] = hi[1] = half;
+    if constexpr (D == 3) {
+      lo[2] = 0;
+      hi[2] = a.layers_z * l0;
+      s.domain.periodic_z = true;
+    }
   } else {
     const double margin = 6 * l0, room = 0.5 * (hi[D - 1] - lo[D - 1]);
     for (std::size_t a = 0; a < D; ++a) lo[a] -= margin, hi[a] += margin;
@@ -538,6 +646,14 @@ Scene<D> read_scene(const std::filesystem::path& path) {
 
 template <int D>
 mps::BasicParticles<D> make_particles(const Scene<D>& s) {
+  if (s.has_annulus) {
+    const Annulus& a = s.annulus;
+    mps::Particles rings;
+    mps::fill_walled_annulus(rings, a.r_inner, a.rings, s.l0, a.wall_layers, a.dummy_layers, a.span, a.centre,
+                             a.groups);
+    if constexpr (D == 2) return rings;
+    else return mps::extrude(rings, 0.0, s.l0, a.layers_z);
+  }
   mps::BasicParticles<D> particles;
   const auto fill = [&](const Block<D>& b, mps::Kind kind) {
     if constexpr (D == 2) mps::fill_rectangle(particles, {b.lo[0], b.lo[1], b.hi[0], b.hi[1]}, s.l0, kind);
@@ -589,11 +705,48 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
 
 template <int D>
 std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
-  const mps::BasicParticles<D> particles = make_particles(s);
+  mps::BasicParticles<D> particles = make_particles(s);
+  // The annulus's walls turn about the z axis (each its own group); they start at their velocity.
+  using Motion = std::conditional_t<D == 2, mps::RigidMotion, mps::RigidMotion3>;
+  std::vector<Motion> motions;
+  if (s.has_annulus) {
+    const Annulus& a = s.annulus;
+    const std::pair<int, AnnulusWall> walls[] = {
+        {a.groups.inner, a.inner}, {a.groups.flights, a.flights}, {a.groups.outer, a.outer}};
+    for (const auto& [group, w] : walls) {
+      if (w.omega == 0 && w.turns == 0) continue;
+      if constexpr (D == 2) {
+        Motion& m = motions.emplace_back(particles, group, 0.0, 0.0, mps::steady_path(w.turns));
+        if (w.omega != w.turns) m.velocity_from(mps::steady_path(w.omega));
+      } else {
+        Motion& m = motions.emplace_back(particles, group, mps::Vec<3>{0.0, 0.0, 0.0}, mps::Vec<3>{0.0, 0.0, 1.0},
+                                         mps::steady_path3(w.turns));
+        if (w.omega != w.turns) m.velocity_from(mps::steady_path3(w.omega));
+      }
+    }
+    for (const Motion& m : motions) m(particles, 0.0);
+  }
   auto sim = std::make_unique<mps::BasicSimulation<D>>(particles, s.domain, s.config);
+  if (!motions.empty())
+    sim->template add<mps::BasicBoundaryMotion<D>>([motions](mps::BasicParticles<D>& p, double t) {
+      for (const Motion& m : motions) m(p, t);
+    });
   if (!s.free_surface)
     sim->template add<mps::BasicSurfaceRegion<D>>(
         typename mps::BasicSurfaceRegion<D>::Region([](const mps::Vec<D>&) { return false; }));
+  if (s.has_annulus && s.annulus.mirror) {
+    // The circular walls' mirror circles, turning at their walls' rates.
+    mps::MirrorWall inner, outer;
+    inner.group = s.annulus.groups.inner;
+    inner.radius = s.annulus.r_inner;
+    inner.omega = s.annulus.inner.omega;
+    outer.group = s.annulus.groups.outer;
+    outer.radius = s.annulus.r_outer;
+    outer.fluid_inside = true;
+    outer.omega = s.annulus.outer.omega;
+    sim->template add<mps::BasicMirrorNoSlip<D>>(inner);
+    sim->template add<mps::BasicMirrorNoSlip<D>>(outer);
+  }
   for (const Wall<D>& w : s.walls) {
     if (!w.no_slip) continue;
     // The mirror plane is the wall's face, its normal into the box.

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mps/boundaries/geometry.hpp"
 #include "mps/core/domain.hpp"
 #include "mps/core/particles.hpp"
 #include "mps/io/probes.hpp"
@@ -49,6 +50,25 @@ struct Wall {
   mps::Vec<D> velocity{};
 };
 
+// One wall of an annulus: its surface turns at `omega` (the velocity the fluid meets, counter-clockwise positive) and
+// its particles are carried round at `turns` (by default omega; the screw channel's barrel over a turning channel
+// moves with the channel but is at rest: turns = the channel's rate, omega = 0).
+struct AnnulusWall {
+  double omega = 0, turns = 0;
+};
+
+// A walled annulus about the z axis (mps::fill_walled_annulus): fluid in r_inner < r < r_outer, closed by circular
+// walls, over the sector of `span` radians centred on the angle `centre` between radial flights when span < 2 pi. In
+// 3-D the rings are extruded along z over 0 < z < height, periodic.
+struct Annulus {
+  double r_inner = 0, r_outer = 0, span = 0, centre = 0, height = 0;
+  int rings = 0, layers_z = 0, wall_layers = 1, dummy_layers = 4;
+  bool mirror = true;  // the circular walls meet the fluid by mirror velocities (mps::MirrorWall with a radius)
+  AnnulusWall inner, outer, flights;
+  static constexpr mps::AnnulusGroups groups{};  // fluid 0, inner wall 1, outer wall 2, flights 3
+  [[nodiscard]] bool full() const;
+};
+
 template <int D>
 struct Scene {
   std::filesystem::path file;
@@ -61,6 +81,8 @@ struct Scene {
   std::vector<Block<D>> fluid;
   std::vector<Wall<D>> walls;
   std::vector<Obstacle<D>> obstacles;
+  bool has_annulus = false;  // a scene of its own: no tank, fluid blocks, walls or obstacles beside it
+  Annulus annulus;
   mps::BasicDomain<D> domain;  // periodic on the axes the file's [domain] lists
   mps::SimulationConfig config;
   // Components, added in this order (each off unless the file asks for it): no free surface anywhere (a closed
@@ -84,7 +106,8 @@ int dimensions_of(const std::filesystem::path& file);
 // The whole scene, every key checked. Throws std::invalid_argument naming the file, the line and the key.
 template <int D>
 Scene<D> read_scene(const std::filesystem::path& file);
-// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles.
+// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles (or the
+// annulus's rings, from the innermost).
 template <int D>
 mps::BasicParticles<D> make_particles(const Scene<D>& scene);
 // The simulation with the scene's components (and each moving obstacle's motion).

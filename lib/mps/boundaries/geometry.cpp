@@ -146,4 +146,44 @@ void fill_annular_sector(Particles& particles, double r0, double r1, double thet
   }
 }
 
+int annulus_ring_count(double r, double span, double l0) {
+  return std::max(1, static_cast<int>(std::lround(r * span / l0)));
+}
+
+void fill_walled_annulus(Particles& particles, double r_inner, int rings, double l0, int wall_layers, int dummy_layers,
+                         double span, double centre, AnnulusGroups groups) {
+  require_positive(l0, "particle spacing l0");
+  if (!(r_inner > 0.0) || rings < 1 || wall_layers < 1 || dummy_layers < 0)
+    throw std::invalid_argument("fill_walled_annulus: need r_inner > 0, rings >= 1, wall_layers >= 1, dummy_layers >= 0");
+  if (!(span > 0.0) || span > 2.0 * std::numbers::pi)
+    throw std::invalid_argument("fill_walled_annulus: need 0 < span <= 2 pi");
+  const int layers = wall_layers + dummy_layers;
+  if (r_inner - layers * l0 < 0.5 * l0)
+    throw std::invalid_argument("fill_walled_annulus: the inner wall's rings reach past the centre: r_inner must "
+                                "exceed (wall_layers + dummy_layers + 1/2) l0");
+  const auto kind = [&](int layer) { return layer == 0 ? Kind::fluid : layer <= wall_layers ? Kind::wall : Kind::dummy; };
+  const bool full = span >= 2.0 * std::numbers::pi;
+  for (int k = -layers; k < rings + layers; ++k) {
+    const double r = r_inner + (k + 0.5) * l0;
+    const int layer_r = k < 0 ? -k : k >= rings ? k - rings + 1 : 0;
+    if (full) {
+      fill_annular_sector(particles, r - 0.5 * l0, r + 0.5 * l0, 0.0, 2.0 * std::numbers::pi, l0, kind(layer_r),
+                          Lattice::rings, k < 0 ? groups.inner : k >= rings ? groups.outer : groups.fluid);
+      continue;
+    }
+    // Layers count outwards from the fluid, the larger of the radial and the angular count, so the corners are
+    // filled; the corner blocks beyond the outer wall are outer wall, those inside the inner wall inner wall.
+    const double theta0 = centre - 0.5 * span;
+    const int m = annulus_ring_count(r, span, l0);
+    const double dq = span / m;
+    for (int q = -layers; q < m + layers; ++q) {
+      const int layer_q = q < 0 ? -q : q >= m ? q - m + 1 : 0;
+      const int layer = std::max(layer_r, layer_q);
+      const double th = theta0 + (q + 0.5) * dq;
+      const int group = layer == 0 ? groups.fluid : k >= rings ? groups.outer : k < 0 ? groups.inner : groups.flights;
+      particles.add(r * std::cos(th), r * std::sin(th), kind(layer), group);
+    }
+  }
+}
+
 }  // namespace mps

@@ -55,4 +55,19 @@ enum class Lattice { square, rings };
 void fill_annular_sector(Particles& particles, double r0, double r1, double theta0, double theta1, double l0,
                          Kind kind, Lattice lattice, int group = 0, double cx = 0.0, double cy = 0.0);
 
+/// Groups of a walled annulus's particles.
+struct AnnulusGroups {
+  int fluid = 0, inner = 1, outer = 2, flights = 3;
+};
+
+/// A walled annulus about the origin on concentric rings (seed 000's layout, docs/rotating.md): fluid rings k = 0, ...,
+/// rings - 1 at r = r_inner + (k + 1/2) l0, then wall_layers rings of Kind::wall and dummy_layers of Kind::dummy
+/// inside them (group `inner`) and outside (group `outer`), in order of k. With span < 2 pi, the sector of `span`
+/// radians centred on the angle `centre`, closed at both ends by radial flights of as many layers (group `flights`);
+/// each ring then holds annulus_ring_count particles over the opening and carries on at their spacing into the flights.
+void fill_walled_annulus(Particles& particles, double r_inner, int rings, double l0, int wall_layers, int dummy_layers,
+                         double span, double centre, AnnulusGroups groups = {});
+/// Particles a ring of radius r holds over an opening of `span` radians: round(r span / l0), at least 1.
+int annulus_ring_count(double r, double span, double l0);
+
 }  // namespace mps

@@ -47,6 +47,8 @@ APPS = [
      "--dx 0.004 --end-time 0.22 --frames 5 --relaxation 0.5 --probes {examples}/probes/fsi_plate.toml"),
     ("run", "{examples}/scenes/wave_paddle.toml --end-time 0.3 --frames 6",
      "{examples}/scenes/hydrostatic.toml --end-time 0.3 --frames 6"),
+    ("run", "{examples}/scenes/poiseuille_inlet.toml --end-time 100 --frames 6",  # the plate's counts restored
+     "{examples}/scenes/couette.toml --end-time 100 --frames 6"),
     ("fsi", "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5",
      "--scene gate --dx 0.0016666666666666668 --end-time 0.04 --frames 5 --modulus 5e6"),
 ]

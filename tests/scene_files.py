@@ -4,8 +4,8 @@
 1. Every built-in scene shipped as a file (examples/scenes/) gives its app's numbers bitwise: the same bytes in every
    frame and the same solves.csv less its timings, over a short run of each (the 2-D and 3-D hydrostatic tanks, the
    classic and seed dam breaks, SPHERIC Test 2 with its box, the periodic body-force Poiseuille and Couette
-   channels, Taylor–Couette in 2-D and 3-D, the screw channel in both models; the channel's frames compared by their
-   arrays less the app's relative velocity).
+   channels, the pushing-plate inlet channel, Taylor–Couette in 2-D and 3-D, the screw channel in both models; the
+   screw channel's frames compared by their arrays less the app's relative velocity).
 2. The seed dam break's probes in the file sample what the app's own samplers do: probes.csv's wall pressures and
    level equal the app's pressure.csv and level.csv (in rho g H and H, to their 10 printed digits).
 3. The wave flume (a scene of no app): the piston paddle's waves reach the gauge 0.5 m down the flume before the one at
@@ -40,6 +40,8 @@ BUILT_IN = [
     ("dambreak_spheric2.toml", "dambreak", ["--dim", "3", "--end-time", "0.03"], "0.03", "2"),
     ("poiseuille_body_force.toml", "poiseuille", ["--mode", "body-force", "--end-time", "0.5"], "500", "2"),  # D/U = 1000 s
     ("couette.toml", "poiseuille", ["--mode", "couette", "--end-time", "0.5"], "500", "2"),
+    # 0.15 D/U: the plate adds 7 columns (350 particles) from a pool of 150 ghosts, so the outflow is recycled.
+    ("poiseuille_inlet.toml", "poiseuille", ["--end-time", "0.15"], "150", "2"),
     ("taylor_couette.toml", "rotating", ["--scene", "couette", "--times", "0.03"], "0.03", "2"),
     ("taylor_couette3d.toml", "rotating", ["--scene", "couette", "--dim", "3", "--times", "0.01"], "0.01", "2"),
     ("screw_channel.toml", "rotating", ["--times", "0.004"], "0.004", "2"),

@@ -428,4 +428,93 @@ end_time = 0.01
   expect("dimensions = 2", "dimensions = 3", "a 3-D [annulus] needs 'height' [m]");
 }
 
+// An inlet channel: the conveyor part of each wall takes its own group, the ghost pool lies one spacing behind the
+// plate's last layer (ghost_rows to a spacing of its height, none coinciding), and as the plate advances one spacing
+// it adds a column of fluid, one particle per plate wall particle, taken from the pool.
+TEST(SceneFile, InletPlateAddsAColumnPerSpacingFromItsGhostPool) {
+  const std::string text = R"(dimensions = 2
+spacing = 0.1
+[[fluid]]
+min = [0.0, 0.0]
+max = [2.0, 1.0]
+velocity = [1.0, 0.0]
+[[wall]]
+min = [-0.5, 0.0]
+max = [2.5, 1.0]
+walls = ["y_low"]
+group = 1
+no_slip = true
+part = {below = 0.3, group = 4, velocity = [1.0, 0.0]}
+[[wall]]
+min = [-0.5, 0.0]
+max = [2.5, 1.0]
+walls = ["y_high"]
+group = 2
+no_slip = true
+[[wall]]
+min = [0.0, 0.0]
+max = [2.0, 1.0]
+walls = ["x_low"]
+group = 3
+[inlet]
+plate = 3
+speed = 1.0
+outlet = 2.0
+buffer = 0.5
+[physics]
+nu = 0.01
+rho = 1.0
+[numerics]
+dt_max = 0.01
+clamp_negative_pressure = false
+[components]
+free_surface = false
+[run]
+end_time = 0.2
+)";
+  const auto scene = scene_file::read_scene<2>(write_file("inlet", text));
+  const mps::Particles p = scene_file::make_particles(scene);
+  std::size_t ghosts = 0, conveyor = 0, plate_walls = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.kind[i] == mps::Kind::ghost) {
+      ++ghosts;
+      EXPECT_NEAR(p.x[i], -0.55, 1e-12);  // behind the plate's 1 wall + 4 dummy layers, one spacing on
+      EXPECT_NEAR(std::fmod(p.y[i] * 30 + 1e-9, 1.0), 0.5, 1e-6);  // (k + 1/2) / 30 of the height
+    }
+    if (p.group[i] == 4) {
+      ++conveyor;
+      EXPECT_LT(p.x[i], 0.3);
+    }
+    if (p.group[i] == 1) {
+      EXPECT_GT(p.x[i], 0.3);
+    }
+    if (p.group[i] == 3 && p.kind[i] == mps::Kind::wall) ++plate_walls;
+  }
+  EXPECT_EQ(ghosts, 30u);  // 3 rows to each of the 10 spacings of the plate's height
+  EXPECT_EQ(conveyor, 8u * 5u);  // x = -0.45 ... 0.25, five layers deep (the top wall has no part)
+  EXPECT_EQ(plate_walls, 10u);
+
+  std::shared_ptr<mps::PushingPlate> plate;
+  auto sim = scene_file::make_simulation(scene, &plate);
+  ASSERT_NE(plate, nullptr);
+  const std::size_t fluid0 = sim->particles().count(mps::Kind::fluid);
+  while (sim->time() < 0.15) sim->step();
+  // 0.15 s at 1 m/s: the plate has stepped back once; the outlet, at the fluid's end, has taken what crossed it.
+  EXPECT_EQ(plate->columns_added(), 1);
+  EXPECT_EQ(sim->particles().count(mps::Kind::fluid) + static_cast<std::size_t>(plate->particles_removed()),
+            fluid0 + plate_walls);
+
+  const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
+    std::string bad = text;
+    bad.replace(bad.find(from), from.size(), to);
+    const std::string message = refusal("inlet_bad", bad);
+    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+  };
+  expect("plate = 3", "plate = 1", "line 26: the inlet's 'plate' must be the group of a [[wall]] on x_low alone");
+  expect("buffer = 0.5", "buffer = 0.2", "line 29: an outflow buffer must be at least 4.1 spacings thick");
+  expect("outlet = 2.0", "outlet = 0.2", "line 28: the outlet must lie downstream of the plate");
+  expect("no_slip = true\npart", "part", "a 'part' slides beside the rest of a no-slip wall");
+  expect("group = 4,", "group = 1,", "a wall's part needs a group other than the wall's");
+}
+
 }  // namespace

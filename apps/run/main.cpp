@@ -31,10 +31,16 @@ struct Options {
   CheckpointOptions checkpoint;
 };
 
-// A scene file's run keeps no state of its own beside the simulation's and the frames'.
-struct NoSceneState {
-  [[nodiscard]] nlohmann::json save_state() const { return nlohmann::json::object(); }
-  void restore_state(const nlohmann::json&) {}
+// A scene file's run keeps no state of its own beside the simulation's and the frames', but an inlet's plate's counts.
+template <int D>
+struct SceneState {
+  std::shared_ptr<mps::BasicPushingPlate<D>> plate;
+  [[nodiscard]] nlohmann::json save_state() const {
+    return plate ? nlohmann::json{{"plate", plate->save_state()}} : nlohmann::json::object();
+  }
+  void restore_state(const nlohmann::json& state) {
+    if (plate) plate->restore_state(state.at("plate"));
+  }
 };
 
 template <int D>
@@ -82,7 +88,8 @@ int run(const Options& o, const CLI::App& app) {
   if (!o.out.empty()) scene.out = o.out;
   const mps::SimulationConfig& c = scene.config;
   // read_scene bounded the particle count before making any; the simulation holds the scene's particles.
-  std::unique_ptr<mps::BasicSimulation<D>> simulation = scene_file::make_simulation(scene);
+  SceneState<D> own;
+  std::unique_ptr<mps::BasicSimulation<D>> simulation = scene_file::make_simulation(scene, &own.plate);
   mps::BasicSimulation<D>& sim = *simulation;
   const mps::BasicParticles<D>& particles = sim.particles();
   check_run_size(static_cast<double>(particles.size()),
@@ -112,7 +119,6 @@ int run(const Options& o, const CLI::App& app) {
   fs::create_directories(dir / "frames");
   FrameSeries series(dir, "scene", scene.frames, scene.end_time);
   if (!probes.probes().empty()) series.set_probes(std::move(probes));
-  NoSceneState own;
   double next_report = scene.end_time / 10;
   const std::function<nlohmann::json()> save = [&] { return scene_state(own, series, next_report); };
   if (!restore_scene(checkpoints, sim, own, series, next_report)) series.write_if_due(sim);
@@ -126,6 +132,10 @@ int run(const Options& o, const CLI::App& app) {
                            {"dummy", sim.particles().count(mps::Kind::dummy)}};
   if (const auto* removed = sim.template find<mps::BasicRemoveEscaped<D>>())
     counts["removed_as_spray"] = removed->removed();
+  if (own.plate) {
+    counts["inlet_column_count"] = own.plate->columns_added();
+    counts["recycled_particles"] = own.plate->particles_removed();
+  }
   write_summary(dir, {{"status", "completed"}, {"scene_file", fs::path(o.scene).string()}, {"parameters", params},
                       {"particles", counts}, {"steps", sim.last_step().step}, {"time_s", sim.time()},
                       {"dt_limit", sim.last_step().dt_limit}, {"probes", series.probes()},

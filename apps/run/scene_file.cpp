@@ -336,8 +336,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   const toml::table root = parse(path);
   const std::string file = label(path);
   const Keys top(file, root, "a scene file",
-                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "annulus", "domain",
-                  "physics", "numerics", "solver", "components", "run", "output", "probe"});
+                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "inlet", "annulus",
+                  "domain", "physics", "numerics", "solver", "components", "run", "output", "probe"});
   Scene<D> s;
   s.file = path;
   s.title = top.text("title", "a scene file", path.stem().string());
@@ -365,10 +365,10 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
 
   if (const toml::table* annulus = table_at(file, top, "annulus")) {
-    for (const char* other : {"tank", "fluid", "wall", "obstacle"})
+    for (const char* other : {"tank", "fluid", "wall", "obstacle", "inlet"})
       if (top.find(other) != nullptr)
         fail(file, *annulus, std::string("an [annulus] is a scene of its own, with its fluid and walls: this file "
-                                         "has a ") + (other == std::string("tank") ? "[tank]" : "[[" + std::string(other) + "]]") + " too");
+                                         "has a ") + (other == std::string("tank") || other == std::string("inlet") ? "[" + std::string(other) + "]" : "[[" + std::string(other) + "]]") + " too");
     s.has_annulus = true;
     s.annulus = read_annulus<D>(file, *annulus, l0);
     json["annulus"] = annulus_json(s.annulus);
@@ -401,7 +401,7 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     for (const toml::node& node : *list->as_array()) {
       const toml::table& t = *node.as_table();
       const Keys k(file, t, "a [[wall]]",
-                   {"min", "max", "walls", "group", "wall_layers", "dummy_layers", "no_slip", "velocity"});
+                   {"min", "max", "walls", "group", "wall_layers", "dummy_layers", "no_slip", "velocity", "part"});
       Wall<D> w;
       w.box = box_of<D>(file, t, k, "a [[wall]]", l0);
       w.walls = faces_of<D>(file, k.need("walls", "a [[wall]]"));
@@ -420,6 +420,17 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       for (const Block<D>& b : s.fluid)
         if (axis_through_walls(b, w.box, w.walls, l0) >= 0)
           fail(file, t, "this [[wall]] cuts through the [[fluid]] block on line " + std::to_string(b.line));
+      if (const toml::table* part = table_at(file, k, "part")) {
+        const Keys pk(file, *part, "a wall's part", {"axis", "below", "group", "velocity"});
+        if (!w.no_slip) fail(file, *part, "a 'part' slides beside the rest of a no-slip wall: set no_slip = true");
+        if (pk.find("below") == nullptr || pk.find("group") == nullptr)
+          fail(file, *part, "a wall's part needs 'below' [m] (its particles below it along 'axis') and a 'group'");
+        w.part_axis = whole_in(file, pk, "axis", 0, 0, D - 1);
+        w.part_below = number_in(file, pk, "below", 0, -1e6, 1e6, "in [-1e6, 1e6] m");
+        w.part_group = whole_in(file, pk, "group", 0, 1, 1000000);
+        if (w.part_group == w.group) fail(file, *pk.find("group"), "a wall's part needs a group other than the wall's");
+        if (const toml::node* v = pk.find("velocity")) w.part_velocity = vector_of<D>(file, *v, "velocity", "m/s");
+      }
       s.walls.push_back(w);
       nlohmann::json j = box_json(w.box);
       j["walls"] = face_names<D>(w.walls);
@@ -428,6 +439,10 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       j["dummy_layers"] = w.dummy_layers;
       j["no_slip"] = w.no_slip;
       j["velocity_m_per_s"] = std::vector<double>(w.velocity.begin(), w.velocity.end());
+      if (w.part_group > 0)
+        j["part"] = {{"axis", std::string(1, "xyz"[w.part_axis])}, {"below_m", w.part_below},
+                     {"group_number", w.part_group},
+                     {"velocity_m_per_s", std::vector<double>(w.part_velocity.begin(), w.part_velocity.end())}};
       json["walls"].push_back(j);
     }
   }
@@ -487,6 +502,32 @@ Scene<D> read_scene(const std::filesystem::path& path) {
         j["motion"] = {{"axis", std::string(1, "xyz"[o.axis])}, {"amplitude_m", o.amplitude}, {"period_s", o.period}};
       json["obstacles"].push_back(j);
     }
+  }
+
+  if (const toml::table* inlet = table_at(file, top, "inlet")) {
+    const Keys k(file, *inlet, "[inlet]", {"plate", "speed", "outlet", "ghost_rows", "buffer"});
+    Inlet& in = s.inlet;
+    in.line = static_cast<int>(inlet->source().begin.line);
+    if (k.find("plate") == nullptr || k.find("speed") == nullptr || k.find("outlet") == nullptr)
+      fail(file, *inlet, "[inlet] needs 'plate' (the group of its [[wall]] on x_low), 'speed' [m/s] and 'outlet' [m]");
+    in.plate = whole_in(file, k, "plate", 0, 1, 1000000);
+    in.speed = number_in(file, k, "speed", 0, 1e-12, 1e3, "positive (at most 1000 m/s)");
+    in.outlet = number_in(file, k, "outlet", 0, -1e6, 1e6, "in [-1e6, 1e6] m");
+    in.ghost_rows = whole_in(file, k, "ghost_rows", 3, 1, 100);
+    in.buffer = number_in(file, k, "buffer", 0, 0, 1e6, "at least 0 m (0: no buffer)");
+    const auto plate = std::find_if(s.walls.begin(), s.walls.end(), [&](const Wall<D>& w) { return w.group == in.plate; });
+    if (plate == s.walls.end() || plate->walls != mps::x_low || plate->no_slip)
+      fail(file, *k.find("plate"),
+           "the inlet's 'plate' must be the group of a [[wall]] on x_low alone, without no_slip (it pushes the fluid)");
+    if (!(in.outlet > plate->box.lo[0] + 4 * l0))
+      fail(file, *k.find("outlet"), "the outlet must lie downstream of the plate, at x > " + text(plate->box.lo[0] + 4 * l0));
+    if (in.buffer > 0 && !(in.buffer >= 4.1 * l0))
+      fail(file, *k.find("buffer"),
+           "an outflow buffer must be at least 4.1 spacings thick (" + text(4.1 * l0) + " m), the fluid before it needs "
+           "full kernels; 0: no buffer");
+    s.has_inlet = true;
+    json["inlet"] = {{"plate_group_number", in.plate}, {"speed_m_per_s", in.speed}, {"outlet_m", in.outlet},
+                     {"ghost_row_count", in.ghost_rows}, {"buffer_m", in.buffer}};
   }
 
   // The physics and numerics: SimulationConfig's defaults, then the file's.
@@ -677,12 +718,17 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
   }
   for (const Wall<D>& w : s.walls) {
     const Block<D>& b = w.box;
+    const std::size_t first = particles.size();
     if constexpr (D == 2)
       mps::add_rectangle_walls(particles, {b.lo[0], b.lo[1], b.hi[0], b.hi[1]}, s.l0, w.walls, w.wall_layers,
                                w.dummy_layers, w.group);
     else
       mps::add_box_walls(particles, {b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]}, s.l0, w.walls,
                          w.wall_layers, w.dummy_layers, w.group);
+    if (w.part_group == 0) continue;
+    const auto r = particles.positions();
+    for (std::size_t i = first; i < particles.size(); ++i)
+      if ((*r[w.part_axis])[i] < w.part_below) particles.group[i] = w.part_group;
   }
   // An obstacle: dummies, and wall particles within wall_layers spacings of its walled faces.
   const double reach = s.wall_layers * s.l0;
@@ -700,11 +746,31 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
       }
     }
   }
+  if (s.has_inlet) {
+    // The ghost pool, parked one spacing behind the plate's last layer: ghost_rows to a spacing of its height, so
+    // that no two coincide, on every layer of its depth in 3-D. Outflow and inflow balance on average; the pool
+    // covers three columns at once.
+    const Wall<D>& plate = *std::find_if(s.walls.begin(), s.walls.end(),
+                                         [&](const Wall<D>& w) { return w.group == s.inlet.plate; });
+    const Block<D>& b = plate.box;
+    const double parking = b.lo[0] - (plate.wall_layers + plate.dummy_layers + 0.5) * s.l0;
+    const int pool = s.inlet.ghost_rows * static_cast<int>(std::lround((b.hi[1] - b.lo[1]) / s.l0));
+    const int layers = D == 2 ? 1 : static_cast<int>(std::lround((b.hi[D - 1] - b.lo[D - 1]) / s.l0));
+    for (int k = 0; k < pool; ++k)
+      for (int m = 0; m < layers; ++m) {
+        mps::Vec<D> r{};
+        r[0] = parking;
+        r[1] = b.lo[1] + (k + 0.5) * (b.hi[1] - b.lo[1]) / pool;
+        if constexpr (D == 3) r[2] = b.lo[2] + (m + 0.5) * s.l0;
+        particles.add(r, mps::Kind::ghost, 0);
+      }
+  }
   return particles;
 }
 
 template <int D>
-std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
+std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
+                                                         std::shared_ptr<mps::BasicPushingPlate<D>>* plate_out) {
   mps::BasicParticles<D> particles = make_particles(s);
   // The annulus's walls turn about the z axis (each its own group); they start at their velocity.
   using Motion = std::conditional_t<D == 2, mps::RigidMotion, mps::RigidMotion3>;
@@ -731,9 +797,23 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
     sim->template add<mps::BasicBoundaryMotion<D>>([motions](mps::BasicParticles<D>& p, double t) {
       for (const Motion& m : motions) m(p, t);
     });
-  if (!s.free_surface)
-    sim->template add<mps::BasicSurfaceRegion<D>>(
-        typename mps::BasicSurfaceRegion<D>::Region([](const mps::Vec<D>&) { return false; }));
+  std::shared_ptr<mps::BasicPushingPlate<D>> plate;
+  double plate_x = 0;
+  if (s.has_inlet) {
+    plate = std::make_shared<mps::BasicPushingPlate<D>>(particles, s.inlet.plate, s.inlet.speed, s.l0, s.inlet.outlet);
+    for (const Wall<D>& w : s.walls)
+      if (w.group == s.inlet.plate) plate_x = w.box.lo[0];
+    sim->template add<mps::BasicBoundaryMotion<D>>(
+        [plate](mps::BasicParticles<D>& p, double t, std::size_t owned) { (*plate)(p, t, owned); });
+  }
+  if (plate_out != nullptr) *plate_out = plate;
+  if (!s.free_surface) {
+    // No free surface, but behind an inlet's plate (its dry wall ends) and, without a buffer, at its open outlet.
+    const bool inlet = s.has_inlet, open_outlet = s.has_inlet && !(s.inlet.buffer > 0);
+    const double outlet_zone = s.inlet.outlet - 4 * s.l0;
+    sim->template add<mps::BasicSurfaceRegion<D>>(typename mps::BasicSurfaceRegion<D>::Region(
+        [=](const mps::Vec<D>& r) { return (inlet && r[0] < plate_x) || (open_outlet && r[0] > outlet_zone); }));
+  }
   if (s.has_annulus && s.annulus.mirror) {
     // The circular walls' mirror circles, turning at their walls' rates.
     mps::MirrorWall inner, outer;
@@ -746,6 +826,12 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
     outer.omega = s.annulus.outer.omega;
     sim->template add<mps::BasicMirrorNoSlip<D>>(inner);
     sim->template add<mps::BasicMirrorNoSlip<D>>(outer);
+  }
+  if (s.has_inlet && s.inlet.buffer > 0) {
+    mps::BasicOutflowBuffer<D> buffer;
+    buffer.point[0] = s.inlet.outlet;
+    buffer.thickness = s.inlet.buffer;
+    sim->template add<mps::BasicOpenOutlet<D>>(buffer);
   }
   for (const Wall<D>& w : s.walls) {
     if (!w.no_slip) continue;
@@ -763,6 +849,12 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
       m.v = w.velocity[1];
       m.group = w.group;
       sim->template add<mps::MirrorNoSlip>(m);
+      if (w.part_group > 0) {
+        m.u = w.part_velocity[0];
+        m.v = w.part_velocity[1];
+        m.group = w.part_group;
+        sim->template add<mps::MirrorNoSlip>(m);
+      }
     } else {
       mps::MirrorPlane<3> m;
       m.point[axis] = low ? w.box.lo[axis] : w.box.hi[axis];
@@ -770,6 +862,11 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s) {
       m.velocity = w.velocity;
       m.group = w.group;
       sim->template add<mps::MirrorPlaneNoSlip3>(m);
+      if (w.part_group > 0) {
+        m.velocity = w.part_velocity;
+        m.group = w.part_group;
+        sim->template add<mps::MirrorPlaneNoSlip3>(m);
+      }
     }
   }
   for (const Obstacle<D>& o : s.obstacles) {
@@ -830,8 +927,10 @@ template Scene<2> read_scene<2>(const std::filesystem::path&);
 template Scene<3> read_scene<3>(const std::filesystem::path&);
 template mps::BasicParticles<2> make_particles<2>(const Scene<2>&);
 template mps::BasicParticles<3> make_particles<3>(const Scene<3>&);
-template std::unique_ptr<mps::BasicSimulation<2>> make_simulation<2>(const Scene<2>&);
-template std::unique_ptr<mps::BasicSimulation<3>> make_simulation<3>(const Scene<3>&);
+template std::unique_ptr<mps::BasicSimulation<2>> make_simulation<2>(const Scene<2>&,
+                                                                     std::shared_ptr<mps::BasicPushingPlate<2>>*);
+template std::unique_ptr<mps::BasicSimulation<3>> make_simulation<3>(const Scene<3>&,
+                                                                     std::shared_ptr<mps::BasicPushingPlate<3>>*);
 template mps::BasicProbeSeries<2> read_probes<2>(const Scene<2>&, mps::BasicSimulation<2>&);
 template mps::BasicProbeSeries<3> read_probes<3>(const Scene<3>&, mps::BasicSimulation<3>&);
 

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mps/boundaries/boundary.hpp"
 #include "mps/boundaries/geometry.hpp"
 #include "mps/core/domain.hpp"
 #include "mps/core/particles.hpp"
@@ -41,6 +42,8 @@ struct Obstacle {
 // Walls outside a box on its faces `walls`, as the tank's, with a group of their own, for a wall that is not a tank's
 // (a channel's). With `no_slip` (one face only) the fluid meets it by mirror velocities (mps::MirrorNoSlip in 2-D,
 // mps::MirrorPlaneNoSlip3 in 3-D), the wall sliding at `velocity` (its particles stay where they are).
+// With `part_group` > 0, the wall's particles below `part_below` along `part_axis` form a part of their own: that
+// group, sliding at `part_velocity` (the conveyor beside an inlet's plate, which moves with the fluid it pushes).
 template <int D>
 struct Wall {
   Block<D> box;
@@ -48,6 +51,20 @@ struct Wall {
   int group = 0, wall_layers = 1, dummy_layers = 4;
   bool no_slip = false;
   mps::Vec<D> velocity{};
+  int part_group = 0, part_axis = 0;
+  double part_below = 0;
+  mps::Vec<D> part_velocity{};
+};
+
+// A pushing-plate inlet (mps::BasicPushingPlate): the [[wall]] of group `plate` on an x_low face moves at `speed` along
+// +x, adding a column of fluid at each spacing it advances, from a pool of ghosts parked one spacing behind it
+// (`ghost_rows` per spacing of its height, in 3-D on every layer of its depth); fluid past `outlet` (x) returns to the
+// pool. With `buffer` > 0 an outflow buffer that thick holds the outlet at P = 0 (mps::BasicOutflowBuffer); without,
+// the outlet's last 4 spacings are free surface.
+struct Inlet {
+  int plate = 0, ghost_rows = 3;
+  double speed = 0, outlet = 0, buffer = 0;
+  int line = 0;
 };
 
 // One wall of an annulus: its surface turns at `omega` (the velocity the fluid meets, counter-clockwise positive) and
@@ -81,6 +98,8 @@ struct Scene {
   std::vector<Block<D>> fluid;
   std::vector<Wall<D>> walls;
   std::vector<Obstacle<D>> obstacles;
+  bool has_inlet = false;
+  Inlet inlet;
   bool has_annulus = false;  // a scene of its own: no tank, fluid blocks, walls or obstacles beside it
   Annulus annulus;
   mps::BasicDomain<D> domain;  // periodic on the axes the file's [domain] lists
@@ -106,13 +125,15 @@ int dimensions_of(const std::filesystem::path& file);
 // The whole scene, every key checked. Throws std::invalid_argument naming the file, the line and the key.
 template <int D>
 Scene<D> read_scene(const std::filesystem::path& file);
-// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles (or the
-// annulus's rings, from the innermost).
+// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles, the
+// inlet's ghosts (or the annulus's rings, from the innermost).
 template <int D>
 mps::BasicParticles<D> make_particles(const Scene<D>& scene);
-// The simulation with the scene's components (and each moving obstacle's motion).
+// The simulation with the scene's components (and each moving obstacle's motion); `plate`, if given, receives the
+// inlet's plate (null without an [inlet]): its counts go into a checkpoint.
 template <int D>
-std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& scene);
+std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& scene,
+                                                         std::shared_ptr<mps::BasicPushingPlate<D>>* plate = nullptr);
 // The file's [[probe]] tables for `sim` (an empty series when it has none).
 template <int D>
 mps::BasicProbeSeries<D> read_probes(const Scene<D>& scene, mps::BasicSimulation<D>& sim);

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <string>
 
+#include "mps/solids/fsi.hpp"
 #include "mps/step/components.hpp"
 #include "scene_file.hpp"
 
@@ -515,6 +516,89 @@ end_time = 0.2
   expect("outlet = 2.0", "outlet = 0.2", "line 28: the outlet must lie downstream of the plate");
   expect("no_slip = true\npart", "part", "a 'part' slides beside the rest of a no-slip wall");
   expect("group = 4,", "group = 1,", "a wall's part needs a group other than the wall's");
+}
+
+// An elastic gate hung from a mount: the body's moving particles are the fluid's wall (its faces to the water) and
+// dummy particles of its group, its clamped rows are not the fluid's, the mount continues its lattice up to `to` with a
+// wall face to the water; faults are refused with their line and key.
+TEST(SceneFile, ElasticBodyIsTheFluidsWallsAndHangsFromItsMount) {
+  const std::string text = R"(dimensions = 2
+spacing = 0.01
+[tank]
+min = [0.0, 0.0]
+max = [0.5, 0.3]
+walls = ["x_low", "x_high", "y_low"]
+[[fluid]]
+min = [0.0, 0.0]
+max = [0.2, 0.2]
+[[elastic]]
+min = [0.2, 0.0]
+max = [0.24, 0.1]
+clamp = "y_high"
+walls = ["x_low", "x_high", "y_low"]
+mount = {to = 0.3, walls = ["x_low"]}
+group = 2
+youngs_modulus = 1e6
+poisson_ratio = 0.4
+[physics]
+gravity = 9.81
+[numerics]
+dt_max = 1e-3
+hydrostatic_split = false
+[run]
+end_time = 0.01
+)";
+  const auto scene = scene_file::read_scene<2>(write_file("elastic", text));
+  const mps::Particles p = scene_file::make_particles(scene);
+  std::size_t body = 0, body_walls = 0, mount = 0, mount_walls = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.group[i] == 2) {
+      ++body;
+      EXPECT_TRUE(p.x[i] > 0.2 && p.x[i] < 0.24 && p.y[i] > 0.0 && p.y[i] < 0.1);  // no clamped row
+      const bool face = p.x[i] < 0.21 || p.x[i] > 0.23 || p.y[i] < 0.01;
+      EXPECT_EQ(p.kind[i], face ? mps::Kind::wall : mps::Kind::dummy) << p.x[i] << ", " << p.y[i];
+      body_walls += face ? 1 : 0;
+    } else if (p.group[i] == 0 && p.kind[i] != mps::Kind::fluid && p.x[i] > 0.2 && p.x[i] < 0.24 && p.y[i] > 0.1) {
+      ++mount;
+      EXPECT_LT(p.y[i], 0.3);
+      if (p.kind[i] == mps::Kind::wall) {
+        ++mount_walls;
+        EXPECT_LT(p.x[i], 0.21);
+      }
+    }
+  }
+  EXPECT_EQ(body, 4u * 10u);
+  EXPECT_EQ(body_walls, 10u + 10u + 2u);
+  EXPECT_EQ(mount, 4u * 20u);
+  EXPECT_EQ(mount_walls, 20u);
+  // The coupled step runs: the solid is advanced under the fluid's load.
+  auto sim = scene_file::make_simulation(scene);
+  for (int n = 0; n < 3; ++n) sim->step();
+  ASSERT_NE(sim->find<mps::ElasticStructure>(), nullptr);
+  EXPECT_GT(sim->find<mps::ElasticStructure>()->substeps(), 0);
+
+  const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
+    std::string bad = text;
+    bad.replace(bad.find(from), from.size(), to);
+    const std::string message = refusal("elastic_bad", bad);
+    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+  };
+  expect("max = [0.24, 0.1]", "max = [0.225, 0.1]", "line 12: an elastic body's edges must be whole numbers");
+  expect("clamp = \"y_high\"", "clamp = \"top\"", "line 13: 'clamp' must be one of x_low");
+  expect("to = 0.3,", "to = 0.12,", "line 15: a mount reaches from the clamp face beyond the clamp's 3 spacings");
+  expect("group = 2", "group = 0", "line 16: 'group' must be a whole number from 1");
+  expect("poisson_ratio = 0.4", "poisson_ratio = 0.5", "line 18: 'poisson_ratio' must be in (-1, 0.5)");
+  expect("min = [0.2, 0.0]\nmax = [0.24", "min = [0.1, 0.0]\nmax = [0.24", "overlaps the [[fluid]] block on line 7");
+  const std::string in_3d = refusal("elastic_3d", R"(dimensions = 3
+spacing = 0.01
+[[fluid]]
+min = [0.0, 0.0, 0.0]
+max = [0.1, 0.1, 0.1]
+[[elastic]]
+min = [0.2, 0.0, 0.0]
+max = [0.24, 0.1, 0.1]
+)");
+  EXPECT_NE(in_3d.find("line 6: elastic bodies are 2-D"), std::string::npos) << "got: " << in_3d;
 }
 
 }  // namespace

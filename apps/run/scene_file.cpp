@@ -12,6 +12,7 @@
 
 #include "mps/boundaries/geometry.hpp"
 #include "mps/io/io.hpp"
+#include "mps/solids/fsi.hpp"
 #include "mps/step/components.hpp"
 #include "probe_file.hpp"
 
@@ -317,6 +318,20 @@ nlohmann::json annulus_json(const Annulus& a) {
   return j;
 }
 
+// Visits an elastic body's lattice, rows along y outermost: f(x, y, i, j, held) for each point, i and j counted from
+// the box's corner, held in the clamp's layers beyond its face.
+template <int D, class F>
+void for_each_elastic_point(const Elastic<D>& e, double l0, F&& f) {
+  const int nx = static_cast<int>(std::lround((e.box.hi[0] - e.box.lo[0]) / l0));
+  const int ny = static_cast<int>(std::lround((e.box.hi[1] - e.box.lo[1]) / l0));
+  const int c = Elastic<D>::clamp_layers;
+  const int i0 = e.clamp == mps::x_low ? -c : 0, i1 = e.clamp == mps::x_high ? nx + c : nx;
+  const int j0 = e.clamp == mps::y_low ? -c : 0, j1 = e.clamp == mps::y_high ? ny + c : ny;
+  for (int j = j0; j < j1; ++j)
+    for (int i = i0; i < i1; ++i)
+      f(e.box.lo[0] + (i + 0.5) * l0, e.box.lo[1] + (j + 0.5) * l0, i, j, i < 0 || i >= nx || j < 0 || j >= ny);
+}
+
 }  // namespace
 
 bool Annulus::full() const { return span >= 2 * std::numbers::pi; }
@@ -336,8 +351,8 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   const toml::table root = parse(path);
   const std::string file = label(path);
   const Keys top(file, root, "a scene file",
-                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "inlet", "annulus",
-                  "domain", "physics", "numerics", "solver", "components", "run", "output", "probe"});
+                 {"title", "dimensions", "spacing", "tank", "fluid", "wall", "obstacle", "inlet", "elastic",
+                  "annulus", "domain", "physics", "numerics", "solver", "components", "run", "output", "probe"});
   Scene<D> s;
   s.file = path;
   s.title = top.text("title", "a scene file", path.stem().string());
@@ -365,7 +380,7 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
 
   if (const toml::table* annulus = table_at(file, top, "annulus")) {
-    for (const char* other : {"tank", "fluid", "wall", "obstacle", "inlet"})
+    for (const char* other : {"tank", "fluid", "wall", "obstacle", "inlet", "elastic"})
       if (top.find(other) != nullptr)
         fail(file, *annulus, std::string("an [annulus] is a scene of its own, with its fluid and walls: this file "
                                          "has a ") + (other == std::string("tank") || other == std::string("inlet") ? "[" + std::string(other) + "]" : "[[" + std::string(other) + "]]") + " too");
@@ -528,6 +543,92 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     s.has_inlet = true;
     json["inlet"] = {{"plate_group_number", in.plate}, {"speed_m_per_s", in.speed}, {"outlet_m", in.outlet},
                      {"ghost_row_count", in.ghost_rows}, {"buffer_m", in.buffer}};
+  }
+
+  if (const toml::node* list = top.find("elastic")) {
+    if (!list->is_array_of_tables()) fail(file, *list, "elastic bodies are listed as [[elastic]] tables");
+    if (D == 3) fail(file, *list, "elastic bodies are 2-D (the library's solids): this scene has dimensions = 3");
+    for (const toml::node& node : *list->as_array()) {
+      const toml::table& t = *node.as_table();
+      const Keys k(file, t, "an [[elastic]]",
+                   {"min", "max", "walls", "clamp", "group", "mount", "density", "youngs_modulus", "poisson_ratio",
+                    "model", "relaxation", "cfl", "hourglass"});
+      Elastic<D> e;
+      e.box = box_of<D>(file, t, k, "an [[elastic]]", l0);
+      for (std::size_t a = 0; a < D; ++a) {
+        const double n = (e.box.hi[a] - e.box.lo[a]) / l0;
+        if (std::abs(n - std::round(n)) > 1e-6 * n || std::round(n) < 3)
+          fail(file, *k.find("max"), "an elastic body's edges must be whole numbers of spacings, at least 3 (axis " +
+                                         std::string(1, "xyz"[a]) + ": " + text(n) + " spacings)");
+      }
+      e.walls = faces_of<D>(file, k.need("walls", "an [[elastic]]"));
+      {
+        const toml::node& clamp = k.need("clamp", "an [[elastic]]");
+        if (!clamp.is_string()) fail(file, clamp, "'clamp' names the face the body is held at, as \"y_low\"");
+        const std::vector<std::string> names = face_names<D>(D == 2 ? 15u : 63u);
+        const auto found = std::find(names.begin(), names.end(), clamp.as_string()->get());
+        if (found == names.end()) fail(file, clamp, "'clamp' must be one of x_low, x_high, y_low, y_high");
+        e.clamp = 1u << static_cast<unsigned>(found - names.begin());
+      }
+      e.group = whole_in(file, k, "group", 1, 1, 1000000);
+      if (const toml::table* mount = table_at(file, k, "mount")) {
+        const Keys mk(file, *mount, "an elastic body's mount", {"to", "walls"});
+        const int face = std::countr_zero(e.clamp);
+        const std::size_t axis = static_cast<std::size_t>(face / 2);
+        const bool high = face % 2 == 1;
+        const double edge = high ? e.box.hi[axis] : e.box.lo[axis];
+        e.has_mount = true;
+        e.mount_to = number(file, mk.need("to", "a mount"), "to");
+        if (!(high ? e.mount_to >= edge + (Elastic<D>::clamp_layers + 1) * l0
+                   : e.mount_to <= edge - (Elastic<D>::clamp_layers + 1) * l0))
+          fail(file, mk.need("to", "a mount"),
+               "a mount reaches from the clamp face beyond the clamp's " + std::to_string(Elastic<D>::clamp_layers) +
+                   " spacings: 'to' must be " + (high ? "above " : "below ") +
+                   text(edge + (high ? 1 : -1) * (Elastic<D>::clamp_layers + 1) * l0) + " m");
+        if (const toml::node* walls = mk.find("walls")) e.mount_walls = faces_of<D>(file, *walls);
+        if ((e.mount_walls & (3u << (2 * axis))) != 0)
+          fail(file, *mk.find("walls"), "a mount's walls are faces along its length, not across it");
+      }
+      e.material.density = number_in(file, k, "density", 1000, 1e-6, 1e6, "in (0, 1e6] kg/m^3");
+      e.material.youngs_modulus = number_in(file, k, "youngs_modulus", 2e6, 1e-6, 1e15, "in (0, 1e15] Pa");
+      e.material.poisson_ratio = number_in(file, k, "poisson_ratio", 0.3975, -0.999, 0.499, "in (-1, 0.5)");
+      if (const toml::node* model = k.find("model")) {
+        if (!model->is_string()) fail(file, *model, "'model' must be \"linear\" or \"svk\"");
+        try {
+          e.material.model = mps::parse_elastic_model(model->as_string()->get());
+        } catch (const std::invalid_argument& error) {
+          fail(file, *model, error.what());
+        }
+      }
+      e.relaxation = number_in(file, k, "relaxation", 1, 1e-6, 1, "in (0, 1] (1: the load taken whole)");
+      e.cfl = number_in(file, k, "cfl", 0.3, 1e-6, 1, "in (0, 1]: c_p dt / l0 of the solid");
+      e.hourglass = number_in(file, k, "hourglass", 30, 0, 1e4, "in [0, 1e4] (0: off)");
+      for (const Block<D>& b : s.fluid)
+        if (overlap(e.box, b, l0))
+          fail(file, t, "this [[elastic]] body overlaps the [[fluid]] block on line " + std::to_string(b.line));
+      const auto taken = [&](int g) {
+        return std::any_of(s.walls.begin(), s.walls.end(), [&](const Wall<D>& w) { return w.group == g || w.part_group == g; }) ||
+               std::any_of(s.obstacles.begin(), s.obstacles.end(), [&](const Obstacle<D>& o) { return o.group == g; }) ||
+               std::any_of(s.elastic.begin(), s.elastic.end(), [&](const Elastic<D>& o) { return o.group == g; });
+      };
+      if (taken(e.group))
+        fail(file, t, "an elastic body needs a 'group' of its own (its particles are found by it); " +
+                          std::to_string(e.group) + " is taken");
+      s.elastic.push_back(e);
+      nlohmann::json j = box_json(e.box);
+      j["walls"] = face_names<D>(e.walls);
+      j["clamp"] = face_names<D>(e.clamp).front();
+      j["group_number"] = e.group;
+      if (e.has_mount) j["mount"] = {{"to_m", e.mount_to}, {"walls", face_names<D>(e.mount_walls)}};
+      j["density_kg_per_m3"] = e.material.density;
+      j["youngs_modulus_pa"] = e.material.youngs_modulus;
+      j["poisson"] = e.material.poisson_ratio;
+      j["model"] = std::string(mps::to_string(e.material.model));
+      j["relaxation"] = e.relaxation;
+      j["cfl"] = e.cfl;
+      j["hourglass"] = e.hourglass;
+      json["elastic"].push_back(j);
+    }
   }
 
   // The physics and numerics: SimulationConfig's defaults, then the file's.
@@ -746,6 +847,36 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
       }
     }
   }
+  if constexpr (D == 2) {
+    for (const Elastic<D>& e : s.elastic) {
+      const int nx = static_cast<int>(std::lround((e.box.hi[0] - e.box.lo[0]) / s.l0));
+      const int ny = static_cast<int>(std::lround((e.box.hi[1] - e.box.lo[1]) / s.l0));
+      if (e.has_mount) {
+        // The lattice continued past the clamp face, row by row outwards, while a row's centre lies before `to`.
+        const int face = std::countr_zero(e.clamp);
+        const std::size_t axis = static_cast<std::size_t>(face / 2);
+        const int n = axis == 0 ? nx : ny, across = axis == 0 ? ny : nx;
+        const bool high = face % 2 == 1;
+        for (int k = high ? n : -1;; k += high ? 1 : -1) {
+          const double lead = high ? (e.box.lo[axis] + n * s.l0) + (k - n + 0.5) * s.l0 : e.box.lo[axis] + (k + 0.5) * s.l0;
+          if (high ? !(lead < e.mount_to) : !(lead > e.mount_to)) break;
+          for (int q = 0; q < across; ++q) {
+            const unsigned low_face = axis == 0 ? mps::y_low : mps::x_low, high_face = axis == 0 ? mps::y_high : mps::x_high;
+            const bool wall = ((e.mount_walls & low_face) != 0 && q == 0) || ((e.mount_walls & high_face) != 0 && q == across - 1);
+            const double along = e.box.lo[axis] + (k + 0.5) * s.l0, other = e.box.lo[1 - axis] + (q + 0.5) * s.l0;
+            particles.add(axis == 0 ? along : other, axis == 0 ? other : along, wall ? mps::Kind::wall : mps::Kind::dummy, 0);
+          }
+        }
+      }
+      // The body's moving particles (its clamped ones lie inside what holds it, whose particles are the fluid's).
+      for_each_elastic_point(e, s.l0, [&](double x, double y, int i, int j, bool held) {
+        if (held) return;
+        const bool face = ((e.walls & mps::x_low) != 0 && i == 0) || ((e.walls & mps::x_high) != 0 && i == nx - 1) ||
+                          ((e.walls & mps::y_low) != 0 && j == 0) || ((e.walls & mps::y_high) != 0 && j == ny - 1);
+        particles.add(x, y, face ? mps::Kind::wall : mps::Kind::dummy, e.group);
+      });
+    }
+  }
   if (s.has_inlet) {
     // The ghost pool, parked one spacing behind the plate's last layer: ghost_rows to a spacing of its height, so
     // that no two coincide, on every layer of its depth in 3-D. Outflow and inflow balance on average; the pool
@@ -910,6 +1041,30 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
       if (!(o.amplitude > 0)) boxes.push_back({o.box.lo, o.box.hi});  // a moving box is not where it started
     sim->template add<mps::BasicWallBackstop<D>>(typename mps::BasicWallBackstop<D>::AxisBox{tank.lo, tank.hi},
                                                  std::move(boxes));
+  }
+  if constexpr (D == 2) {
+    for (const Elastic<D>& e : s.elastic) {
+      mps::ElasticBody body;
+      body.spacing = s.l0;
+      for_each_elastic_point(e, s.l0, [&](double x, double y, int, int, bool held) { body.add(x, y, s.l0 * s.l0, held); });
+      mps::ElasticConfig ec;
+      ec.material = e.material;
+      ec.cfl = e.cfl;
+      ec.cfl_option = "cfl of the [[elastic]] body in " + s.file.filename().string();
+      ec.hourglass = e.hourglass;
+      ec.gravity_x = s.config.fx;
+      ec.gravity_y = s.config.fy;
+      // Its moving particles follow the fluid's in the body's order, from the first of its group.
+      int first_id = -1;
+      for (std::size_t i = 0; i < particles.size() && first_id < 0; ++i)
+        if (particles.group[i] == e.group && particles.kind[i] != mps::Kind::fluid) first_id = particles.id[i];
+      const double x0 = e.box.lo[0], y0 = e.box.lo[1];
+      const double w = static_cast<double>(std::lround((e.box.hi[0] - x0) / s.l0)) * s.l0;
+      const double h = static_cast<double>(std::lround((e.box.hi[1] - y0) / s.l0)) * s.l0;
+      sim->template add<mps::ElasticStructure>(
+          mps::ElasticSolid(body, ec), e.group, first_id,
+          [=](double X, double Y) { return X > x0 && X < x0 + w && Y > y0 && Y < y0 + h; }, e.relaxation);
+    }
   }
   return sim;
 }

@@ -15,6 +15,7 @@
 #include "mps/core/domain.hpp"
 #include "mps/core/particles.hpp"
 #include "mps/io/probes.hpp"
+#include "mps/solids/elastic.hpp"
 #include "mps/step/step.hpp"
 
 namespace scene_file {
@@ -86,6 +87,24 @@ struct Annulus {
   [[nodiscard]] bool full() const;
 };
 
+// An elastic body coupled to the fluid (mps::ElasticStructure; the library's solids are 2-D): the box's lattice, its
+// particles the fluid's wall particles (one layer under the faces `walls`) and dummies of `group`, moved with the
+// solid. It is held by its lattice continued `clamp_layers` spacings (the solid kernel's reach) beyond its face
+// `clamp`, inside what holds it (the floor, or its `mount`): the solid's clamped particles, not the fluid's. A mount
+// continues the lattice past the clamp face up to `mount_to` (along the clamp face's axis) as standing wall (under the
+// faces `mount_walls`) and dummy particles of group 0: the rigid wall a gate hangs from.
+template <int D>
+struct Elastic {
+  Block<D> box;
+  unsigned walls = 0, clamp = 0, mount_walls = 0;
+  int group = 1;
+  bool has_mount = false;
+  double mount_to = 0;
+  mps::ElasticMaterial material;
+  double relaxation = 1, cfl = 0.3, hourglass = 30;
+  static constexpr int clamp_layers = 3;  // mps::ElasticConfig's kernel radius, 3 spacings
+};
+
 template <int D>
 struct Scene {
   std::filesystem::path file;
@@ -98,6 +117,7 @@ struct Scene {
   std::vector<Block<D>> fluid;
   std::vector<Wall<D>> walls;
   std::vector<Obstacle<D>> obstacles;
+  std::vector<Elastic<D>> elastic;
   bool has_inlet = false;
   Inlet inlet;
   bool has_annulus = false;  // a scene of its own: no tank, fluid blocks, walls or obstacles beside it
@@ -125,8 +145,8 @@ int dimensions_of(const std::filesystem::path& file);
 // The whole scene, every key checked. Throws std::invalid_argument naming the file, the line and the key.
 template <int D>
 Scene<D> read_scene(const std::filesystem::path& file);
-// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles, the
-// inlet's ghosts (or the annulus's rings, from the innermost).
+// The particles: the fluid blocks in the file's order, then the tank's walls, the [[wall]]s, the obstacles, each
+// elastic body's mount and body, the inlet's ghosts (or the annulus's rings, from the innermost).
 template <int D>
 mps::BasicParticles<D> make_particles(const Scene<D>& scene);
 // The simulation with the scene's components (and each moving obstacle's motion); `plate`, if given, receives the

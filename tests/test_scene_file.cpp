@@ -54,6 +54,13 @@ std::string refusal(const std::string& name, const std::string& text) {
   return "";
 }
 
+// `text` with `from` replaced by `to` is refused with a message holding `part`.
+void expect_refusal_of_edit(std::string text, const std::string& from, const std::string& to, const std::string& part) {
+  text.replace(text.find(from), from.size(), to);
+  const std::string message = refusal("edited", text);
+  EXPECT_NE(message.find(part), std::string::npos) << "after '" << from << "' -> '" << to << "', got: " << message;
+}
+
 // The lattice gives every count: 10 x 5 fluid; the walls one layer, the dummies four, on three sides with their
 // corners; the obstacle's four spacings square, its top and sides wall (not its bottom, on the floor).
 TEST(SceneFile, ParticlesAreTheBlocksWallsAndObstaclesTheFileDescribes) {
@@ -414,10 +421,7 @@ end_time = 0.01
 
   // Its faults, each with its line and key.
   const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
-    std::string bad = text;
-    bad.replace(bad.find(from), from.size(), to);
-    const std::string message = refusal("annulus_bad", bad);
-    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+    expect_refusal_of_edit(text, from, to, part);
   };
   expect("outer_radius = 2.0", "outer_radius = 2.05", "line 5: the gap outer_radius - inner_radius must be a whole");
   expect("span = 1.0", "span = 6.0", "line 6: a sector's 'span' must be from 0.3 rad");
@@ -506,10 +510,7 @@ end_time = 0.2
             fluid0 + plate_walls);
 
   const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
-    std::string bad = text;
-    bad.replace(bad.find(from), from.size(), to);
-    const std::string message = refusal("inlet_bad", bad);
-    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+    expect_refusal_of_edit(text, from, to, part);
   };
   expect("plate = 3", "plate = 1", "line 26: the inlet's 'plate' must be the group of a [[wall]] on x_low alone");
   expect("buffer = 0.5", "buffer = 0.2", "line 29: an outflow buffer must be at least 4.1 spacings thick");
@@ -578,10 +579,7 @@ end_time = 0.01
   EXPECT_GT(sim->find<mps::ElasticStructure>()->substeps(), 0);
 
   const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
-    std::string bad = text;
-    bad.replace(bad.find(from), from.size(), to);
-    const std::string message = refusal("elastic_bad", bad);
-    EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
+    expect_refusal_of_edit(text, from, to, part);
   };
   expect("max = [0.24, 0.1]", "max = [0.225, 0.1]", "line 12: an elastic body's edges must be whole numbers");
   expect("clamp = \"y_high\"", "clamp = \"top\"", "line 13: 'clamp' must be one of x_low");

@@ -2,11 +2,11 @@
 """Scene files run by sparsemps-run (docs/scene-files.md):
 
 1. Every built-in scene shipped as a file (examples/scenes/) gives its app's numbers bitwise: the same bytes in every
-   frame and the same solves.csv less its timings, over a short run of each (the 2-D and 3-D hydrostatic tanks, the
-   classic and seed dam breaks, SPHERIC Test 2 with its box, the periodic body-force Poiseuille and Couette
-   channels, the pushing-plate inlet channel, Taylor–Couette in 2-D and 3-D, the screw channel in both models, the
-   elastic plate hit by a dam break and the elastic gate; the screw channel's frames compared by their arrays less
-   the app's relative velocity).
+   frame and the same solves.csv less its timings, over a short run of each, and a summary that keeps
+   docs/summary.schema.json. The scenes: the 2-D and 3-D hydrostatic tanks, the classic and seed dam breaks, SPHERIC
+   Test 2 with its box, the periodic body-force Poiseuille and Couette channels, the pushing-plate inlet channel,
+   Taylor–Couette in 2-D and 3-D, the screw channel in both models, the elastic plate hit by a dam break and the
+   elastic gate (the screw channel's frames compared by their arrays less the app's relative velocity).
 2. The seed dam break's probes in the file sample what the app's own samplers do: probes.csv's wall pressures and
    level equal the app's pressure.csv and level.csv (in rho g H and H, to their 10 printed digits).
 3. The wave flume (a scene of no app): the piston paddle's waves reach the gauge 0.5 m down the flume before the one at
@@ -17,6 +17,7 @@
 
   tests/scene_files.py BUILD_DIR
 """
+import json
 import os
 import subprocess
 import sys
@@ -28,7 +29,7 @@ import numpy as np
 SOURCE = Path(__file__).resolve().parent.parent
 SCENES = SOURCE / "examples" / "scenes"
 sys.path.insert(0, str(SOURCE / "scripts"))
-from compare_results import comparable_bytes, frame_record  # noqa: E402
+from compare_results import comparable_bytes, frame_record, schema_errors  # noqa: E402
 
 ENV = dict(os.environ, OMP_NUM_THREADS="1")
 # scene file, its app and the app's options giving the same scene for a short run (its end time in the app's unit),
@@ -106,6 +107,8 @@ def main(build):
             run([app(build, name), *options, "--frames", count, "--out", str(a)], expect=(0, 2))
             run([app(build, "run"), str(SCENES / file), "--end-time", end, "--frames", count, "--out", str(b)])
             same_run(a, b, file)
+            if errors := schema_errors(json.loads((b / "summary.json").read_text())):
+                sys.exit(f"FAIL: {file}: its summary breaks docs/summary.schema.json: {errors[:3]}")
             print(f"{file}: {len(frames(b))} frames and solves.csv bitwise as {name} {' '.join(options)}")
 
         # 2. The seed column's probes against the app's samplers.

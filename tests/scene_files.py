@@ -8,7 +8,8 @@
    Taylor–Couette in 2-D and 3-D, the screw channel in both models, the elastic plate hit by a dam break and the
    elastic gate (the screw channel's frames compared by their arrays less the app's relative velocity).
 2. The seed dam break's probes in the file sample what the app's own samplers do: probes.csv's wall pressures and
-   level equal the app's pressure.csv and level.csv (in rho g H and H, to their 10 printed digits).
+   level equal the app's pressure.csv and level.csv (in rho g H and H, to their 10 printed digits); the elastic plate's
+   and gate's displacement probes equal fsi's tip.csv at the same steps.
 3. The wave flume (a scene of no app): the piston paddle's waves reach the gauge 0.5 m down the flume before the one at
    1 m, at a front speed within 20 % of sqrt(g h); every pressure solve converged, those where auto's AMG-PCG broke
    down by its Jacobi-CG rescue.
@@ -122,6 +123,18 @@ def main(build):
         if not np.allclose(probes["level"], level[level.dtype.names[1]], rtol=1e-9, atol=1e-12):
             sys.exit("FAIL: the seed's level probe differs from the app's level.csv")
         print(f"dambreak_seed.toml: {len(probes)} samples of 5 wall pressures and a level equal to the app's")
+
+        # The elastic bodies' displacement probes read what fsi writes to tip.csv at the same steps.
+        for file in ("fsi_plate.toml", "fsi_gate.toml"):
+            probes, tip = table(tmp / f"file_{file}" / "probes.csv"), table(tmp / f"app_{file}" / "tip.csv")
+            rows = [np.flatnonzero(np.isclose(tip["t"], t, rtol=1e-9, atol=0))[:1] for t in probes["time"]]
+            pairs = [(k, r[0]) for k, r in enumerate(rows) if len(r)]
+            mine = np.array([[probes["tipx"][k], probes["tipy"][k]] for k, _ in pairs])
+            theirs = np.array([[tip["ux"][r], tip["uy"][r]] for _, r in pairs])
+            if len(pairs) < 3 or not np.allclose(mine, theirs, rtol=1e-9, atol=1e-15):
+                sys.exit(f"FAIL: {file}: the tip probe differs from fsi's tip.csv ({len(pairs)} samples matched)")
+            print(f"{file}: {len(pairs)} samples of the tip's displacement equal to fsi's tip.csv "
+                  f"(largest |u| {np.abs(mine).max():.3g} m)")
 
         # 3. The wave flume.
         out = tmp / "flume"

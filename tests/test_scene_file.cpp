@@ -578,6 +578,29 @@ end_time = 0.01
   ASSERT_NE(sim->find<mps::ElasticStructure>(), nullptr);
   EXPECT_GT(sim->find<mps::ElasticStructure>()->substeps(), 0);
 
+  // A displacement probe names the body by its group: it reads the solid's own displacement at its free end.
+  const std::string probe = "[[probe]]\nname = \"tip\"\nquantity = \"displacement\"\ngroup = 2\npoints = [[0.22, 0.0]]\n";
+  const auto probed = scene_file::read_scene<2>(write_file("elastic_probe", text + probe));
+  auto probed_sim = scene_file::make_simulation(probed);
+  mps::ProbeSeries series = scene_file::read_probes(probed, *probed_sim);
+  for (int n = 0; n < 3; ++n) probed_sim->step();
+  series.sample(probed_sim->time(), probed_sim->particles());
+  const auto expected = probed_sim->find<mps::ElasticStructure>()->solid().displacement_at(0.22, 0.0);
+  ASSERT_EQ(series.rows().size(), 1u);
+  EXPECT_EQ(series.rows()[0][1], expected[0]);
+  EXPECT_EQ(series.rows()[0][2], expected[1]);
+  EXPECT_NE(expected[1], 0.0);  // the hanging gate has moved under gravity and the water's push
+  std::string other = text + probe;
+  other.replace(other.rfind("group = 2"), 9, "group = 3");
+  const auto wrong = scene_file::read_scene<2>(write_file("elastic_probe_wrong", other));
+  auto wrong_sim = scene_file::make_simulation(wrong);
+  try {
+    static_cast<void>(scene_file::read_probes(wrong, *wrong_sim));
+    ADD_FAILURE() << "a displacement probe of no body's group was read";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no elastic body has group 3"), std::string::npos) << e.what();
+  }
+
   const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
     expect_refusal_of_edit(text, from, to, part);
   };

@@ -146,7 +146,8 @@ std::vector<mps::Vec<D>> probe_points(const std::string& file, const toml::table
 
 // Adds the [[probe]] tables `list` holds (a probe file's or a scene file's, `file`) to `series`, for `sim` (its
 // spacing, kernel weight and dimension). A force probe adds a WallForce for its group to `sim` (2-D, a run that solves
-// the whole pressure). Throws std::invalid_argument naming the line.
+// the whole pressure); a displacement probe reads the elastic body (mps::ElasticStructure) of its group, which `sim`
+// must hold. Throws std::invalid_argument naming the line.
 template <int D>
 void add_probes(const std::string& file, const toml::node* list, mps::BasicProbeSeries<D>& series,
                 mps::BasicSimulation<D>& sim) {
@@ -179,6 +180,21 @@ void add_probes(const std::string& file, const toml::node* list, mps::BasicProbe
           fail(file, t, "probe '" + name + "': force probes are 2-D (mps::WallForce)");
         }
       }
+      if (quantity == "displacement") {
+        if constexpr (D == 2) {
+          const toml::node& group = k.need("group", where);
+          if (!group.is_integer()) fail(file, group, "'group' must be a whole number (the elastic body's group)");
+          const auto* body = sim.template find<mps::ElasticStructure>(
+              [&](const mps::ElasticStructure& e) { return e.group() == group.as_integer()->get(); });
+          if (body == nullptr)
+            fail(file, group, "probe '" + name + "': no elastic body has group " +
+                                  std::to_string(group.as_integer()->get()) + " (an [[elastic]] of a scene file)");
+          series.add(mps::displacement_probe(name, probe_points<2>(file, t, where), *body));
+          continue;
+        } else {
+          fail(file, t, "probe '" + name + "': displacement probes are 2-D (the library's elastic solids)");
+        }
+      }
       std::vector<mps::Vec<D>> points = probe_points<D>(file, t, where);
       if (quantity == "pressure" || quantity == "velocity") {
         const std::string method = k.text("method", where, "kernel");
@@ -208,7 +224,7 @@ void add_probes(const std::string& file, const toml::node* list, mps::BasicProbe
                                        method == "wire" ? mps::LevelMethod::wire : mps::LevelMethod::surface));
       } else {
         fail(file, *k.find("quantity"), "probe '" + name + "': quantity '" + quantity +
-                                            "' is none of pressure, velocity, level, force");
+                                            "' is none of pressure, velocity, level, force, displacement");
       }
     } catch (const std::invalid_argument& e) {
       const std::string what = e.what();

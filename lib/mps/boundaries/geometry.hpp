@@ -57,7 +57,8 @@ void fill_annular_sector(Particles& particles, double r0, double r1, double thet
 
 /// Groups of a walled annulus's particles.
 struct AnnulusGroups {
-  int fluid = 0, inner = 1, outer = 2, flights = 3;
+  /// @{ the fluid's, the inner wall's, the outer wall's and the flights' group
+  int fluid = 0, inner = 1, outer = 2, flights = 3;  /// @}
 };
 
 /// A walled annulus about the origin on concentric rings (seed 000's layout, docs/rotating.md): fluid rings k = 0, ...,

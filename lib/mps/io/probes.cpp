@@ -239,6 +239,16 @@ Probe force_probe(std::string name, const WallForce& force) {
   return probe;
 }
 
+Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticStructure& body) {
+  require_points<2>(probe_what(name), points);
+  Probe probe{std::move(name), "displacement", std::move(points), 2, {}};
+  probe.read = [at = probe.points, &body](const Particles&, double* values) {
+    for (const Vec<2>& r : at)
+      for (double u : body.solid().displacement_at(r[0], r[1])) *values++ = u;
+  };
+  return probe;
+}
+
 template <int D>
 BasicProbeSeries<D>::BasicProbeSeries(double interval) : interval_(interval) {
   if (!(std::isfinite(interval) && interval >= 0.0))

@@ -22,6 +22,7 @@
 namespace mps {
 
 class WallForce;
+class ElasticStructure;
 
 /// @{ Sample points: `n` points evenly from a to b, both ends included (n = 1: the midpoint); and the n1 x n2 points
 /// origin + (i / (n1 - 1)) e1 + (j / (n2 - 1)) e2 of a plane's parallelogram, j fastest (a count of 1 takes the middle
@@ -89,7 +90,7 @@ double water_level(const BasicParticles<D>& particles, const Vec<D>& at, double 
 template <int D>
 struct BasicProbe {
   std::string name;           ///< letters, digits, '_', '-' and '.' (its CSV columns start with it)
-  std::string quantity;       ///< "pressure", "velocity", "level", "force" (or a user's own)
+  std::string quantity;       ///< "pressure", "velocity", "level", "force", "displacement" (or a user's own)
   std::vector<Vec<D>> points;  ///< where it reads; one point for a force
   int components = 1;         ///< values per point (velocity, force: D)
   /// Writes components * points.size() values for the particles' present state.
@@ -114,6 +115,10 @@ BasicProbe<D> level_probe(std::string name, std::vector<Vec<D>> points, double l
 /// The last step's force of the fluid's pressure on `force`'s wall group [N per unit depth]: (fx, fy). The component
 /// must outlive the probe and be added to the simulation sampled.
 Probe force_probe(std::string name, const WallForce& force);
+/// An elastic body's displacement at reference points [m]: (ux, uy) per point, by ElasticSolid::displacement_at (the
+/// body's probe point: a flag's tip, a plate's top). The component must outlive the probe. Throws
+/// std::invalid_argument for no point or a non-finite coordinate.
+Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticStructure& body);
 
 /// Probes sampled at an interval of simulation time, kept as rows (time, then every probe's columns) and written as
 /// one CSV. Sampling is the caller's: call sample() after every step; it reads the probes when the time has reached

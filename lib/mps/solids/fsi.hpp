@@ -71,6 +71,7 @@ class ElasticStructure : public StepComponent {
   void after_corrector(StepContext& context) override;
 
   [[nodiscard]] const ElasticSolid& solid() const { return solid_; }  ///< the solid, as stepped so far
+  [[nodiscard]] int group() const { return group_; }  ///< the fluid particles' group that are its moving particles
   /// @{ The last step's pressure force on the structure [N per unit depth], and the load it applies (relaxed).
   [[nodiscard]] std::array<double, 2> force_on_structure() const { return on_structure_; }
   [[nodiscard]] std::array<double, 2> load() const;

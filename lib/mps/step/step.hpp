@@ -227,13 +227,18 @@ class BasicSimulation {
     components_.push_back(std::move(component));
     return added;
   }
-  /// The first component of that type, or nullptr.
+  /// @{ The first component of that type (for which `accept` holds), or nullptr.
   template <class Component>
   [[nodiscard]] const Component* find() const {
+    return find<Component>([](const Component&) { return true; });
+  }
+  template <class Component, class Accept>
+  [[nodiscard]] const Component* find(Accept&& accept) const {
     for (const auto& c : components_)
-      if (const auto* found = dynamic_cast<const Component*>(c.get())) return found;
+      if (const auto* found = dynamic_cast<const Component*>(c.get()); found != nullptr && accept(*found)) return found;
     return nullptr;
   }
+  /// @}
 
   [[nodiscard]] const Particles& particles() const { return particles_; }  ///< the particles now
   /// Particles [0, owned) are this process's own; during a step on ranks the rest are halo copies of other processes'

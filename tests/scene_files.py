@@ -41,7 +41,8 @@ BUILT_IN = [
     ("dambreak_classic.toml", "dambreak", ["--end-time", "0.06"], "0.06", "3"),
     ("dambreak_seed.toml", "dambreak", ["--column", "seed", "--end-time", "0.5"], "0.5", "2"),
     ("dambreak_spheric2.toml", "dambreak", ["--dim", "3", "--end-time", "0.03"], "0.03", "2"),
-    ("poiseuille_body_force.toml", "poiseuille", ["--mode", "body-force", "--end-time", "0.5"], "500", "2"),  # D/U = 1000 s
+    # D/U = 1000 s
+    ("poiseuille_body_force.toml", "poiseuille", ["--mode", "body-force", "--end-time", "0.5"], "500", "2"),
     ("couette.toml", "poiseuille", ["--mode", "couette", "--end-time", "0.5"], "500", "2"),
     # 0.15 D/U: the plate adds 7 columns (350 particles) from a pool of 150 ghosts, so the outflow is recycled.
     ("poiseuille_inlet.toml", "poiseuille", ["--end-time", "0.15"], "150", "2"),

@@ -350,9 +350,9 @@ points = [[0.1, 0.05]]
   EXPECT_NEAR(series.rows().back().at(1), 0.1, 1e-12);  // the water's depth
 }
 
-// An annular channel: every ring holds round(r span / l0) fluid particles over the opening at r = R1 + (k + 1/2) l0, the
-// walls and flights lie outside the fluid's radii and angles, and the walls turn as the file says: the barrel carried
-// round at -1 rad/s but at rest, the flights carried and moving at their rigid velocity.
+// An annular channel: every ring holds round(r span / l0) fluid particles over the opening at r = R1 + (k + 1/2) l0,
+// the walls and flights lie outside the fluid's radii and angles, and the walls turn as the file says: the barrel
+// carried round at -1 rad/s but at rest, the flights carried and moving at their rigid velocity.
 TEST(SceneFile, AnnulusIsRingsOfFluidBetweenTurningWalls) {
   const std::string text = R"(dimensions = 2
 spacing = 0.1
@@ -428,7 +428,8 @@ end_time = 0.01
   expect("span = 1.0\n", "", "line 7: flights close a sector");
   expect("inner_radius = 1.0", "inner_radius = 0.5", "line 4: the inner wall's 5 rings would reach past the centre");
   expect("[physics]", "height = 1.0\n[physics]", "'height' extrudes an annulus in 3-D");
-  expect("[physics]", "[tank]\nmin = [0.0, 0.0]\nmax = [1.0, 1.0]\n[physics]", "line 3: an [annulus] is a scene of its own");
+  expect("[physics]", "[tank]\nmin = [0.0, 0.0]\nmax = [1.0, 1.0]\n[physics]",
+         "line 3: an [annulus] is a scene of its own");
   expect("inner = {omega = -1.0}", "inner = {omega = -1.0, spin = 2}", "'spin' is no key of [annulus.inner]");
   expect("dimensions = 2", "dimensions = 3", "a 3-D [annulus] needs 'height' [m]");
 }
@@ -579,7 +580,8 @@ end_time = 0.01
   EXPECT_GT(sim->find<mps::ElasticStructure>()->substeps(), 0);
 
   // A displacement probe names the body by its group: it reads the solid's own displacement at its free end.
-  const std::string probe = "[[probe]]\nname = \"tip\"\nquantity = \"displacement\"\ngroup = 2\npoints = [[0.22, 0.0]]\n";
+  const std::string probe =
+      "[[probe]]\nname = \"tip\"\nquantity = \"displacement\"\ngroup = 2\npoints = [[0.22, 0.0]]\n";
   const auto probed = scene_file::read_scene<2>(write_file("elastic_probe", text + probe));
   auto probed_sim = scene_file::make_simulation(probed);
   mps::ProbeSeries series = scene_file::read_probes(probed, *probed_sim);

@@ -308,7 +308,9 @@ Annulus read_annulus(const std::string& file, const toml::table& t, double l0) {
 }
 
 nlohmann::json annulus_json(const Annulus& a) {
-  const auto wall = [](const AnnulusWall& w) { return nlohmann::json{{"omega_rad_per_s", w.omega}, {"turns_rad_per_s", w.turns}}; };
+  const auto wall = [](const AnnulusWall& w) {
+    return nlohmann::json{{"omega_rad_per_s", w.omega}, {"turns_rad_per_s", w.turns}};
+  };
   nlohmann::json j = {{"inner_radius_m", a.r_inner}, {"outer_radius_m", a.r_outer}, {"ring_count", a.rings},
                       {"wall_layers", a.wall_layers}, {"dummy_layers", a.dummy_layers}, {"span_rad", a.span},
                       {"centre_angle_rad", a.centre}, {"mirror", a.mirror}, {"inner", wall(a.inner)},
@@ -380,10 +382,12 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
 
   if (const toml::table* annulus = table_at(file, top, "annulus")) {
-    for (const char* other : {"tank", "fluid", "wall", "obstacle", "inlet", "elastic"})
+    for (const std::string other : {"tank", "fluid", "wall", "obstacle", "inlet", "elastic"}) {
+      const std::string table = other == "tank" || other == "inlet" ? "[" + other + "]" : "[[" + other + "]]";
       if (top.find(other) != nullptr)
-        fail(file, *annulus, std::string("an [annulus] is a scene of its own, with its fluid and walls: this file "
-                                         "has a ") + (other == std::string("tank") || other == std::string("inlet") ? "[" + std::string(other) + "]" : "[[" + std::string(other) + "]]") + " too");
+        fail(file, *annulus, "an [annulus] is a scene of its own, with its fluid and walls: this file has a " + table +
+                                 " too");
+    }
     s.has_annulus = true;
     s.annulus = read_annulus<D>(file, *annulus, l0);
     json["annulus"] = annulus_json(s.annulus);
@@ -530,16 +534,18 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     in.outlet = number_in(file, k, "outlet", 0, -1e6, 1e6, "in [-1e6, 1e6] m");
     in.ghost_rows = whole_in(file, k, "ghost_rows", 3, 1, 100);
     in.buffer = number_in(file, k, "buffer", 0, 0, 1e6, "at least 0 m (0: no buffer)");
-    const auto plate = std::find_if(s.walls.begin(), s.walls.end(), [&](const Wall<D>& w) { return w.group == in.plate; });
+    const auto plate =
+        std::find_if(s.walls.begin(), s.walls.end(), [&](const Wall<D>& w) { return w.group == in.plate; });
     if (plate == s.walls.end() || plate->walls != mps::x_low || plate->no_slip)
       fail(file, *k.find("plate"),
            "the inlet's 'plate' must be the group of a [[wall]] on x_low alone, without no_slip (it pushes the fluid)");
     if (!(in.outlet > plate->box.lo[0] + 4 * l0))
-      fail(file, *k.find("outlet"), "the outlet must lie downstream of the plate, at x > " + text(plate->box.lo[0] + 4 * l0));
+      fail(file, *k.find("outlet"),
+           "the outlet must lie downstream of the plate, at x > " + text(plate->box.lo[0] + 4 * l0));
     if (in.buffer > 0 && !(in.buffer >= 4.1 * l0))
       fail(file, *k.find("buffer"),
-           "an outflow buffer must be at least 4.1 spacings thick (" + text(4.1 * l0) + " m), the fluid before it needs "
-           "full kernels; 0: no buffer");
+           "an outflow buffer must be at least 4.1 spacings thick (" + text(4.1 * l0) +
+               " m), the fluid before it needs full kernels; 0: no buffer");
     s.has_inlet = true;
     json["inlet"] = {{"plate_group_number", in.plate}, {"speed_m_per_s", in.speed}, {"outlet_m", in.outlet},
                      {"ghost_row_count", in.ghost_rows}, {"buffer_m", in.buffer}};
@@ -607,9 +613,12 @@ Scene<D> read_scene(const std::filesystem::path& path) {
         if (overlap(e.box, b, l0))
           fail(file, t, "this [[elastic]] body overlaps the [[fluid]] block on line " + std::to_string(b.line));
       const auto taken = [&](int g) {
-        return std::any_of(s.walls.begin(), s.walls.end(), [&](const Wall<D>& w) { return w.group == g || w.part_group == g; }) ||
-               std::any_of(s.obstacles.begin(), s.obstacles.end(), [&](const Obstacle<D>& o) { return o.group == g; }) ||
-               std::any_of(s.elastic.begin(), s.elastic.end(), [&](const Elastic<D>& o) { return o.group == g; });
+        const auto wall = [&](const Wall<D>& w) { return w.group == g || w.part_group == g; };
+        const auto obstacle = [&](const Obstacle<D>& o) { return o.group == g; };
+        const auto body = [&](const Elastic<D>& o) { return o.group == g; };
+        return std::any_of(s.walls.begin(), s.walls.end(), wall) ||
+               std::any_of(s.obstacles.begin(), s.obstacles.end(), obstacle) ||
+               std::any_of(s.elastic.begin(), s.elastic.end(), body);
       };
       if (taken(e.group))
         fail(file, t, "an elastic body needs a 'group' of its own (its particles are found by it); " +
@@ -858,13 +867,17 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
         const int n = axis == 0 ? nx : ny, across = axis == 0 ? ny : nx;
         const bool high = face % 2 == 1;
         for (int k = high ? n : -1;; k += high ? 1 : -1) {
-          const double lead = high ? (e.box.lo[axis] + n * s.l0) + (k - n + 0.5) * s.l0 : e.box.lo[axis] + (k + 0.5) * s.l0;
+          const double lead =
+              high ? (e.box.lo[axis] + n * s.l0) + (k - n + 0.5) * s.l0 : e.box.lo[axis] + (k + 0.5) * s.l0;
           if (high ? !(lead < e.mount_to) : !(lead > e.mount_to)) break;
           for (int q = 0; q < across; ++q) {
-            const unsigned low_face = axis == 0 ? mps::y_low : mps::x_low, high_face = axis == 0 ? mps::y_high : mps::x_high;
-            const bool wall = ((e.mount_walls & low_face) != 0 && q == 0) || ((e.mount_walls & high_face) != 0 && q == across - 1);
+            const unsigned low_face = axis == 0 ? mps::y_low : mps::x_low;
+            const unsigned high_face = axis == 0 ? mps::y_high : mps::x_high;
+            const bool wall =
+                ((e.mount_walls & low_face) != 0 && q == 0) || ((e.mount_walls & high_face) != 0 && q == across - 1);
             const double along = e.box.lo[axis] + (k + 0.5) * s.l0, other = e.box.lo[1 - axis] + (q + 0.5) * s.l0;
-            particles.add(axis == 0 ? along : other, axis == 0 ? other : along, wall ? mps::Kind::wall : mps::Kind::dummy, 0);
+            particles.add(axis == 0 ? along : other, axis == 0 ? other : along,
+                          wall ? mps::Kind::wall : mps::Kind::dummy, 0);
           }
         }
       }
@@ -1046,7 +1059,8 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
     for (const Elastic<D>& e : s.elastic) {
       mps::ElasticBody body;
       body.spacing = s.l0;
-      for_each_elastic_point(e, s.l0, [&](double x, double y, int, int, bool held) { body.add(x, y, s.l0 * s.l0, held); });
+      for_each_elastic_point(e, s.l0,
+                             [&](double x, double y, int, int, bool held) { body.add(x, y, s.l0 * s.l0, held); });
       mps::ElasticConfig ec;
       ec.material = e.material;
       ec.cfl = e.cfl;

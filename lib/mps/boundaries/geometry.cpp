@@ -154,14 +154,17 @@ void fill_walled_annulus(Particles& particles, double r_inner, int rings, double
                          double span, double centre, AnnulusGroups groups) {
   require_positive(l0, "particle spacing l0");
   if (!(r_inner > 0.0) || rings < 1 || wall_layers < 1 || dummy_layers < 0)
-    throw std::invalid_argument("fill_walled_annulus: need r_inner > 0, rings >= 1, wall_layers >= 1, dummy_layers >= 0");
+    throw std::invalid_argument(
+        "fill_walled_annulus: need r_inner > 0, rings >= 1, wall_layers >= 1, dummy_layers >= 0");
   if (!(span > 0.0) || span > 2.0 * std::numbers::pi)
     throw std::invalid_argument("fill_walled_annulus: need 0 < span <= 2 pi");
   const int layers = wall_layers + dummy_layers;
   if (r_inner - layers * l0 < 0.5 * l0)
     throw std::invalid_argument("fill_walled_annulus: the inner wall's rings reach past the centre: r_inner must "
                                 "exceed (wall_layers + dummy_layers + 1/2) l0");
-  const auto kind = [&](int layer) { return layer == 0 ? Kind::fluid : layer <= wall_layers ? Kind::wall : Kind::dummy; };
+  const auto kind = [&](int layer) {
+    return layer == 0 ? Kind::fluid : layer <= wall_layers ? Kind::wall : Kind::dummy;
+  };
   const bool full = span >= 2.0 * std::numbers::pi;
   for (int k = -layers; k < rings + layers; ++k) {
     const double r = r_inner + (k + 0.5) * l0;

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """`pip install .` as a Python user does it (docs/python.md#pip), offline: into a fresh virtual environment of
-Debian's Python (with its NumPy and SciPy), with --no-index so that nothing may come from an index. The installed
-module must import from outside the source tree, with no PYTHONPATH, solve with the library's backends and PETSc's
-(its module shipped beside the extension), and uninstall cleanly. The wheel holds the module, the PETSc module and
+Debian's Python (with its NumPy and SciPy), with --no-index so that nothing may come from an index, built unoptimised
+(-C build-type=Debug) to take half the time. The installed module must import from outside the source tree, with no
+PYTHONPATH, solve with the library's backends and PETSc's (its module shipped beside the extension), and uninstall
+cleanly. The wheel holds the module, the PETSc module and
 its metadata alone, and names the interpreter's tags.
 
   tests/pip_install.py BUILD_DIR   (the wheel's CMake build goes to BUILD_DIR/pip-wheel)
@@ -30,6 +31,11 @@ print("version", sparsemps.__version__)
 """
 
 
+def settings(build):
+    # The wheel's build folder, under the test's build; unoptimised: the packaging is under test, not the speed.
+    return ["--config-settings", f"build-dir={build / 'pip-wheel'}", "--config-settings", "build-type=Debug"]
+
+
 def run(command, **kwargs):
     proc = subprocess.run([str(c) for c in command], capture_output=True, text=True, **kwargs)
     return proc.returncode, proc.stdout + proc.stderr
@@ -50,7 +56,7 @@ def main():
         python = venv / "bin" / "python"
         wheels = tmp / "wheels"
         code, out = run([python, "-m", "pip", "wheel", "--no-index", "--no-deps", "--no-cache-dir", "-w", wheels,
-                         "--config-settings", f"build-dir={build / 'pip-wheel'}", SOURCE], env=env, cwd=tmp)
+                         *settings(build), SOURCE], env=env, cwd=tmp)
         if code != 0:
             print(out[-4000:])
             return 1
@@ -63,8 +69,8 @@ def main():
                                                or n.startswith("sparsemps-") and ".dist-info/" in n)]
         if unexpected or len(names) != 5:
             failures.append(f"the wheel holds {names}")
-        code, out = run([python, "-m", "pip", "install", "--no-index", "--no-cache-dir", "--config-settings",
-                         f"build-dir={build / 'pip-wheel'}", SOURCE], env=env, cwd=tmp)
+        code, out = run([python, "-m", "pip", "install", "--no-index", "--no-cache-dir", *settings(build), SOURCE],
+                        env=env, cwd=tmp)
         if code != 0:
             print(out[-4000:])
             return 1

@@ -2,14 +2,16 @@
 """Scene files run by sparsemps-run (docs/scene-files.md):
 
 1. Every built-in scene shipped as a file (examples/scenes/) gives its app's numbers bitwise: the same bytes in every
-   frame and the same solves.csv less its timings, over a short run of each, and a summary that keeps
-   docs/summary.schema.json. The scenes: the 2-D and 3-D hydrostatic tanks, the classic and seed dam breaks, SPHERIC
-   Test 2 with its box, the periodic body-force Poiseuille and Couette channels, the pushing-plate inlet channel,
-   Taylor–Couette in 2-D and 3-D, the screw channel in both models, the elastic plate hit by a dam break and the
-   elastic gate (the screw channel's frames compared by their arrays less the app's relative velocity).
+   frame and the same solves.csv less its timings (energy.csv for a solid), over a short run of each, and a summary
+   that keeps docs/summary.schema.json. The scenes: the 2-D and 3-D hydrostatic tanks, the classic and seed dam breaks,
+   SPHERIC Test 2 with its box, the periodic body-force Poiseuille and Couette channels, the pushing-plate inlet
+   channel, Taylor–Couette in 2-D and 3-D, the screw channel in both models, the elastic plate hit by a dam break, the
+   elastic gate, and the elastic plate and CSM3 flag alone (the screw channel's frames compared by their arrays less the
+   app's relative velocity).
 2. The seed dam break's probes in the file sample what the app's own samplers do: probes.csv's wall pressures and
    level equal the app's pressure.csv and level.csv (in rho g H and H, to their 10 printed digits); the elastic plate's
-   and gate's displacement probes equal fsi's tip.csv at the same steps.
+   and gate's displacement probes equal fsi's tip.csv at the same steps, the plate's and flag's alone structure's
+   tip.csv line for line.
 3. The wave flume (a scene of no app): the piston paddle's waves reach the gauge 0.5 m down the flume before the one at
    1 m, at a front speed within 20 % of sqrt(g h); every pressure solve converged, those where auto's AMG-PCG broke
    down by its Jacobi-CG rescue.
@@ -54,6 +56,9 @@ BUILT_IN = [
     # the start.
     ("fsi_plate.toml", "fsi", ["--end-time", "0.2"], "0.2", "2"),
     ("fsi_gate.toml", "fsi", ["--scene", "gate", "--end-time", "0.01"], "0.01", "2"),
+    # An elastic body alone: the plate swinging, the flag bending under gravity.
+    ("structure_plate.toml", "structure", ["--end-time", "0.05"], "0.05", "2"),
+    ("structure_csm3.toml", "structure", ["--scene", "csm3", "--end-time", "0.1"], "0.1", "2"),
 ]
 # Arrays an app's frames hold beside the particles' own (the channel's velocity in the channel's frame), left out of the
 # comparison.
@@ -90,8 +95,10 @@ def same_run(a, b, what):
             r["arrays"] = {k: v for k, v in r["arrays"].items() if k not in APP_ONLY_ARRAYS}
         if rx != ry:
             sys.exit(f"FAIL: {what}: {x.name} and {y.name} differ")
-    if comparable_bytes(a / "solves.csv") != comparable_bytes(b / "solves.csv"):
-        sys.exit(f"FAIL: {what}: solves.csv differs")
+    # A fluid's solves; a solid's energies.
+    for name in ("solves.csv", "energy.csv"):
+        if (a / name).exists() and comparable_bytes(a / name) != comparable_bytes(b / name):
+            sys.exit(f"FAIL: {what}: {name} differs")
 
 
 def table(path):
@@ -111,7 +118,8 @@ def main(build):
             same_run(a, b, file)
             if errors := schema_errors(json.loads((b / "summary.json").read_text())):
                 sys.exit(f"FAIL: {file}: its summary breaks docs/summary.schema.json: {errors[:3]}")
-            print(f"{file}: {len(frames(b))} frames and solves.csv bitwise as {name} {' '.join(options)}")
+            tables = "solves.csv" if (a / "solves.csv").exists() else "energy.csv"
+            print(f"{file}: {len(frames(b))} frames and {tables} bitwise as {name} {' '.join(options)}")
 
         # 2. The seed column's probes against the app's samplers.
         a, b = tmp / "app_dambreak_seed.toml", tmp / "file_dambreak_seed.toml"
@@ -136,6 +144,17 @@ def main(build):
                 sys.exit(f"FAIL: {file}: the tip probe differs from fsi's tip.csv ({len(pairs)} samples matched)")
             print(f"{file}: {len(pairs)} samples of the tip's displacement equal to fsi's tip.csv "
                   f"(largest |u| {np.abs(mine).max():.3g} m)")
+
+        # The bodies alone: their tip probes are structure's tip.csv, sample for sample.
+        for file in ("structure_plate.toml", "structure_csm3.toml"):
+            probes = (tmp / f"file_{file}" / "probes.csv").read_text().splitlines()
+            tip = (tmp / f"app_{file}" / "tip.csv").read_text().splitlines()
+            if probes[0] != "time,tip.x,tip.y" or probes[1:] != tip[1:] or len(tip) < 10:
+                sys.exit(f"FAIL: {file}: the tip probe's {len(probes) - 1} samples differ from structure's tip.csv's "
+                         f"{len(tip) - 1}")
+            largest = max(abs(float(v)) for row in tip[1:] for v in row.split(",")[1:])
+            print(f"{file}: {len(tip) - 1} samples of the tip's displacement equal to structure's tip.csv "
+                  f"(largest |u| {largest:.3g} m)")
 
         # 3. The wave flume.
         out = tmp / "flume"

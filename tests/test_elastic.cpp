@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "mps/boundaries/geometry.hpp"
 #include "mps/solids/elastic.hpp"
 #include "scenes.hpp"
 
@@ -362,6 +363,78 @@ TEST(Elastic, ExternalForceActsLikeTheBodyForceItEqualsAndItsWorkIsCounted) {
   EXPECT_NEAR(loaded.external_work(), -falling.energy().gravity, 1e-9 * loaded.external_work());
   EXPECT_LT(worst, 1e-4 * (loaded.energy().kinetic + loaded.energy().strain));
   EXPECT_GT(loaded.external_work(), 0.0);
+}
+
+// The box's lattice held at a face: every cell of the box once, moving, and `layers` rows of held points beyond the
+// face alone, all on the lattice, rows along y outermost.
+TEST(ElasticBodies, ClampedBoxIsTheBoxsLatticeAndItsClampRowsBeyondTheFace) {
+  const mps::BodyLattice box{0.5, -1.0, 6, 4, 0.25};
+  for (unsigned face : {unsigned{mps::x_low}, unsigned{mps::x_high}, unsigned{mps::y_low}, unsigned{mps::y_high}}) {
+    const mps::ElasticBody body = mps::clamped_box_body(box, face, 3);
+    const bool across_x = face == mps::x_low || face == mps::x_high;
+    ASSERT_EQ(body.size(), 6u * 4u + 3u * (across_x ? 4u : 6u)) << face;
+    std::size_t moving = 0;
+    for (std::size_t k = 0; k < body.size(); ++k) {
+      const double i = (body.x[k] - box.x0) / box.spacing - 0.5, j = (body.y[k] - box.y0) / box.spacing - 0.5;
+      EXPECT_NEAR(i, std::round(i), 1e-12);
+      EXPECT_NEAR(j, std::round(j), 1e-12);
+      const bool inside = i > -0.5 && i < 5.5 && j > -0.5 && j < 3.5;
+      EXPECT_EQ(body.clamped[k] != 0, !inside) << "point " << k << " of face " << face;
+      const bool beyond = (face == mps::x_low && i < 0) || (face == mps::x_high && i > 5) ||
+                          (face == mps::y_low && j < 0) || (face == mps::y_high && j > 3);
+      EXPECT_EQ(inside, !beyond);
+      moving += inside ? 1 : 0;
+      EXPECT_DOUBLE_EQ(body.volume[k], 0.0625);
+      if (k > 0) {
+        EXPECT_TRUE(body.y[k] > body.y[k - 1] || (body.y[k] == body.y[k - 1] && body.x[k] > body.x[k - 1]));
+      }
+    }
+    EXPECT_EQ(moving, 24u);
+  }
+  EXPECT_THROW(mps::clamped_box_body(box, mps::z_low, 3), std::invalid_argument);
+  EXPECT_THROW(mps::clamped_box_body(box, mps::x_low, 0), std::invalid_argument);
+  EXPECT_THROW(mps::clamped_box_body({0, 0, 0, 4, 0.25}, mps::x_low, 3), std::invalid_argument);
+}
+
+// Held in a cylinder (the CSM3 flag): every point outside it moves, every point inside it lies within the layers'
+// depth of its surface along x and is held, and each row runs on the lattice to the box's far end.
+TEST(ElasticBodies, CylinderHoldsTheRowsWhereTheyMeetItAndFreesThemOutside) {
+  const double cx = 0.2, cy = 0.2, r = 0.05, h = 0.002;
+  const mps::BodyLattice flag{0.25, 0.17, 175, 30, h};  // thick: its outer rows leave the cylinder before x0
+  const mps::ElasticBody body = mps::cylinder_clamped_box_body(flag, cx, cy, r, 3);
+  std::size_t held = 0, outside_the_box = 0;
+  for (std::size_t k = 0; k < body.size(); ++k) {
+    const double arc = cx + std::sqrt(r * r - (body.y[k] - cy) * (body.y[k] - cy));
+    EXPECT_EQ(body.clamped[k] != 0, body.x[k] <= arc) << k;
+    EXPECT_GT(body.x[k], arc - 3 * h) << k;
+    if (k + 1 < body.size() && body.y[k + 1] == body.y[k]) {
+      EXPECT_NEAR(body.x[k + 1] - body.x[k], h, 1e-12);
+    }
+    held += body.clamped[k] != 0 ? 1 : 0;
+    outside_the_box += body.x[k] < flag.x0 && body.clamped[k] == 0 ? 1 : 0;
+  }
+  EXPECT_GE(held, 30u * 2u);  // two or three points of each row inside the 3 spacings
+  EXPECT_LE(held, 30u * 3u);
+  EXPECT_GT(outside_the_box, 0u);
+  EXPECT_EQ(body.size() - held, 175u * 30u + outside_the_box);
+  EXPECT_THROW(mps::cylinder_clamped_box_body({0.25, 0.3, 175, 10, h}, cx, cy, r, 3), std::invalid_argument);
+  EXPECT_THROW(mps::cylinder_clamped_box_body(flag, cx, cy, 0.0, 3), std::invalid_argument);
+}
+
+// The first clamped-free mode: 0 with no slope at the clamp, 1 at the free end, where the moment and the shear (the
+// second and third derivatives) vanish, by finite differences.
+TEST(ElasticBodies, CantileverModeMeetsTheClampedAndTheFreeEndsConditions) {
+  const double length = 0.2, d = 1e-3 * length;
+  auto f = [&](double s) { return mps::cantilever_first_mode(s, length); };
+  EXPECT_DOUBLE_EQ(f(length), 1.0);
+  EXPECT_EQ(f(0.0), 0.0);
+  EXPECT_EQ(f(-0.1), 0.0);
+  EXPECT_LT(f(d) / d, 0.02);  // against a mean slope of 1 / length = 5
+  const double second = (f(length) - 2 * f(length - d) + f(length - 2 * d)) / (d * d);
+  const double third = (f(length) - 3 * f(length - d) + 3 * f(length - 2 * d) - f(length - 3 * d)) / (d * d * d);
+  const double clamp_second = (f(2 * d) - 2 * f(d) + f(0.0)) / (d * d);
+  EXPECT_LT(std::abs(second), 0.01 * clamp_second);
+  EXPECT_LT(std::abs(third), 0.02 * clamp_second / length);
 }
 
 }  // namespace

@@ -622,6 +622,82 @@ min = [0.2, 0.0, 0.0]
 max = [0.24, 0.1, 0.1]
 )");
   EXPECT_NE(in_3d.find("line 6: elastic bodies are 2-D"), std::string::npos) << "got: " << in_3d;
+  expect("clamp = \"y_high\"", "clamp = \"y_high\"\nclamp_cylinder = {radius = 1}",
+         "line 14: 'clamp_cylinder' is for a body alone");
+}
+
+// An elastic body alone: the solid of the box's lattice and its clamp rows, swinging in its first mode at the tip's
+// velocity given, under the file's gravity; its displacement probe reads the solid. A key of a fluid's scene, a second
+// body or a probe of another quantity or body is refused naming its line.
+TEST(SceneFile, ElasticBodyAloneIsTheSolidItsFileDescribes) {
+  const std::string text = R"(dimensions = 2
+spacing = 0.01
+[[elastic]]
+min = [0.0, 0.0]
+max = [0.1, 0.03]
+clamp = "x_low"
+youngs_modulus = 1e6
+first_mode_tip_velocity = 0.5
+[physics]
+gravity = 2.0
+[run]
+end_time = 0.01
+[[probe]]
+name = "tip"
+quantity = "displacement"
+group = 1
+points = [[0.1, 0.015]]
+)";
+  const auto scene = scene_file::read_scene<2>(write_file("alone", text));
+  ASSERT_TRUE(scene.solid_alone);
+  mps::ElasticSolid solid = scene_file::make_solid(scene);
+  ASSERT_EQ(solid.moving(), 10u * 3u);
+  ASSERT_EQ(solid.size(), 13u * 3u);
+  EXPECT_EQ(solid.config().gravity_y, -2.0);
+  EXPECT_EQ(solid.config().material.youngs_modulus, 1e6);
+  for (std::size_t i = 0; i < solid.size(); ++i) {
+    const double x = solid.reference_x()[i];
+    EXPECT_EQ(solid.u()[i], 0.0);
+    EXPECT_EQ(solid.v()[i], i < solid.moving() ? 0.5 * mps::cantilever_first_mode(x, 0.1) : 0.0) << x;
+    EXPECT_EQ(x < 0, i >= solid.moving());  // the clamp rows to x < 0 are held
+  }
+  mps::ProbeSeries probes = scene_file::read_solid_probes(scene, solid);
+  for (int n = 0; n < 5; ++n) solid.step();
+  probes.sample(solid.time(), mps::Particles{});
+  ASSERT_EQ(probes.rows().size(), 1u);
+  EXPECT_EQ(probes.rows()[0][2], solid.displacement_at(0.1, 0.015)[1]);
+  EXPECT_GT(probes.rows()[0][2], 0.0);  // the tip has moved up with its velocity
+
+  const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
+    expect_refusal_of_edit(text, from, to, part);
+  };
+  expect("clamp = \"x_low\"", "clamp = \"x_low\"\nwalls = [\"y_high\"]", "line 7: 'walls' is for a body among fluid");
+  expect("[run]", "[numerics]\ndt_max = 1e-3\n[run]", "line 11: a scene of an elastic body alone (no [[fluid]]) has "
+                                                      "no 'numerics'");
+  expect("[physics]", "[[elastic]]\nmin = [0.0, 0.1]\nmax = [0.1, 0.13]\nclamp = \"x_low\"\n[physics]",
+         "line 3: a scene without fluid steps one elastic body alone; this file has 2");
+  expect("gravity = 2.0", "gravity = 2.0\nviscosity = 1e-6", "'viscosity' is no key of [physics] of a body alone");
+  expect("clamp = \"x_low\"", "clamp = \"y_low\"\nclamp_cylinder = {centre = [0.0, -0.05], radius = 0.05}",
+         "line 7: a body is held in a cylinder at its x_low face");
+  expect("clamp = \"x_low\"", "clamp = \"x_low\"\nclamp_cylinder = {centre = [-0.2, 0.015], radius = 0.05}",
+         "line 7: the cylinder must reach the body's x_low face");
+  expect("clamp = \"x_low\"", "clamp = \"x_low\"\nclamp_cylinder = {centre = [-0.005, 0.015], radius = 0.008}",
+         "line 7: every row of the body must meet the cylinder");
+  const auto probe_refusal = [&](const std::string& from, const std::string& to, const std::string& part) {
+    std::string edited = text;
+    edited.replace(edited.find(from), from.size(), to);
+    const auto s = scene_file::read_scene<2>(write_file("alone_probe", edited));
+    const mps::ElasticSolid body = scene_file::make_solid(s);
+    try {
+      static_cast<void>(scene_file::read_solid_probes(s, body));
+      ADD_FAILURE() << "read after '" << from << "' -> '" << to << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  probe_refusal("quantity = \"displacement\"", "quantity = \"pressure\"",
+                "line 15: probe 'tip': an elastic body alone has displacement probes only");
+  probe_refusal("group = 1", "group = 2", "line 16: probe 'tip': the body's group is 1");
 }
 
 }  // namespace

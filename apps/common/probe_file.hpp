@@ -234,6 +234,35 @@ void add_probes(const std::string& file, const toml::node* list, mps::BasicProbe
   }
 }
 
+// The [[probe]] tables `list` holds for an elastic body stepped alone (`solid`, whose scene gives it `group`): each a
+// displacement of that body. Throws std::invalid_argument naming the line.
+inline void add_solid_probes(const std::string& file, const toml::node* list, mps::ProbeSeries& series,
+                             const mps::ElasticSolid& solid, int group) {
+  using namespace probe_file_detail;
+  const toml::array* probes = list != nullptr ? list->as_array() : nullptr;
+  if (probes == nullptr || probes->empty() || !probes->is_array_of_tables())
+    throw std::invalid_argument(file + (list != nullptr ? ", line " + std::to_string(list->source().begin.line) : "") +
+                                ": probes are listed as [[probe]] tables");
+  for (const toml::node& node : *probes) {
+    const toml::table& t = *node.as_table();
+    const std::string where = "a [[probe]]";
+    const Keys k(file, t, where, {"name", "quantity", "points", "line", "plane", "group"});
+    const std::string name = k.text("name", where, "");
+    if (k.text("quantity", where, "") != "displacement")
+      fail(file, *k.find("quantity"), "probe '" + name + "': an elastic body alone has displacement probes only");
+    const toml::node& of = k.need("group", where);
+    if (!of.is_integer() || of.as_integer()->get() != group)
+      fail(file, of, "probe '" + name + "': the body's group is " + std::to_string(group));
+    try {
+      series.add(mps::displacement_probe(name, probe_points<2>(file, t, where), solid));
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      if (what.rfind(file + ", line ", 0) == 0) throw;
+      fail(file, t, what);
+    }
+  }
+}
+
 // The probes `path` describes for `sim`. Throws std::invalid_argument naming the line.
 template <int D>
 mps::BasicProbeSeries<D> read_probe_file(const std::filesystem::path& path, mps::BasicSimulation<D>& sim) {

@@ -16,6 +16,7 @@
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "scene_file.hpp"
+#include "solid_run.hpp"
 #include "solve_log.hpp"
 
 namespace fs = std::filesystem;
@@ -45,6 +46,7 @@ struct SceneState {
 
 template <int D>
 int run(const Options& o, const CLI::App& app);
+int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>& scene);
 
 }  // namespace
 
@@ -86,6 +88,8 @@ int run(const Options& o, const CLI::App& app) {
   if (o.end_time > 0) scene.parameters["end_time_s"] = scene.end_time = o.end_time;
   if (o.frames >= 0) scene.parameters["frame_count"] = scene.frames = o.frames;
   if (!o.out.empty()) scene.out = o.out;
+  if constexpr (D == 2)
+    if (scene.solid_alone) return run_alone(o, app, scene);
   const mps::SimulationConfig& c = scene.config;
   // read_scene bounded the particle count before making any; the simulation holds the scene's particles.
   SceneState<D> own;
@@ -142,6 +146,67 @@ int run(const Options& o, const CLI::App& app) {
                       {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
   std::printf("outputs: %s (ParaView)%s, %s\n", series.path().string().c_str(),
               scene.has_probes ? (", " + (dir / "probes.csv").string()).c_str() : "",
+              (dir / "summary.json").string().c_str());
+  return 0;
+}
+
+// A scene of an elastic body alone: the solid stepped on its own, as `structure` steps its scenes. Writes frames,
+// probes.csv, energy.csv, a copy of the scene file and summary.json.
+int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>& scene) {
+  mps::ElasticSolid solid = scene_file::make_solid(scene);
+  check_run_size(static_cast<double>(solid.size()), scene.end_time / solid.dt(), "raise the spacing",
+                 "shorten [run] end_time or raise the body's cfl");
+  SolidSamples samples(scene_file::read_solid_probes(scene, solid));
+  const nlohmann::json& params = scene.parameters;
+  std::printf("%s (%s), 2-D: an elastic body alone, %zu moving and %zu clamped particles, %zu probe(s)\n"
+              "spacing %g m, dt %g s (c_p %g m/s), end time %g s; output to %s\n",
+              scene.title.c_str(), fs::path(o.scene).filename().string().c_str(), solid.moving(),
+              solid.size() - solid.moving(), samples.probes.probes().size(), scene.l0, solid.dt(),
+              solid.config().material.p_wave_speed(), scene.end_time, scene.out.string().c_str());
+  if (o.check) return 0;
+
+  const fs::path dir = scene.out;
+  Checkpoints checkpoints(o.checkpoint, dir, "run", params, {"/end_time_s"});
+  if (!checkpoints.restart())
+    clear_outputs(dir, {"frames", "scene.pvd", "summary.json", "last_good.vtp", "config.toml", "checkpoint.cbor",
+                        "probes.csv", "energy.csv", "scene.toml"});
+  write_run_config(app, "run", dir);
+  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(o.scene, dir / "scene.toml"))
+    fs::copy_file(o.scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+  fs::create_directories(dir / "frames");
+  auto write_series = [&] {
+    if (!samples.probes.probes().empty()) samples.probes.write_csv(dir / "probes.csv");
+    samples.write_energy(dir / "energy.csv");
+  };
+  Progress progress(scene.end_time, "s");
+  double seconds = 0;
+  try {
+    seconds = run_solid(solid, scene.end_time, scene.frames, dir, "scene", samples, progress, checkpoints);
+  } catch (const RunStopped& stop) {
+    progress.finish(solid.time(), solid.steps());
+    write_series();
+    return report_stop(dir, stop, params, solid.steps(), solid.time(), checkpoints);
+  } catch (const mps::SimulationError& e) {
+    progress.finish(solid.time(), solid.steps());
+    std::cerr << "error: " << e.what() << "\n";
+    mps::write_vtp(dir / "last_good.vtp", solid_frame_particles(solid), solid.time());
+    write_series();
+    write_summary(dir, {{"status", "failed"}, {"error", e.what()}, {"scene_file", fs::path(o.scene).string()},
+                        {"parameters", params}, {"time_s", solid.time()}, {"steps", solid.steps()}});
+    std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";
+    return 1;
+  }
+  progress.finish(solid.time(), solid.steps());
+  write_series();
+  write_summary(dir, {{"status", "completed"}, {"scene_file", fs::path(o.scene).string()}, {"parameters", params},
+                      {"particles", {{"moving", solid.moving()}, {"clamped", solid.size() - solid.moving()}}},
+                      {"steps", solid.steps()}, {"time_s", solid.time()}, {"dt_s", solid.dt()},
+                      {"energy_drift_fraction", samples.energy_drift()}, {"probes", samples.probes.describe()},
+                      {"timings", {{"total_s", seconds},
+                                   {"particle_steps_per_s", seconds > 0 ? static_cast<double>(solid.size()) *
+                                                                              solid.steps() / seconds : 0.0}}}});
+  std::printf("outputs: %s (ParaView), %s%s\n", (dir / "scene.pvd").string().c_str(),
+              samples.probes.probes().empty() ? "" : (dir / "probes.csv").string().append(", ").c_str(),
               (dir / "summary.json").string().c_str());
   return 0;
 }

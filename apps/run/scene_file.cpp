@@ -320,20 +320,6 @@ nlohmann::json annulus_json(const Annulus& a) {
   return j;
 }
 
-// Visits an elastic body's lattice, rows along y outermost: f(x, y, i, j, held) for each point, i and j counted from
-// the box's corner, held in the clamp's layers beyond its face.
-template <int D, class F>
-void for_each_elastic_point(const Elastic<D>& e, double l0, F&& f) {
-  const int nx = static_cast<int>(std::lround((e.box.hi[0] - e.box.lo[0]) / l0));
-  const int ny = static_cast<int>(std::lround((e.box.hi[1] - e.box.lo[1]) / l0));
-  const int c = Elastic<D>::clamp_layers;
-  const int i0 = e.clamp == mps::x_low ? -c : 0, i1 = e.clamp == mps::x_high ? nx + c : nx;
-  const int j0 = e.clamp == mps::y_low ? -c : 0, j1 = e.clamp == mps::y_high ? ny + c : ny;
-  for (int j = j0; j < j1; ++j)
-    for (int i = i0; i < i1; ++i)
-      f(e.box.lo[0] + (i + 0.5) * l0, e.box.lo[1] + (j + 0.5) * l0, i, j, i < 0 || i >= nx || j < 0 || j >= ny);
-}
-
 }  // namespace
 
 bool Annulus::full() const { return span >= 2 * std::numbers::pi; }
@@ -346,6 +332,55 @@ int dimensions_of(const std::filesystem::path& path) {
   const auto* d = node->as_integer();
   if (d == nullptr || (d->get() != 2 && d->get() != 3)) fail(label(path), *node, "'dimensions' must be 2 or 3");
   return static_cast<int>(d->get());
+}
+
+// A fluid's physics and numerics (SimulationConfig's defaults, then the file's [physics], [numerics] and [solver]) and
+// the components it adds ([components]), into `s` and the summary's `json`.
+template <int D>
+void read_fluid_numerics(const std::string& file, const Keys& top, Scene<D>& s, nlohmann::json& json) {
+  for (const char* section : {"physics", "numerics", "solver"})
+    if (const toml::table* t = table_at(file, top, section)) read_config_section<D>(file, *t, section, s.config);
+  if (!(s.config.dt_max > 0))
+    throw std::invalid_argument(file + ": [numerics] needs 'dt_max' [s], the step when neither the CFL (cfl) nor the "
+                                "viscous limit binds; about cfl l0 / sqrt(2 g H) for water H deep");
+  try {
+    s.config.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(file + ": " + e.what());
+  }
+  json["simulation_config"] = mps::config_json(s.config);
+
+  if (const toml::table* c = table_at(file, top, "components")) {
+    const Keys k(file, *c, "[components]",
+                 {"free_surface", "collision", "asymmetry_surface", "wet_walls", "remove_escaped", "wall_backstop"});
+    if (k.find("free_surface") != nullptr) {
+      if (!k.find("free_surface")->is_boolean())
+        fail(file, *k.find("free_surface"), "'free_surface' must be true or false");
+      s.free_surface = k.find("free_surface")->as_boolean()->get();
+    }
+    if (const toml::table* t = table_at(file, k, "collision")) {
+      const Keys ck(file, *t, "collision", {"distance", "restitution"});
+      if (ck.find("distance") == nullptr) fail(file, *t, "collision needs 'distance' [l0]");
+      s.collision = number_in(file, ck, "distance", 0, 1e-6, 0.999, "in (0, 1) l0");
+      s.restitution = number_in(file, ck, "restitution", 0.2, 0, 1, "in [0, 1]");
+    }
+    if (const toml::table* t = table_at(file, k, "asymmetry_surface")) {
+      const Keys ak(file, *t, "asymmetry_surface", {"fraction", "interior_density"});
+      if (ak.find("fraction") == nullptr) fail(file, *t, "asymmetry_surface needs 'fraction'");
+      s.asymmetry = number_in(file, ak, "fraction", 0, 1e-6, 10, "in (0, 10]");
+      s.asymmetry_interior_density = number_in(file, ak, "interior_density", 0, 0, 10, "in [0, 10] n0 (0: no limit)");
+    }
+    s.wet_walls = switch_at(file, k, "wet_walls");
+    s.remove_escaped = switch_at(file, k, "remove_escaped");
+    s.wall_backstop = switch_at(file, k, "wall_backstop");
+    if ((s.remove_escaped || s.wall_backstop) && !s.has_tank)
+      fail(file, *c, "remove_escaped and wall_backstop act on the tank's walls; this scene has no [tank]");
+  }
+  json["components"] = {{"free_surface", s.free_surface}, {"collision_l0", s.collision}, {"restitution", s.restitution},
+                        {"asymmetry", s.asymmetry},
+                        {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
+                        {"wet_walls", s.wet_walls}, {"remove_escaped", s.remove_escaped},
+                        {"wall_backstop", s.wall_backstop}};
 }
 
 template <int D>
@@ -365,6 +400,13 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
   const double l0 = s.l0;
   nlohmann::json json = {{"title", s.title}, {"dimensions", D}, {"spacing_m", l0}};
+  // An elastic body without fluid is stepped on its own: nothing of a fluid's scene applies to it.
+  s.solid_alone = top.find("annulus") == nullptr && top.find("fluid") == nullptr && top.find("elastic") != nullptr;
+  if (s.solid_alone)
+    for (const std::string other : {"tank", "wall", "obstacle", "inlet", "domain", "numerics", "solver", "components"})
+      if (const toml::node* n = top.find(other))
+        fail(file, *n, "a scene of an elastic body alone (no [[fluid]]) has no '" + other + "': its numerics are the "
+                       "[[elastic]] table's, its physics [physics] gravity");
 
   if (const toml::table* tank = table_at(file, top, "tank")) {
     const Keys k(file, *tank, "[tank]", {"min", "max", "walls", "wall_layers", "dummy_layers"});
@@ -394,11 +436,13 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   }
 
   const toml::node* fluid = top.find("fluid");
-  if (!s.has_annulus && (fluid == nullptr || !fluid->is_array_of_tables() || fluid->as_array()->empty()))
+  if (!s.has_annulus && !s.solid_alone &&
+      (fluid == nullptr || !fluid->is_array_of_tables() || fluid->as_array()->empty()))
     fail(file, fluid != nullptr ? *fluid : static_cast<const toml::node&>(root),
-         "a scene lists its water as [[fluid]] tables, each with min and max corners (or is an [annulus])");
+         "a scene lists its water as [[fluid]] tables, each with min and max corners (or is an [annulus], or an "
+         "[[elastic]] body alone)");
   const toml::array none;
-  for (const toml::node& node : s.has_annulus ? none : *fluid->as_array()) {
+  for (const toml::node& node : s.has_annulus || s.solid_alone ? none : *fluid->as_array()) {
     const toml::table& t = *node.as_table();
     const Keys k(file, t, "a [[fluid]]", {"min", "max", "velocity"});
     Block<D> b = box_of<D>(file, t, k, "a [[fluid]]", l0);
@@ -554,11 +598,14 @@ Scene<D> read_scene(const std::filesystem::path& path) {
   if (const toml::node* list = top.find("elastic")) {
     if (!list->is_array_of_tables()) fail(file, *list, "elastic bodies are listed as [[elastic]] tables");
     if (D == 3) fail(file, *list, "elastic bodies are 2-D (the library's solids): this scene has dimensions = 3");
+    if (s.solid_alone && list->as_array()->size() != 1)
+      fail(file, *list, "a scene without fluid steps one elastic body alone; this file has " +
+                            std::to_string(list->as_array()->size()));
     for (const toml::node& node : *list->as_array()) {
       const toml::table& t = *node.as_table();
       const Keys k(file, t, "an [[elastic]]",
                    {"min", "max", "walls", "clamp", "group", "mount", "density", "youngs_modulus", "poisson_ratio",
-                    "model", "relaxation", "cfl", "hourglass"});
+                    "model", "relaxation", "cfl", "hourglass", "clamp_cylinder", "first_mode_tip_velocity"});
       Elastic<D> e;
       e.box = box_of<D>(file, t, k, "an [[elastic]]", l0);
       for (std::size_t a = 0; a < D; ++a) {
@@ -567,7 +614,15 @@ Scene<D> read_scene(const std::filesystem::path& path) {
           fail(file, *k.find("max"), "an elastic body's edges must be whole numbers of spacings, at least 3 (axis " +
                                          std::string(1, "xyz"[a]) + ": " + text(n) + " spacings)");
       }
-      e.walls = faces_of<D>(file, k.need("walls", "an [[elastic]]"));
+      // Alone, a body meets no fluid: no faces to meet it, no mount among its walls, no load to relax. Among fluid it
+      // is held by what the fluid's particles are (a wall, a mount), which has no cylinder.
+      for (const char* key : {"walls", "mount", "relaxation"})
+        if (s.solid_alone && k.find(key) != nullptr)
+          fail(file, *k.find(key), std::string("'") + key + "' is for a body among fluid; this one is alone");
+      for (const char* key : {"clamp_cylinder", "first_mode_tip_velocity"})
+        if (!s.solid_alone && k.find(key) != nullptr)
+          fail(file, *k.find(key), std::string("'") + key + "' is for a body alone (no [[fluid]] in the file)");
+      if (!s.solid_alone) e.walls = faces_of<D>(file, k.need("walls", "an [[elastic]]"));
       {
         const toml::node& clamp = k.need("clamp", "an [[elastic]]");
         if (!clamp.is_string()) fail(file, clamp, "'clamp' names the face the body is held at, as \"y_low\"");
@@ -576,6 +631,25 @@ Scene<D> read_scene(const std::filesystem::path& path) {
         if (found == names.end()) fail(file, clamp, "'clamp' must be one of x_low, x_high, y_low, y_high");
         e.clamp = 1u << static_cast<unsigned>(found - names.begin());
       }
+      if (const toml::table* cylinder = table_at(file, k, "clamp_cylinder")) {
+        const Keys ck(file, *cylinder, "clamp_cylinder", {"centre", "radius"});
+        const mps::Vec<D> centre = vector_of<D>(file, ck.need("centre", "clamp_cylinder"), "centre", "m");
+        e.in_cylinder = true;
+        e.cylinder_centre = {centre[0], centre[1]};
+        e.cylinder_radius = number_in(file, ck, "radius", 0, 1e-9, 1e6, "positive [m]");
+        if (e.clamp != mps::x_low)
+          fail(file, *cylinder, "a body is held in a cylinder at its x_low face: set clamp = \"x_low\"");
+        const double reach = centre[0] + e.cylinder_radius;  // the cylinder's right-most point
+        if (!(reach >= e.box.lo[0] - 1e-9 * l0 && reach < e.box.hi[0]))
+          fail(file, *cylinder, "the cylinder must reach the body's x_low face (" + text(e.box.lo[0]) + " m) and not "
+                                "past its other end: its centre x plus radius is " + text(reach) + " m");
+        if (!(e.box.lo[1] + 0.5 * l0 > centre[1] - e.cylinder_radius &&
+              e.box.hi[1] - 0.5 * l0 < centre[1] + e.cylinder_radius))
+          fail(file, *cylinder, "every row of the body must meet the cylinder: keep the body's y within the "
+                                "cylinder's, centre y +- radius");
+      }
+      if (k.find("first_mode_tip_velocity") != nullptr)
+        e.first_mode_tip_velocity = number_in(file, k, "first_mode_tip_velocity", 0, -1e3, 1e3, "in [-1000, 1000] m/s");
       e.group = whole_in(file, k, "group", 1, 1, 1000000);
       if (const toml::table* mount = table_at(file, k, "mount")) {
         const Keys mk(file, *mount, "an elastic body's mount", {"to", "walls"});
@@ -625,67 +699,37 @@ Scene<D> read_scene(const std::filesystem::path& path) {
                           std::to_string(e.group) + " is taken");
       s.elastic.push_back(e);
       nlohmann::json j = box_json(e.box);
-      j["walls"] = face_names<D>(e.walls);
+      if (!s.solid_alone) j["walls"] = face_names<D>(e.walls);
       j["clamp"] = face_names<D>(e.clamp).front();
+      if (e.in_cylinder)
+        j["clamp_cylinder"] = {{"centre_m", {e.cylinder_centre[0], e.cylinder_centre[1]}},
+                               {"radius_m", e.cylinder_radius}};
+      if (s.solid_alone) j["first_mode_tip_velocity_m_per_s"] = e.first_mode_tip_velocity;
       j["group_number"] = e.group;
       if (e.has_mount) j["mount"] = {{"to_m", e.mount_to}, {"walls", face_names<D>(e.mount_walls)}};
       j["density_kg_per_m3"] = e.material.density;
       j["youngs_modulus_pa"] = e.material.youngs_modulus;
       j["poisson"] = e.material.poisson_ratio;
       j["model"] = std::string(mps::to_string(e.material.model));
-      j["relaxation"] = e.relaxation;
+      if (!s.solid_alone) j["relaxation"] = e.relaxation;
       j["cfl"] = e.cfl;
       j["hourglass"] = e.hourglass;
       json["elastic"].push_back(j);
     }
   }
 
-  // The physics and numerics: SimulationConfig's defaults, then the file's.
+  // The physics and numerics: a fluid's, or a body's alone (its own in its [[elastic]] table, and gravity).
   s.config.l0 = l0;
   s.config.dt_option = "dt_max or cfl in [numerics] of " + path.filename().string();
-  for (const char* section : {"physics", "numerics", "solver"})
-    if (const toml::table* t = table_at(file, top, section)) read_config_section<D>(file, *t, section, s.config);
-  if (!(s.config.dt_max > 0))
-    throw std::invalid_argument(file + ": [numerics] needs 'dt_max' [s], the step when neither the CFL (cfl) nor the "
-                                "viscous limit binds; about cfl l0 / sqrt(2 g H) for water H deep");
-  try {
-    s.config.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(file + ": " + e.what());
+  if (!s.solid_alone) {
+    read_fluid_numerics(file, top, s, json);
+  } else {
+    if (const toml::table* t = table_at(file, top, "physics")) {
+      const Keys k(file, *t, "[physics] of a body alone", {"gravity"});
+      read_config_section<D>(file, *t, "physics", s.config);
+    }
+    json["gravity_m_per_s2"] = {s.config.fx, s.config.fy};
   }
-  json["simulation_config"] = mps::config_json(s.config);
-
-  if (const toml::table* c = table_at(file, top, "components")) {
-    const Keys k(file, *c, "[components]",
-                 {"free_surface", "collision", "asymmetry_surface", "wet_walls", "remove_escaped", "wall_backstop"});
-    if (k.find("free_surface") != nullptr) {
-      if (!k.find("free_surface")->is_boolean())
-        fail(file, *k.find("free_surface"), "'free_surface' must be true or false");
-      s.free_surface = k.find("free_surface")->as_boolean()->get();
-    }
-    if (const toml::table* t = table_at(file, k, "collision")) {
-      const Keys ck(file, *t, "collision", {"distance", "restitution"});
-      if (ck.find("distance") == nullptr) fail(file, *t, "collision needs 'distance' [l0]");
-      s.collision = number_in(file, ck, "distance", 0, 1e-6, 0.999, "in (0, 1) l0");
-      s.restitution = number_in(file, ck, "restitution", 0.2, 0, 1, "in [0, 1]");
-    }
-    if (const toml::table* t = table_at(file, k, "asymmetry_surface")) {
-      const Keys ak(file, *t, "asymmetry_surface", {"fraction", "interior_density"});
-      if (ak.find("fraction") == nullptr) fail(file, *t, "asymmetry_surface needs 'fraction'");
-      s.asymmetry = number_in(file, ak, "fraction", 0, 1e-6, 10, "in (0, 10]");
-      s.asymmetry_interior_density = number_in(file, ak, "interior_density", 0, 0, 10, "in [0, 10] n0 (0: no limit)");
-    }
-    s.wet_walls = switch_at(file, k, "wet_walls");
-    s.remove_escaped = switch_at(file, k, "remove_escaped");
-    s.wall_backstop = switch_at(file, k, "wall_backstop");
-    if ((s.remove_escaped || s.wall_backstop) && !s.has_tank)
-      fail(file, *c, "remove_escaped and wall_backstop act on the tank's walls; this scene has no [tank]");
-  }
-  json["components"] = {{"free_surface", s.free_surface}, {"collision_l0", s.collision}, {"restitution", s.restitution},
-                        {"asymmetry", s.asymmetry},
-                        {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
-                        {"wet_walls", s.wet_walls}, {"remove_escaped", s.remove_escaped},
-                        {"wall_backstop", s.wall_backstop}};
 
   {
     const toml::table* run = table_at(file, top, "run");
@@ -715,7 +759,7 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       const double reach = a.r_outer / l0 + a.wall_layers + a.dummy_layers + 1;
       bound = std::numbers::pi * reach * reach * std::max(1, a.layers_z);
     } else {
-      Block<D> all = s.fluid.front();
+      Block<D> all = s.solid_alone ? s.elastic.front().box : s.fluid.front();
       const auto hold = [&](const Block<D>& b) {
         for (std::size_t a = 0; a < D; ++a) {
           all.lo[a] = std::min(all.lo[a], b.lo[a]);
@@ -726,12 +770,21 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       for (const Block<D>& b : s.fluid) hold(b);
       for (const Wall<D>& w : s.walls) hold(w.box);
       for (const Obstacle<D>& o : s.obstacles) hold(o.box);
+      for (const Elastic<D>& e : s.elastic) hold(e.box);
       for (std::size_t a = 0; a < D; ++a) bound *= (all.hi[a] - all.lo[a]) / l0 + 20;
     }
     if (!(bound <= 2e7))
       fail(file, top.need("spacing", "a scene file"),
            "at spacing " + text(l0) + " m the scene's boxes hold up to " + text(bound) +
                " particles, more than the 2e7 a run may hold: raise the spacing");
+  }
+
+  json["end_time_s"] = s.end_time;
+  json["frame_count"] = s.frames;
+  json["probe_interval_s"] = s.probe_interval;
+  if (s.solid_alone) {  // no particles of a fluid, no domain: the solid's own lattice
+    s.parameters = std::move(json);
+    return s;
   }
 
   // The domain: the file's, or the particles' box with 6 spacings around it and room above for half its height.
@@ -788,9 +841,6 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     if (s.domain.periodic()[a]) periodic.emplace_back(1, "xyz"[a]);
   json["domain"] = {{"min_m", std::vector<double>(lo.begin(), lo.end())},
                     {"max_m", std::vector<double>(hi.begin(), hi.end())}, {"periodic", periodic}};
-  json["end_time_s"] = s.end_time;
-  json["frame_count"] = s.frames;
-  json["probe_interval_s"] = s.probe_interval;
   s.parameters = std::move(json);
   return s;
 }
@@ -882,12 +932,15 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
         }
       }
       // The body's moving particles (its clamped ones lie inside what holds it, whose particles are the fluid's).
-      for_each_elastic_point(e, s.l0, [&](double x, double y, int i, int j, bool held) {
-        if (held) return;
+      const mps::ElasticBody body = elastic_body(e, s.l0);
+      for (std::size_t k = 0; k < body.size(); ++k) {
+        if (body.clamped[k]) continue;
+        const long i = std::lround((body.x[k] - e.box.lo[0]) / s.l0 - 0.5);
+        const long j = std::lround((body.y[k] - e.box.lo[1]) / s.l0 - 0.5);
         const bool face = ((e.walls & mps::x_low) != 0 && i == 0) || ((e.walls & mps::x_high) != 0 && i == nx - 1) ||
                           ((e.walls & mps::y_low) != 0 && j == 0) || ((e.walls & mps::y_high) != 0 && j == ny - 1);
-        particles.add(x, y, face ? mps::Kind::wall : mps::Kind::dummy, e.group);
-      });
+        particles.add(body.x[k], body.y[k], face ? mps::Kind::wall : mps::Kind::dummy, e.group);
+      }
     }
   }
   if (s.has_inlet) {
@@ -1057,17 +1110,6 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
   }
   if constexpr (D == 2) {
     for (const Elastic<D>& e : s.elastic) {
-      mps::ElasticBody body;
-      body.spacing = s.l0;
-      for_each_elastic_point(e, s.l0,
-                             [&](double x, double y, int, int, bool held) { body.add(x, y, s.l0 * s.l0, held); });
-      mps::ElasticConfig ec;
-      ec.material = e.material;
-      ec.cfl = e.cfl;
-      ec.cfl_option = "cfl of the [[elastic]] body in " + s.file.filename().string();
-      ec.hourglass = e.hourglass;
-      ec.gravity_x = s.config.fx;
-      ec.gravity_y = s.config.fy;
       // Its moving particles follow the fluid's in the body's order, from the first of its group.
       int first_id = -1;
       for (std::size_t i = 0; i < particles.size() && first_id < 0; ++i)
@@ -1076,11 +1118,58 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
       const double w = static_cast<double>(std::lround((e.box.hi[0] - x0) / s.l0)) * s.l0;
       const double h = static_cast<double>(std::lround((e.box.hi[1] - y0) / s.l0)) * s.l0;
       sim->template add<mps::ElasticStructure>(
-          mps::ElasticSolid(body, ec), e.group, first_id,
+          mps::ElasticSolid(elastic_body(e, s.l0), elastic_config(s, e)), e.group, first_id,
           [=](double X, double Y) { return X > x0 && X < x0 + w && Y > y0 && Y < y0 + h; }, e.relaxation);
     }
   }
   return sim;
+}
+
+mps::ElasticBody elastic_body(const Elastic<2>& e, double l0) {
+  const auto cells = [&](std::size_t a) { return static_cast<int>(std::lround((e.box.hi[a] - e.box.lo[a]) / l0)); };
+  const mps::BodyLattice lattice{e.box.lo[0], e.box.lo[1], cells(0), cells(1), l0};
+  return e.in_cylinder ? mps::cylinder_clamped_box_body(lattice, e.cylinder_centre[0], e.cylinder_centre[1],
+                                                        e.cylinder_radius, Elastic<2>::clamp_layers)
+                       : mps::clamped_box_body(lattice, e.clamp, Elastic<2>::clamp_layers);
+}
+
+mps::ElasticConfig elastic_config(const Scene<2>& s, const Elastic<2>& e) {
+  mps::ElasticConfig c;
+  c.material = e.material;
+  c.cfl = e.cfl;
+  c.cfl_option = "cfl of the [[elastic]] body in " + s.file.filename().string();
+  c.hourglass = e.hourglass;
+  c.gravity_x = s.config.fx;
+  c.gravity_y = s.config.fy;
+  return c;
+}
+
+mps::ElasticSolid make_solid(const Scene<2>& s) {
+  const Elastic<2>& e = s.elastic.front();
+  mps::ElasticSolid solid(elastic_body(e, s.l0), elastic_config(s, e));
+  if (e.first_mode_tip_velocity != 0) {
+    // Across the body, growing from its clamp face to its free end as the first bending mode.
+    const int face = std::countr_zero(e.clamp);
+    const std::size_t along = static_cast<std::size_t>(face / 2);
+    const bool high = face % 2 == 1;
+    const double length = e.box.hi[along] - e.box.lo[along];
+    std::vector<double> velocity[2] = {std::vector<double>(solid.size(), 0.0), std::vector<double>(solid.size(), 0.0)};
+    for (std::size_t i = 0; i < solid.moving(); ++i) {
+      const double r = along == 0 ? solid.reference_x()[i] : solid.reference_y()[i];
+      const double from_clamp = high ? e.box.hi[along] - r : r - e.box.lo[along];
+      velocity[1 - along][i] = e.first_mode_tip_velocity * mps::cantilever_first_mode(from_clamp, length);
+    }
+    solid.set_velocity(velocity[0], velocity[1]);
+  }
+  return solid;
+}
+
+mps::ProbeSeries read_solid_probes(const Scene<2>& s, const mps::ElasticSolid& solid) {
+  mps::ProbeSeries series(s.probe_interval);
+  if (!s.has_probes) return series;
+  const toml::table root = parse(s.file);
+  add_solid_probes(label(s.file), root.get("probe"), series, solid, s.elastic.front().group);
+  return series;
 }
 
 template <int D>

@@ -93,6 +93,10 @@ struct Annulus {
 // `clamp`, inside what holds it (the floor, or its `mount`): the solid's clamped particles, not the fluid's. A mount
 // continues the lattice past the clamp face up to `mount_to` (along the clamp face's axis) as standing wall (under the
 // faces `mount_walls`) and dummy particles of group 0: the rigid wall a gate hangs from.
+//
+// A scene of one elastic body alone (no fluid; `structure`'s scenes) may instead hold it in a cylinder its x_low face
+// rests against (mps::cylinder_clamped_box_body: Turek & Hron's flag) and start it swinging in its first bending mode
+// with the tip's velocity `first_mode_tip_velocity` (across its length, mps::cantilever_first_mode).
 template <int D>
 struct Elastic {
   Block<D> box;
@@ -102,6 +106,9 @@ struct Elastic {
   double mount_to = 0;
   mps::ElasticMaterial material;
   double relaxation = 1, cfl = 0.3, hourglass = 30;
+  bool in_cylinder = false;
+  mps::Vec<2> cylinder_centre{};
+  double cylinder_radius = 0, first_mode_tip_velocity = 0;
   static constexpr int clamp_layers = 3;  // mps::ElasticConfig's kernel radius, 3 spacings
 };
 
@@ -122,6 +129,7 @@ struct Scene {
   Inlet inlet;
   bool has_annulus = false;  // a scene of its own: no tank, fluid blocks, walls or obstacles beside it
   Annulus annulus;
+  bool solid_alone = false;  // one [[elastic]] body and no fluid: stepped on its own (mps::ElasticSolid)
   mps::BasicDomain<D> domain;  // periodic on the axes the file's [domain] lists
   mps::SimulationConfig config;
   // Components, added in this order (each off unless the file asks for it): no free surface anywhere (a closed
@@ -154,6 +162,14 @@ mps::BasicParticles<D> make_particles(const Scene<D>& scene);
 template <int D>
 std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& scene,
                                                          std::shared_ptr<mps::BasicPushingPlate<D>>* plate = nullptr);
+// An [[elastic]] body's lattice and clamp, and its solid's configuration (its material, CFL and hourglass control, the
+// scene's gravity; the kernel's 3 spacings).
+mps::ElasticBody elastic_body(const Elastic<2>& body, double l0);
+mps::ElasticConfig elastic_config(const Scene<2>& scene, const Elastic<2>& body);
+// A scene of an elastic body alone: its solid, moving as first_mode_tip_velocity says, and its [[probe]]s, each a
+// displacement of the body.
+mps::ElasticSolid make_solid(const Scene<2>& scene);
+mps::ProbeSeries read_solid_probes(const Scene<2>& scene, const mps::ElasticSolid& solid);
 // The file's [[probe]] tables for `sim` (an empty series when it has none).
 template <int D>
 mps::BasicProbeSeries<D> read_probes(const Scene<D>& scene, mps::BasicSimulation<D>& sim);

@@ -21,22 +21,11 @@
 #include "run_config.hpp"
 #include "run_json.hpp"
 #include "scenes.hpp"
+#include "solid_run.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-mps::Particles as_particles(const mps::ElasticSolid& s) {
-  mps::Particles p;
-  p.reserve(s.size());
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    const bool moving = i < s.moving();
-    p.add(s.x()[i], s.y()[i], moving ? mps::Kind::fluid : mps::Kind::wall, 0, s.u()[i], s.v()[i]);
-    // Mean normal stress of the first Piola-Kirchhoff tensor, as a "pressure" to colour by.
-    p.p.back() = moving ? -0.5 * (s.stress()[0][i] + s.stress()[3][i]) : 0.0;
-  }
-  return p;
-}
 
 double relative(double value, double reference) { return std::abs(value - reference) / std::abs(reference); }
 
@@ -173,96 +162,26 @@ nlohmann::json params_json(const Options& o, const Start& start, const mps::Elas
       {"guard_energy_fraction", config.guard_energy_fraction}, {"data", o.data}};
 }
 
-// tip.csv's and energy.csv's columns: the probe's displacement and the energies at each sample.
-struct Samples {
-  std::vector<double> t, ux, uy, ek, es, eg, et;
-
-  void add(const mps::ElasticSolid& solid, double probe_x, double probe_y) {
-    const auto d = solid.displacement_at(probe_x, probe_y);
-    const auto& e = solid.energy();
-    t.push_back(solid.time());
-    ux.push_back(d[0]);
-    uy.push_back(d[1]);
-    ek.push_back(e.kinetic);
-    es.push_back(e.strain);
-    eg.push_back(e.gravity);
-    et.push_back(e.total());
-  }
-  [[nodiscard]] nlohmann::json save_state() const {
-    return {{"t", mps::pack_array(t)},   {"ux", mps::pack_array(ux)}, {"uy", mps::pack_array(uy)},
-            {"ek", mps::pack_array(ek)}, {"es", mps::pack_array(es)}, {"eg", mps::pack_array(eg)},
-            {"et", mps::pack_array(et)}};
-  }
-  void restore_state(const nlohmann::json& state) {
-    for (auto [name, series] : {std::pair{"t", &t}, {"ux", &ux}, {"uy", &uy}, {"ek", &ek}, {"es", &es}, {"eg", &eg},
-                                {"et", &et}})
-      mps::unpack_array(state, name, *series);
-  }
+// tip.csv's columns: the time and the tip's displacement at each of the probe's samples.
+struct Tip {
+  std::vector<double> t, ux, uy;
 };
-
-// Samples the start, steps to the end sampling every sample interval, writing frames, a line every tenth of the run
-// and checkpoints when due; returns the seconds from the first step to the last. A SimulationError goes to the
-// caller, and so does RunStopped once a signal's checkpoint is written. A restart continues from its checkpoint.
-double run(mps::ElasticSolid& solid, const Start& start, int frames, const fs::path& dir, Samples& s,
-           Progress& progress, Checkpoints& checkpoints) {
-  const double end_time = start.end_time, sample_interval = start.sample_interval;
-  mps::PvdSeries series(dir / "structure.pvd");
-  int next_frame = 0, next_sample = 0;
-  auto frame = [&] {
-    char name[64];
-    std::snprintf(name, sizeof name, "frames/structure_%04d.vtp", next_frame++);
-    mps::write_vtp(dir / name, as_particles(solid), solid.time());
-    series.add(solid.time(), dir / name);
-  };
-  const double frame_interval = frames > 0 ? end_time / frames : 2 * end_time;
-  double next_report = end_time / 10;
-  auto save = [&]() -> nlohmann::json {
-    return {{"samples", s.save_state()}, {"next_frame", next_frame}, {"next_sample", next_sample},
-            {"next_report", next_report}, {"frames", series.save_state()}};
-  };
-  auto save_solid = [&] { return solid.save_state(); };
-  if (const nlohmann::json* restart = checkpoints.restart()) {
-    solid.restore_state(restart->at("simulation"));
-    const nlohmann::json& saved = checkpoints.scene();
-    s.restore_state(saved.at("samples"));
-    next_frame = saved.at("next_frame").get<int>();
-    next_sample = saved.at("next_sample").get<int>();
-    next_report = saved.at("next_report").get<double>();
-    series.restore_state(saved.at("frames"));
-    std::printf("restarted at step %d, t = %.4g s\n", solid.steps(), solid.time());
-  } else {
-    s.add(solid, start.probe_x, start.probe_y);
-    ++next_sample;
-    if (frames > 0) frame();
+Tip tip_of(const SolidSamples& s) {
+  Tip tip;
+  for (const std::vector<double>& row : s.probes.rows()) {
+    tip.t.push_back(row[0]);
+    tip.ux.push_back(row[1]);
+    tip.uy.push_back(row[2]);
   }
-  const auto stepping_start = std::chrono::steady_clock::now();
-  while (solid.time() < end_time - 0.5 * solid.dt()) {
-    try {
-      solid.step();
-    } catch (const mps::SimulationError&) {
-      checkpoints.write(save_solid, save);  // the last good state, to restart from
-      throw;
-    }
-    progress.update(solid.time(), solid.steps());
-    if (solid.time() >= next_sample * sample_interval - 0.5 * solid.dt()) {
-      s.add(solid, start.probe_x, start.probe_y);
-      ++next_sample;
-    }
-    if (frames > 0 && solid.time() >= next_frame * frame_interval - 0.5 * solid.dt()) frame();
-    if (solid.time() >= next_report) {
-      progress.clear();
-      std::printf("t = %.3f s  step %d  tip (%.5f, %.5f) m  energy: kinetic %.4g strain %.4g gravity %.4g total "
-                  "%.6g J/m\n", solid.time(), solid.steps(), s.ux.back(), s.uy.back(), s.ek.back(), s.es.back(),
-                  s.eg.back(), s.et.back());
-      next_report += end_time / 10;
-    }
-    checkpoints.after_step(solid.steps(), solid.time(), true, false, save_solid, save, progress);
-  }
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - stepping_start).count();
+  return tip;
+}
+void write_tip(const fs::path& dir, const SolidSamples& s) {
+  const Tip tip = tip_of(s);
+  mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {tip.t, tip.ux, tip.uy});
 }
 
 // The plate's period and amplitude against the reference's; returns whether both are within their tolerances.
-bool check_plate(const Samples& s, double drift, const Start& start, nlohmann::json& checks) {
+bool check_plate(const Tip& s, double drift, const Start& start, nlohmann::json& checks) {
   using R = structure::PlateReference;
   const std::vector<double>& t = s.t, &uy = s.uy;
   const double period = structure::zero_crossing_period(t, uy);
@@ -302,7 +221,7 @@ bool check_plate(const Samples& s, double drift, const Start& start, nlohmann::j
 
 // CSM3: the tip's oscillation against the reference's over the same time; returns whether the mean, amplitude and
 // frequency of u_y are each within the tolerance.
-bool check_csm3(const Samples& s, const std::vector<std::vector<double>>& reference, double drift,
+bool check_csm3(const Tip& s, const std::vector<std::vector<double>>& reference, double drift,
                 double csm3_tolerance, nlohmann::json& checks) {
   const std::vector<double>& t = s.t, &ux = s.ux, &uy = s.uy;
   // The reference over the same time as the run, read out the same way.
@@ -342,10 +261,10 @@ bool check_csm3(const Samples& s, const std::vector<std::vector<double>>& refere
 
 // After a SimulationError: the last good state, tip.csv so far and a failed summary; returns the exit status.
 int report_failure(const mps::SimulationError& e, const fs::path& dir, const mps::ElasticSolid& solid,
-                   const Samples& s, const nlohmann::json& params) {
+                   const SolidSamples& s, const nlohmann::json& params) {
   std::cerr << "error: " << e.what() << "\n";
-  mps::write_vtp(dir / "last_good.vtp", as_particles(solid), solid.time());
-  mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {s.t, s.ux, s.uy});
+  mps::write_vtp(dir / "last_good.vtp", solid_frame_particles(solid), solid.time());
+  write_tip(dir, s);
   write_summary(dir, {{"status", "failed"}, {"error", e.what()}, {"parameters", params},
                                          {"time_s", solid.time()}, {"steps", solid.steps()}});
   std::cerr << "last good state written to " << (dir / "last_good.vtp").string() << "\n";
@@ -354,21 +273,14 @@ int report_failure(const mps::SimulationError& e, const fs::path& dir, const mps
 
 // After the run: tip.csv, energy.csv, the checks, the cost of a step and the summary; returns the exit status.
 int report(const fs::path& dir, const mps::ElasticSolid& solid, const Start& start,
-           const Samples& s, const nlohmann::json& params, double seconds) {
-  const auto& [t, ux, uy, ek, es, eg, et] = s;
-  mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {t, ux, uy});
-  mps::write_csv(dir / "energy.csv", {"t", "kinetic", "strain", "gravity", "total"}, {t, ek, es, eg, et});
-
-  // Energy drift: the largest |E(t) - E(0)| over the largest kinetic + strain energy of the run.
-  double drift = 0, largest = 0;
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    drift = std::max(drift, std::abs(et[k] - et[0]));
-    largest = std::max(largest, ek[k] + es[k]);
-  }
-  drift = largest > 0 ? drift / largest : 0.0;
+           const SolidSamples& s, const nlohmann::json& params, double seconds) {
+  write_tip(dir, s);
+  s.write_energy(dir / "energy.csv");
+  const double drift = s.energy_drift();
   nlohmann::json checks{{"energy_drift_fraction", drift}};
-  const bool pass = start.plate_scene ? check_plate(s, drift, start, checks)
-                                      : check_csm3(s, start.reference, drift, start.csm3_tolerance, checks);
+  const Tip tip = tip_of(s);
+  const bool pass = start.plate_scene ? check_plate(tip, drift, start, checks)
+                                      : check_csm3(tip, start.reference, drift, start.csm3_tolerance, checks);
   const double steps_per_s = solid.steps() / seconds;
   // The cost of a step in products of one gradient matrix (moving rows x all columns) with a vector, timed here.
   double spmv_s = 0;
@@ -435,14 +347,15 @@ int main(int argc, char** argv) {
                           "config.toml", "checkpoint.cbor"});
     write_run_config(app, "structure", dir);
     fs::create_directories(dir / "frames");
-    Samples samples;
+    SolidSamples samples(mps::ProbeSeries(start.sample_interval));
+    samples.probes.add(mps::displacement_probe("tip", {{start.probe_x, start.probe_y}}, solid));
     Progress progress(start.end_time, "s");
     double seconds = 0;
     try {
-      seconds = run(solid, start, o.frames, dir, samples, progress, checkpoints);
+      seconds = run_solid(solid, start.end_time, o.frames, dir, "structure", samples, progress, checkpoints);
     } catch (const RunStopped& stop) {
       progress.finish(solid.time(), solid.steps());
-      mps::write_csv(dir / "tip.csv", {"t", "ux", "uy"}, {samples.t, samples.ux, samples.uy});
+      write_tip(dir, samples);
       return report_stop(dir, stop, params, solid.steps(), solid.time(), checkpoints);
     } catch (const mps::SimulationError& e) {
       progress.finish(solid.time(), solid.steps());

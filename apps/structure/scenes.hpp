@@ -20,8 +20,8 @@ struct Plate {
   }
 };
 mps::ElasticBody plate_body(const Plate& plate, double spacing, double radius_spacings);
-// v_y(x) = V_f c0 f(x) / f(L), c0 = sqrt(K / rho) (the 3-D bulk modulus), f the first clamped-free Euler-Bernoulli
-// mode (seed eq. 13-14); 0 for x <= 0.
+// v_y(x) = V_f c0 mps::cantilever_first_mode(x, L), c0 = sqrt(K / rho) (the 3-D bulk modulus): the first mode at the
+// tip's velocity V_f c0 (seed eq. 13-14); 0 for x <= 0.
 double plate_initial_velocity(const Plate& plate, const mps::ElasticMaterial& material, double x);
 // Reference of the same plane-strain plate, linear elasticity: Q9 finite elements with modal superposition,
 // Richardson-extrapolated over meshes to 160 x 16 (bench/plate_reference.py).
@@ -34,8 +34,9 @@ struct PlateReference {
 
 // CSM3 (Turek & Hron 2006): a flag 0.35 m long and 0.02 m thick hanging from a rigid cylinder (centre (0.2, 0.2),
 // radius 0.05) under g = 2 m/s^2; St. Venant-Kirchhoff, rho = 1000, nu = 0.4, mu = 0.5e6 (E = 1.4e6). The clamp: the
-// lattice of the flag continued into the cylinder (the particles there held), over the flag's own thickness only,
-// so the flag is held along the arc it is attached to and free above and below.
+// lattice of the flag, laid from where it leaves the cylinder (0.25, 0.19) (from the tip if the spacing does not
+// divide its length), continued into the cylinder (mps::cylinder_clamped_box_body), so the flag is held along the arc
+// it is attached to and free above and below.
 struct Flag {
   double cx = 0.2, cy = 0.2, radius = 0.05, tip_x = 0.6, thickness = 0.02, gravity = 2.0;
   [[nodiscard]] static mps::ElasticMaterial material() { return {1000.0, 1.4e6, 0.4, mps::ElasticModel::saint_venant_kirchhoff}; }

@@ -4,7 +4,8 @@ scripts/install-deps.sh installs) against a static libsparsemps, so the wheel ho
 module beside it, and nothing else of the build.
 
 Settings (pip install -C key=value): build-dir, the CMake build folder (default build/pip in the source tree, kept so
-that a second install builds only what changed); jobs, the build's parallel jobs (default: the processors).
+that a second install builds only what changed); jobs, the build's parallel jobs (default: the processors);
+build-type, CMake's (default Release; Debug builds in half the time, unoptimised, with debugging symbols).
 """
 import base64
 import hashlib
@@ -79,7 +80,10 @@ def _run(command, what):
 def _build(settings):
     build = Path(settings.get("build-dir") or ROOT / "build" / "pip").resolve()
     jobs = str(settings.get("jobs") or os.cpu_count() or 1)
-    _run(["cmake", "-S", ROOT, "-B", build, "-DCMAKE_BUILD_TYPE=Release", "-DBUILD_SHARED_LIBS=OFF",
+    build_type = settings.get("build-type") or "Release"
+    if build_type not in ("Release", "Debug", "RelWithDebInfo", "MinSizeRel"):
+        raise RuntimeError(f"build-type {build_type!r} is none of Release, Debug, RelWithDebInfo, MinSizeRel")
+    _run(["cmake", "-S", ROOT, "-B", build, f"-DCMAKE_BUILD_TYPE={build_type}", "-DBUILD_SHARED_LIBS=OFF",
           "-DSPARSEMPS_BUILD_TESTS=OFF", "-DSPARSEMPS_BUILD_APPS=OFF", "-DSPARSEMPS_BUILD_BENCH=OFF",
           "-DSPARSEMPS_BUILD_PYTHON=ON", f"-DPython3_EXECUTABLE={sys.executable}"], "configuring with CMake")
     _run(["cmake", "--build", build, "--target", "sparsemps_python", "sparsemps_petsc", "-j", jobs],

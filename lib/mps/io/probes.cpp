@@ -239,14 +239,18 @@ Probe force_probe(std::string name, const WallForce& force) {
   return probe;
 }
 
-Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticStructure& body) {
+Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticSolid& solid) {
   require_points<2>(probe_what(name), points);
   Probe probe{std::move(name), "displacement", std::move(points), 2, {}};
-  probe.read = [at = probe.points, &body](const Particles&, double* values) {
+  probe.read = [at = probe.points, &solid](const Particles&, double* values) {
     for (const Vec<2>& r : at)
-      for (double u : body.solid().displacement_at(r[0], r[1])) *values++ = u;
+      for (double u : solid.displacement_at(r[0], r[1])) *values++ = u;
   };
   return probe;
+}
+
+Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticStructure& body) {
+  return displacement_probe(std::move(name), std::move(points), body.solid());
 }
 
 template <int D>
@@ -275,15 +279,18 @@ void BasicProbeSeries<D>::add(BasicProbe<D> probe) {
 }
 
 template <int D>
-bool BasicProbeSeries<D>::sample(double time, const BasicParticles<D>& particles) {
+bool BasicProbeSeries<D>::sample(double time, const BasicParticles<D>& particles, double early) {
   if (!std::isfinite(time)) throw std::invalid_argument("probes: a non-finite time");
+  if (!(std::isfinite(early) && early >= 0.0))
+    throw std::invalid_argument("probes: how early a sample may be must be finite and not negative");
+  const double slack = std::max(1e-9 * interval_, early);
   if (!rows_.empty() && time < rows_.back().front())
     throw std::invalid_argument("probes: time " + std::to_string(time) + " is before the last sample's");
   if (rows_.empty() && marks_passed_ == 0) {
     first_time_ = time;
   } else if (interval_ > 0.0) {
     const double next = first_time_ + static_cast<double>(marks_passed_) * interval_;
-    if (time < next - 1e-9 * interval_) return false;
+    if (time < next - slack) return false;
   }
   std::vector<double> row{time};
   for (const BasicProbe<D>& probe : probes_) {
@@ -295,7 +302,7 @@ bool BasicProbeSeries<D>::sample(double time, const BasicParticles<D>& particles
   // The next mark after `time`: a step longer than the interval skips the marks it passed.
   ++marks_passed_;
   if (interval_ > 0.0)
-    while (first_time_ + static_cast<double>(marks_passed_) * interval_ <= time + 1e-9 * interval_) ++marks_passed_;
+    while (first_time_ + static_cast<double>(marks_passed_) * interval_ <= time + slack) ++marks_passed_;
   return true;
 }
 

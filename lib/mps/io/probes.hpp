@@ -23,6 +23,7 @@ namespace mps {
 
 class WallForce;
 class ElasticStructure;
+class ElasticSolid;
 
 /// @{ Sample points: `n` points evenly from a to b, both ends included (n = 1: the midpoint); and the n1 x n2 points
 /// origin + (i / (n1 - 1)) e1 + (j / (n2 - 1)) e2 of a plane's parallelogram, j fastest (a count of 1 takes the middle
@@ -115,10 +116,13 @@ BasicProbe<D> level_probe(std::string name, std::vector<Vec<D>> points, double l
 /// The last step's force of the fluid's pressure on `force`'s wall group [N per unit depth]: (fx, fy). The component
 /// must outlive the probe and be added to the simulation sampled.
 Probe force_probe(std::string name, const WallForce& force);
-/// An elastic body's displacement at reference points [m]: (ux, uy) per point, by ElasticSolid::displacement_at (the
-/// body's probe point: a flag's tip, a plate's top). The component must outlive the probe. Throws
-/// std::invalid_argument for no point or a non-finite coordinate.
+/// @{ An elastic body's displacement at reference points [m]: (ux, uy) per point, by ElasticSolid::displacement_at (the
+/// body's probe point: a flag's tip, a plate's top), of a solid stepped on its own or of a fluid's component. The
+/// solid or component must outlive the probe; the particles sampled are not read. Throws std::invalid_argument for no
+/// point or a non-finite coordinate.
+Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticSolid& solid);
 Probe displacement_probe(std::string name, std::vector<Vec<2>> points, const ElasticStructure& body);
+/// @}
 
 /// Probes sampled at an interval of simulation time, kept as rows (time, then every probe's columns) and written as
 /// one CSV. Sampling is the caller's: call sample() after every step; it reads the probes when the time has reached
@@ -132,10 +136,12 @@ class BasicProbeSeries {
   /// Adds a probe; throws std::invalid_argument for an empty or invalid name, a name already taken, no points, a
   /// components count below 1, no read function, or after the first sample.
   void add(BasicProbe<D> probe);
-  /// Samples every probe if `time` has reached the next mark; returns whether it did. Throws std::invalid_argument for
-  /// a non-finite time or one before the last sample's. A probe's non-finite reading is kept as it is (a blow-up is
-  /// the step's guard to stop, not the probe's).
-  bool sample(double time, const BasicParticles<D>& particles);
+  /// Samples every probe if `time` has reached the next mark less `early` (half a step: the step nearest each mark
+  /// rather than the first on or after it, so that a run ending half a step short of its end still samples it);
+  /// returns whether it did. Throws std::invalid_argument for a non-finite time, one before the last sample's or a
+  /// negative `early`. A probe's non-finite reading is kept as it is (a blow-up is the step's guard to stop, not the
+  /// probe's).
+  bool sample(double time, const BasicParticles<D>& particles, double early = 0.0);
   /// "time", then per probe: its name (one point, one component), name[k] (point k), with ".x"/".y"/".z" appended per
   /// component for velocity and force.
   [[nodiscard]] std::vector<std::string> columns() const;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "mps/boundaries/geometry.hpp"
 #include "mps/core/neighbors.hpp"
 #include "mps/core/state.hpp"
 #include "mps/core/particles.hpp"
@@ -23,6 +24,64 @@ ElasticModel parse_elastic_model(std::string_view name) {
 
 std::string_view to_string(ElasticModel model) {
   return model == ElasticModel::linear ? "linear" : "svk";
+}
+
+namespace {
+
+void check_lattice(const BodyLattice& l, int layers) {
+  if (l.nx < 1 || l.ny < 1 || !(l.spacing > 0) || !std::isfinite(l.spacing) || !std::isfinite(l.x0) ||
+      !std::isfinite(l.y0))
+    throw std::invalid_argument("an elastic body's lattice needs at least one cell each way, a positive spacing and a "
+                                "finite corner");
+  if (layers < 1) throw std::invalid_argument("an elastic body's clamp needs at least one layer");
+}
+
+}  // namespace
+
+ElasticBody clamped_box_body(const BodyLattice& l, unsigned clamp, int layers) {
+  check_lattice(l, layers);
+  if (clamp != x_low && clamp != x_high && clamp != y_low && clamp != y_high)
+    throw std::invalid_argument("an elastic body is clamped at one face: x_low, x_high, y_low or y_high");
+  const int i0 = clamp == x_low ? -layers : 0, i1 = clamp == x_high ? l.nx + layers : l.nx;
+  const int j0 = clamp == y_low ? -layers : 0, j1 = clamp == y_high ? l.ny + layers : l.ny;
+  ElasticBody body;
+  body.spacing = l.spacing;
+  for (int j = j0; j < j1; ++j)
+    for (int i = i0; i < i1; ++i)
+      body.add(l.x0 + (i + 0.5) * l.spacing, l.y0 + (j + 0.5) * l.spacing, l.spacing * l.spacing,
+               i < 0 || i >= l.nx || j < 0 || j >= l.ny);
+  return body;
+}
+
+ElasticBody cylinder_clamped_box_body(const BodyLattice& l, double cx, double cy, double radius, int layers) {
+  check_lattice(l, layers);
+  if (!(radius > 0) || !std::isfinite(radius) || !std::isfinite(cx) || !std::isfinite(cy))
+    throw std::invalid_argument("a clamping cylinder needs a finite centre and a positive radius");
+  const double depth = layers * l.spacing;
+  ElasticBody body;
+  body.spacing = l.spacing;
+  for (int j = 0; j < l.ny; ++j) {
+    const double y = l.y0 + (j + 0.5) * l.spacing, dy = y - cy;
+    if (!(std::abs(dy) < radius))
+      throw std::invalid_argument("the row of the elastic body at y = " + std::to_string(y) + " m misses its clamping "
+                                  "cylinder: the body must be thinner than it, across its centre");
+    const double arc = cx + std::sqrt(radius * radius - dy * dy);  // where the row leaves the cylinder
+    auto x_at = [&](int i) { return l.x0 + (i + 0.5) * l.spacing; };
+    int i = static_cast<int>(std::floor((arc - depth - l.x0) / l.spacing - 0.5)) - 1;
+    while (!(x_at(i) > arc - depth)) ++i;
+    for (; i < l.nx; ++i) body.add(x_at(i), y, l.spacing * l.spacing, !(x_at(i) > arc));
+  }
+  return body;
+}
+
+double cantilever_first_mode(double s, double length) {
+  if (s <= 0) return 0.0;
+  const double kl = 1.875104068711961, k = kl / length;
+  auto f = [&](double z) {
+    return (std::cos(kl) + std::cosh(kl)) * (std::cosh(k * z) - std::cos(k * z)) +
+           (std::sin(kl) - std::sinh(kl)) * (std::sinh(k * z) - std::sin(k * z));
+  };
+  return f(s) / f(length);
 }
 
 double ElasticMaterial::lame_lambda() const {

@@ -107,6 +107,29 @@ struct ElasticBody {
   }
 };
 
+/// A rectangular body's lattice: `nx` by `ny` cells of `spacing` from the corner (x0, y0). Bodies are laid row by row
+/// (y outermost), each row from low x to high x, the order scene files lay them in.
+struct BodyLattice {
+  /// @{ the corner [m]
+  double x0 = 0, y0 = 0;  /// @}
+  /// @{ cells along x and y
+  int nx = 0, ny = 0;  /// @}
+  double spacing = 0;  ///< [m]
+};
+/// The lattice held at its face `clamp` (one of Face's x_low, x_high, y_low, y_high, mps/boundaries/geometry.hpp): the
+/// lattice continued `layers` spacings beyond that face, those points clamped (at least the kernel radius deep).
+/// Throws std::invalid_argument for an empty lattice, a spacing that is not positive, another face or no layer.
+ElasticBody clamped_box_body(const BodyLattice& lattice, unsigned clamp, int layers);
+/// The lattice held in a cylinder (centre (cx, cy), `radius`) its x_low face rests against, as Turek & Hron's flag:
+/// each row continued from that face into the cylinder. A point outside the cylinder moves, one inside it within
+/// `layers` spacings of its surface (along x) is clamped, a deeper one is left out, so the body is held along the arc
+/// it meets and free above and below. Throws std::invalid_argument for a row that misses the cylinder.
+ElasticBody cylinder_clamped_box_body(const BodyLattice& lattice, double cx, double cy, double radius, int layers);
+/// The first bending mode of a clamped-free beam of `length`, f(s) / f(length) at the distance s from the clamp
+/// (f(s) = (cos kL + cosh kL)(cosh ks - cos ks) + (sin kL - sinh kL)(sinh ks - sin ks), kL = 1.8751); 0 for s <= 0.
+/// A velocity v(s) = v_tip mode(s) sets the body swinging in that mode (Gray, Monaghan & Swift 2001).
+double cantilever_first_mode(double s, double length);
+
 /// How an elastic solid is modelled and stepped.
 struct ElasticConfig {
   ElasticMaterial material;  ///< the material

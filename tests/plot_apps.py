@@ -36,6 +36,11 @@ CASES = {
     "hydrostatic": ("hydrostatic", "--end-time 0.2 --window 0.1 --frames 1", {"pressure.png": "rho g (H - y)"}),
     # a scene file's run: its probes, titled from the file's title
     "run": ("run", "{examples}/scenes/hydrostatic.toml --end-time 0.1 --frames 1", {"probes.png": "middle"}),
+    # an acoustic file's run as acoustic's; a body alone: its energies and its probe
+    "run-acoustic": ("run", "{examples}/scenes/acoustic_free.toml --end-time 0.01",
+                     {"map_00.png": None, "centerline.png": "exact"}),
+    "run-structure": ("run", "{examples}/scenes/structure_csm3.toml --end-time 0.05 --frames 1",
+                      {"energy.png": "kinetic", "probes.png": "tip"}),
 }
 
 
@@ -75,7 +80,7 @@ def main():
                     failures.append(f"{name}: {figure}'s title {title!r} does not give the run's Re {params['re']}")
                 if words and not any(words in s for s in series):
                     failures.append(f"{name}: {figure} draws {series}, nothing of {words!r}")
-            if app == "acoustic":
+            if app == "acoustic" or name == "run-acoustic":
                 maps = [f for f in index if f.startswith("map_")]
                 frames = sorted((out / "frames").glob("*.vtp"))
                 if len(maps) != len(frames) or not all("t = " in index[m]["title"] for m in maps):

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include "mps/solids/fsi.hpp"
 #include "mps/step/components.hpp"
@@ -42,11 +43,12 @@ end_time = 0.01
 )" + extra;
 }
 
-// The message of read_scene's refusal of `text` ("" if it was read).
+// The message of the reader's refusal of `text` ("" if it was read), the reader chosen as sparsemps-run chooses it.
 std::string refusal(const std::string& name, const std::string& text) {
   const fs::path path = write_file(name, text);
   try {
-    if (scene_file::dimensions_of(path) == 2) static_cast<void>(scene_file::read_scene<2>(path));
+    if (scene_file::is_acoustic(path)) static_cast<void>(scene_file::read_acoustic_scene(path));
+    else if (scene_file::dimensions_of(path) == 2) static_cast<void>(scene_file::read_scene<2>(path));
     else static_cast<void>(scene_file::read_scene<3>(path));
   } catch (const std::invalid_argument& e) {
     return e.what();
@@ -698,6 +700,61 @@ points = [[0.1, 0.015]]
   probe_refusal("quantity = \"displacement\"", "quantity = \"pressure\"",
                 "line 15: probe 'tip': an elastic body alone has displacement probes only");
   probe_refusal("group = 1", "group = 2", "line 16: probe 'tip': the body's group is 1");
+}
+
+// An acoustic file: the box, boundary, flow and numerics into the solver's configuration, its pulses, the times past
+// the end dropped and the end sampled; each defect refused naming its line.
+TEST(SceneFile, AcousticFileIsTheCaseItDescribes) {
+  const std::string text = R"(dimensions = 2
+spacing = 0.5
+[acoustic]
+min = [-10.0, -5.0]
+max = [10.0, 5.0]
+boundary = "mur"
+mean_flow = [20.0, 0.0]
+repeat_frequency = 100.0
+[[pulse]]
+centre = [1.0, 0.5]
+amplitude = 2.0
+half_width = 1.0
+[run]
+end_time = 0.05
+[output]
+samples = [0.1, 0.02]
+maps = [0.0, 0.2]
+)";
+  const fs::path path = write_file("acoustic", text);
+  ASSERT_TRUE(scene_file::is_acoustic(path));
+  const auto scene = scene_file::read_acoustic_scene(path);
+  const acoustic::AcousticRun& run = scene.run;
+  EXPECT_EQ(run.config.box.x0, -10.0);
+  EXPECT_EQ(run.config.box.y1, 5.0);
+  EXPECT_EQ(run.config.l0, 0.5);
+  EXPECT_EQ(run.config.u0x, 20.0);
+  EXPECT_EQ(run.config.boundary, mps::AcousticBoundary::mur);
+  ASSERT_EQ(run.sources.size(), 1u);
+  EXPECT_EQ(run.sources[0].x, 1.0);
+  EXPECT_EQ(run.sources[0].amplitude, 2.0);
+  EXPECT_EQ(run.sources[0].half_width, 1.0);
+  EXPECT_TRUE(run.repeated);
+  EXPECT_EQ(run.frequency, 100.0);
+  EXPECT_EQ(run.samples, (std::vector<double>{0.02, 0.05}));  // 0.1 is past the end, which is sampled
+  EXPECT_EQ(run.maps, (std::vector<double>{0.0}));
+  EXPECT_EQ(run.frames, -1);  // a frame at every map
+  EXPECT_EQ(scene_file::read_acoustic_scene(path, 0.3).run.samples, (std::vector<double>{0.02, 0.1, 0.3}));
+
+  const auto expect = [&](const std::string& from, const std::string& to, const std::string& part) {
+    expect_refusal_of_edit(text, from, to, part);
+  };
+  expect("boundary = \"mur\"", "boundary = \"hard\"", "line 7: hard walls with a mean flow have no exact solution");
+  expect("boundary = \"mur\"", "boundary = \"open\"", "line 6:");
+  expect("centre = [1.0, 0.5]", "centre = [11.0, 0.5]", "line 10: a pulse's centre must lie inside the box");
+  expect("half_width = 1.0", "half_width = 3.0", "line 12: 'half_width' must be in (0, 2.5] m");
+  expect("mean_flow = [20.0, 0.0]", "mean_flow = [400.0, 0.0]", "line 7: the mean flow must be below the speed");
+  expect("[[pulse]]", "[[pulses]]", "'pulses' is no key of an acoustic scene file");
+  expect("dimensions = 2", "dimensions = 3", "line 1: the acoustic solver is 2-D");
+  expect("end_time = 0.05", "end_time = 1e-6", "the end time is shorter than one step");
+  expect("max = [10.0, 5.0]", "max = [10.2, 5.0]", "line 3:");  // the box's sides are whole spacings
 }
 
 }  // namespace

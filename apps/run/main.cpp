@@ -1,5 +1,6 @@
 // sparsemps-run: a scene described in a TOML file (docs/scene-files.md), in 2-D or 3-D. Writes frames (.vtp/.pvd),
-// probes.csv, solves.csv, a copy of the scene file and summary.json to the file's [output] out (or --out).
+// probes.csv, solves.csv, a copy of the scene file and summary.json to the file's [output] out (or --out); an
+// elastic body alone energy.csv instead of solves.csv, an acoustic field what `acoustic` writes.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -47,6 +48,7 @@ struct SceneState {
 template <int D>
 int run(const Options& o, const CLI::App& app);
 int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>& scene);
+int run_acoustic(const Options& o, const CLI::App& app);
 
 }  // namespace
 
@@ -57,7 +59,7 @@ int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines reach a log file as they are printed
   Options o;
   CLI::App app{"SparseMPS run: the scene a TOML file describes (its tank, water, obstacles, physics, numerics, "
-               "probes and outputs; docs/scene-files.md), in 2-D or 3-D"};
+               "probes and outputs; an elastic body alone; an acoustic field; docs/scene-files.md), in 2-D or 3-D"};
   add_general_options(app);
   app.add_option("scene-file", o.scene, "the scene file (TOML; examples/scenes/ has one per built-in scene)")
       ->required()->check(config_file_path())->transform(existing_file_made_absolute())->group("Scene");
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
   add_checkpoint_options(app, o.checkpoint);
   if (const auto status = parse_options(app, argc, argv)) return *status;
   try {
+    if (scene_file::is_acoustic(o.scene)) return run_acoustic(o, app);
     return scene_file::dimensions_of(o.scene) == 2 ? run<2>(o, app) : run<3>(o, app);
   } catch (const std::exception& e) {
     std::cerr << "error: " << error_message(e) << "\n";
@@ -209,6 +212,40 @@ int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>&
               samples.probes.probes().empty() ? "" : (dir / "probes.csv").string().append(", ").c_str(),
               (dir / "summary.json").string().c_str());
   return 0;
+}
+
+// An acoustic scene: the field stepped against the exact solution, as `acoustic` steps its cases. Writes frames,
+// pressure maps, centerline.csv, energy.csv, a copy of the scene file and summary.json.
+int run_acoustic(const Options& o, const CLI::App& app) {
+  scene_file::AcousticScene scene = scene_file::read_acoustic_scene(o.scene, o.end_time);
+  acoustic::AcousticRun& run = scene.run;
+  if (o.frames >= 0) scene.parameters["frame_count"] = run.frames = o.frames;
+  if (!o.out.empty()) run.dir = o.out;
+  const mps::AcousticConfig& c = run.config;
+  check_run_size((c.box.x1 - c.box.x0) * (c.box.y1 - c.box.y0) / (c.l0 * c.l0), run.t_end / c.dt(),
+                 "raise the spacing or shrink the box", "shorten [run] end_time or raise cfl");
+  const auto setup_start = acoustic::Clock::now();
+  mps::AcousticSolver solver(c);
+  const double setup_s = acoustic::seconds_since(setup_start);
+  const double cfl_limit = solver.stable_cfl_estimate();
+  std::printf("%s (%s), 2-D acoustics: %zu interior + %zu virtual particles, %zu pulse(s), boundary %s\n"
+              "spacing %g m, dt %g s (CFL %g, RK4 stable up to %.3f), end time %g s; output to %s\n",
+              scene.title.c_str(), fs::path(o.scene).filename().string().c_str(), solver.interior(),
+              solver.particles().size() - solver.interior(), run.sources.size(),
+              std::string(mps::to_string(c.boundary)).c_str(), c.l0, c.dt(), c.cfl, cfl_limit, run.t_end,
+              run.dir.string().c_str());
+  if (o.check) return 0;
+
+  const fs::path dir = run.dir;
+  Checkpoints checkpoints(o.checkpoint, dir, "run", scene.parameters, {"/end_time_s"});
+  if (!checkpoints.restart())
+    clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json",
+                        "last_good.vtp", "config.toml", "checkpoint.cbor", "scene.toml"});
+  write_run_config(app, "run", dir);
+  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(o.scene, dir / "scene.toml"))
+    fs::copy_file(o.scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+  run.summary_extra = {{"scene_file", fs::path(o.scene).string()}};
+  return acoustic::run_acoustic(solver, run, scene.parameters, checkpoints, setup_s, cfl_limit);
 }
 
 }  // namespace

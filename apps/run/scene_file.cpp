@@ -1181,6 +1181,140 @@ mps::BasicProbeSeries<D> read_probes(const Scene<D>& s, mps::BasicSimulation<D>&
   return series;
 }
 
+bool is_acoustic(const std::filesystem::path& path) { return parse(path).contains("acoustic"); }
+
+AcousticScene read_acoustic_scene(const std::filesystem::path& path, double end_time) {
+  const toml::table root = parse(path);
+  const std::string file = label(path);
+  const Keys top(file, root, "an acoustic scene file",
+                 {"title", "dimensions", "spacing", "acoustic", "pulse", "run", "output"});
+  if (dimensions_of(path) != 2) fail(file, *top.find("dimensions"), "the acoustic solver is 2-D: set dimensions = 2");
+  AcousticScene s;
+  s.file = path;
+  s.title = top.text("title", "a scene file", path.stem().string());
+  acoustic::AcousticRun& run = s.run;
+  mps::AcousticConfig& c = run.config;
+  {
+    const toml::node& spacing = top.need("spacing", "a scene file");
+    c.l0 = number(file, spacing, "spacing");
+    if (!(c.l0 > 0 && c.l0 <= 1e3)) fail(file, spacing, "'spacing' (l0) must be positive and at most 1000 m");
+  }
+  const toml::table* field = table_at(file, top, "acoustic");
+  const Keys k(file, *field, "[acoustic]",
+               {"min", "max", "boundary", "c0", "rho0", "mean_flow", "cfl", "gradient", "weight", "radius",
+                "guard_factor", "repeat_frequency"});
+  const Block<2> box = box_of<2>(file, *field, k, "[acoustic]", c.l0);
+  c.box = {box.lo[0], box.lo[1], box.hi[0], box.hi[1]};
+  const auto name_of = [&](const std::string& key, const std::string& otherwise, auto parse_name) {
+    const std::string name = k.text(key, "[acoustic]", otherwise);
+    try {
+      return parse_name(name);
+    } catch (const std::invalid_argument& e) {
+      fail(file, *k.find(key), e.what());
+    }
+  };
+  c.boundary = name_of("boundary", "mur", mps::parse_acoustic_boundary);
+  c.gradient = name_of("gradient", "mps", mps::parse_acoustic_gradient);
+  c.weight = name_of("weight", "classic", mps::parse_weight);
+  c.c0 = number_in(file, k, "c0", c.c0, 1e-9, 1e5, "in (0, 1e5] m/s");
+  c.rho0 = number_in(file, k, "rho0", c.rho0, 1e-9, 1e5, "in (0, 1e5] kg/m^3");
+  c.cfl = number_in(file, k, "cfl", c.cfl, 1e-9, 100, "in (0, 100]");
+  c.radius = number_in(file, k, "radius", c.radius, 1.5, 10, "in [1.5, 10] l0");
+  c.guard_energy_factor = number_in(file, k, "guard_factor", c.guard_energy_factor, 1, 1e6, "in [1, 1e6]");
+  if (const toml::node* flow = k.find("mean_flow")) {
+    const mps::Vec<2> u = vector_of<2>(file, *flow, "mean_flow", "m/s");
+    c.u0x = u[0];
+    c.u0y = u[1];
+    if (!(std::hypot(u[0], u[1]) < c.c0)) fail(file, *flow, "the mean flow must be below the speed of sound c0");
+    if (c.boundary == mps::AcousticBoundary::hard && (u[0] != 0 || u[1] != 0))
+      fail(file, *flow, "hard walls with a mean flow have no exact solution here (images need u0 = 0): use "
+                        "boundary = \"mur\"");
+  }
+  try {
+    c.validate();
+  } catch (const std::invalid_argument& e) {
+    fail(file, *field, e.what());
+  }
+  if (k.find("repeat_frequency") != nullptr) {
+    run.repeated = true;
+    run.frequency = number_in(file, k, "repeat_frequency", 0, 1e-9, 1e6, "in (0, 1e6] Hz");
+  }
+
+  const toml::node* pulses = top.find("pulse");
+  if (pulses == nullptr || !pulses->is_array_of_tables() || pulses->as_array()->empty())
+    fail(file, pulses != nullptr ? *pulses : static_cast<const toml::node&>(root),
+         "an acoustic scene starts from [[pulse]] tables, each with a centre, an amplitude and a half_width");
+  const double quarter = 0.25 * std::min(c.box.x1 - c.box.x0, c.box.y1 - c.box.y0);
+  nlohmann::json pulse_json = nlohmann::json::array();
+  for (const toml::node& node : *pulses->as_array()) {
+    const toml::table& t = *node.as_table();
+    const Keys pk(file, t, "a [[pulse]]", {"centre", "amplitude", "half_width"});
+    const mps::Vec<2> centre = vector_of<2>(file, pk.need("centre", "a [[pulse]]"), "centre", "m");
+    if (!(centre[0] > c.box.x0 && centre[0] < c.box.x1 && centre[1] > c.box.y0 && centre[1] < c.box.y1))
+      fail(file, *pk.find("centre"), "a pulse's centre must lie inside the box");
+    if (pk.find("amplitude") == nullptr || pk.find("half_width") == nullptr)
+      fail(file, t, "a [[pulse]] needs 'amplitude' [Pa] and 'half_width' [m]");
+    const double amplitude = number_in(file, pk, "amplitude", 0, 1e-100, 1e100, "in (0, 1e100] Pa");
+    const double half_width = number_in(file, pk, "half_width", 0, 1e-12, quarter,
+                                        "in (0, " + text(quarter) + "] m, a quarter of the box's smaller side");
+    run.sources.push_back({centre[0], centre[1], amplitude, half_width, 0.0});
+    pulse_json.push_back({{"centre_m", {centre[0], centre[1]}}, {"amplitude_pa", amplitude}, {"b_m", half_width}});
+  }
+
+  {
+    const toml::table* t = table_at(file, top, "run");
+    if (t == nullptr) throw std::invalid_argument(file + ": it needs [run] with 'end_time' [s]");
+    const Keys rk(file, *t, "[run]", {"end_time"});
+    if (rk.find("end_time") == nullptr) fail(file, *t, "[run] needs 'end_time' [s]");
+    run.t_end = end_time > 0 ? end_time : number_in(file, rk, "end_time", 0, 1e-12, 1e4, "positive (at most 1e4 s)");
+    if (!(run.t_end >= c.dt()))
+      fail(file, *t, "the end time is shorter than one step (dt = cfl l0 / c0 = " + text(c.dt()) + " s)");
+  }
+  s.out = std::filesystem::path("runs") / path.stem();
+  const auto times = [&](const Keys& ok, const std::string& key) {
+    std::vector<double> v;
+    const toml::node* node = ok.find(key);
+    if (node == nullptr) return v;
+    if (!node->is_array()) fail(file, *node, "'" + key + "' lists times [s], as [0.05, 0.1]");
+    for (const toml::node& t : *node->as_array()) {
+      const double time = number(file, t, key);
+      if (!(time >= 0 && time <= 1e4)) fail(file, t, "'" + key + "' lists times in [0, 1e4] s");
+      v.push_back(time);
+    }
+    return v;
+  };
+  if (const toml::table* output = table_at(file, top, "output")) {
+    const Keys ok(file, *output, "[output]", {"out", "samples", "maps", "frames", "tolerance"});
+    if (ok.find("out") != nullptr) {
+      const std::filesystem::path out = ok.text("out", "[output]", "");
+      s.out = out.is_relative() ? (path.parent_path() / out).lexically_normal() : out;
+    }
+    run.samples = times(ok, "samples");
+    run.maps = times(ok, "maps");
+    run.frames = whole_in(file, ok, "frames", -1, 0, 100000);
+    run.tolerance = number_in(file, ok, "tolerance", run.tolerance, 1e-15, 1e-2, "in [1e-15, 1e-2] of the amplitude");
+  }
+  // Those past the end are dropped; the end is always sampled.
+  const auto past = [&](double t) { return t > run.t_end + 1e-12; };
+  std::erase_if(run.samples, past);
+  std::erase_if(run.maps, past);
+  std::sort(run.samples.begin(), run.samples.end());
+  std::sort(run.maps.begin(), run.maps.end());
+  if (std::none_of(run.samples.begin(), run.samples.end(), [&](double t) { return std::abs(t - run.t_end) < 1e-12; }))
+    run.samples.push_back(run.t_end);
+  run.dir = s.out;
+  s.parameters = {{"title", s.title}, {"dimensions", 2}, {"spacing_m", c.l0},
+                  {"box_m", {c.box.x0, c.box.y0, c.box.x1, c.box.y1}}, {"boundary", mps::to_string(c.boundary)},
+                  {"c0_m_per_s", c.c0}, {"rho0_kg_per_m3", c.rho0}, {"mean_flow_m_per_s", {c.u0x, c.u0y}},
+                  {"cfl", c.cfl}, {"dt_s", c.dt()}, {"gradient", mps::to_string(c.gradient)},
+                  {"weight", mps::to_string(c.weight)}, {"radius_l0", c.radius},
+                  {"guard_factor", c.guard_energy_factor}, {"pulses", pulse_json},
+                  {"repeat_frequency_hz", run.repeated ? nlohmann::json(run.frequency) : nlohmann::json(nullptr)},
+                  {"end_time_s", run.t_end}, {"samples_s", run.samples}, {"maps_s", run.maps},
+                  {"frame_count", run.frames}, {"tolerance_over_eps", run.tolerance}};
+  return s;
+}
+
 template Scene<2> read_scene<2>(const std::filesystem::path&);
 template Scene<3> read_scene<3>(const std::filesystem::path&);
 template mps::BasicParticles<2> make_particles<2>(const Scene<2>&);

@@ -1,8 +1,8 @@
 #pragma once
 // Scene files (docs/scene-files.md): a case described as data in TOML, 2-D or 3-D — a walled tank, blocks of fluid,
 // solid box obstacles (fixed or oscillating), the domain, the physics and numerics by SimulationConfig's own names,
-// the components a scene adds, the run's length, its outputs and its probes. sparsemps-run runs them; every error
-// names the file, the line and the key.
+// the components a scene adds, the run's length, its outputs and its probes; or an elastic body alone, or an acoustic
+// field and its pulses. sparsemps-run runs them; every error names the file, the line and the key.
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "acoustic_run.hpp"
 #include "mps/boundaries/boundary.hpp"
 #include "mps/boundaries/geometry.hpp"
 #include "mps/core/domain.hpp"
@@ -173,5 +174,21 @@ mps::ProbeSeries read_solid_probes(const Scene<2>& scene, const mps::ElasticSoli
 // The file's [[probe]] tables for `sim` (an empty series when it has none).
 template <int D>
 mps::BasicProbeSeries<D> read_probes(const Scene<D>& scene, mps::BasicSimulation<D>& sim);
+
+// An acoustic scene: a file with an [acoustic] table, a linearised-Euler field on a lattice of particles (MPS-WP,
+// mps::AcousticSolver; 2-D) in a box with its boundary, the Gaussian pulses it starts from ([[pulse]]; fired again at
+// repeat_frequency), the times it is compared with the exact solution and mapped, its frames and output folder: what
+// `acoustic` runs, as data.
+struct AcousticScene {
+  std::filesystem::path file, out;
+  std::string title;
+  acoustic::AcousticRun run;
+  nlohmann::json parameters;  // the scene as its summary records it
+};
+// Whether the file is an acoustic scene (has an [acoustic] table).
+bool is_acoustic(const std::filesystem::path& file);
+// The whole acoustic scene, every key checked, its end time `end_time` if positive (before the samples and maps past
+// the end are dropped). Throws std::invalid_argument naming the file, the line and the key.
+AcousticScene read_acoustic_scene(const std::filesystem::path& file, double end_time = 0);
 
 }  // namespace scene_file

@@ -583,6 +583,7 @@ Scene<D> read_scene(const std::filesystem::path& path) {
     if (plate == s.walls.end() || plate->walls != mps::x_low || plate->no_slip)
       fail(file, *k.find("plate"),
            "the inlet's 'plate' must be the group of a [[wall]] on x_low alone, without no_slip (it pushes the fluid)");
+    in.wall = static_cast<std::size_t>(plate - s.walls.begin());
     if (!(in.outlet > plate->box.lo[0] + 4 * l0))
       fail(file, *k.find("outlet"),
            "the outlet must lie downstream of the plate, at x > " + text(plate->box.lo[0] + 4 * l0));
@@ -947,8 +948,7 @@ mps::BasicParticles<D> make_particles(const Scene<D>& s) {
     // The ghost pool, parked one spacing behind the plate's last layer: ghost_rows to a spacing of its height, so
     // that no two coincide, on every layer of its depth in 3-D. Outflow and inflow balance on average; the pool
     // covers three columns at once.
-    const Wall<D>& plate = *std::find_if(s.walls.begin(), s.walls.end(),
-                                         [&](const Wall<D>& w) { return w.group == s.inlet.plate; });
+    const Wall<D>& plate = s.walls[s.inlet.wall];
     const Block<D>& b = plate.box;
     const double parking = b.lo[0] - (plate.wall_layers + plate.dummy_layers + 0.5) * s.l0;
     const int pool = s.inlet.ghost_rows * static_cast<int>(std::lround((b.hi[1] - b.lo[1]) / s.l0));
@@ -998,8 +998,7 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
   double plate_x = 0;
   if (s.has_inlet) {
     plate = std::make_shared<mps::BasicPushingPlate<D>>(particles, s.inlet.plate, s.inlet.speed, s.l0, s.inlet.outlet);
-    for (const Wall<D>& w : s.walls)
-      if (w.group == s.inlet.plate) plate_x = w.box.lo[0];
+    plate_x = s.walls[s.inlet.wall].box.lo[0];
     sim->template add<mps::BasicBoundaryMotion<D>>(
         [plate](mps::BasicParticles<D>& p, double t, std::size_t owned) { (*plate)(p, t, owned); });
   }

@@ -65,6 +65,7 @@ struct Wall {
 // the outlet's last 4 spacings are free surface.
 struct Inlet {
   int plate = 0, ghost_rows = 3;
+  std::size_t wall = 0;  // the plate's [[wall]]: its index in the scene's walls
   double speed = 0, outlet = 0, buffer = 0;
   int line = 0;
 };

@@ -747,14 +747,14 @@ maps = [0.0, 0.2]
     expect_refusal_of_edit(text, from, to, part);
   };
   expect("boundary = \"mur\"", "boundary = \"hard\"", "line 7: hard walls with a mean flow have no exact solution");
-  expect("boundary = \"mur\"", "boundary = \"open\"", "line 6:");
+  expect("boundary = \"mur\"", "boundary = \"open\"", "line 6: unknown acoustic boundary 'open'");
   expect("centre = [1.0, 0.5]", "centre = [11.0, 0.5]", "line 10: a pulse's centre must lie inside the box");
   expect("half_width = 1.0", "half_width = 3.0", "line 12: 'half_width' must be in (0, 2.5] m");
   expect("mean_flow = [20.0, 0.0]", "mean_flow = [400.0, 0.0]", "line 7: the mean flow must be below the speed");
   expect("[[pulse]]", "[[pulses]]", "'pulses' is no key of an acoustic scene file");
   expect("dimensions = 2", "dimensions = 3", "line 1: the acoustic solver is 2-D");
   expect("end_time = 0.05", "end_time = 1e-6", "the end time is shorter than one step");
-  expect("max = [10.0, 5.0]", "max = [10.2, 5.0]", "line 3:");  // the box's sides are whole spacings
+  expect("max = [10.0, 5.0]", "max = [10.2, 5.0]", "line 3: acoustic config: box width 20.2 m is not a multiple of l0");
 }
 
 }  // namespace

@@ -31,18 +31,13 @@ struct Layout {
 
 void add_body(Layout& l, double x0, double y0, int nx, int ny, double l0, bool clamp_below, bool bottom_is_face,
               bool top_is_face) {
-  const int clamp = 3;  // the solid's kernel radius is 3 spacings
   l.first_id = static_cast<int>(l.particles.size());
-  l.body.spacing = l0;
-  const int j0 = clamp_below ? -clamp : 0, j1 = clamp_below ? ny : ny + clamp;
-  for (int j = j0; j < j1; ++j)
+  // Held by 3 rows (the solid's kernel radius) inside the fluid's own walls (floor, rigid wall).
+  l.body = mps::clamped_box_body({x0, y0, nx, ny, l0}, clamp_below ? mps::y_low : mps::y_high, 3);
+  for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
-      const double x = x0 + (i + 0.5) * l0, y = y0 + (j + 0.5) * l0;
-      const bool held = j < 0 || j >= ny;
-      l.body.add(x, y, l0 * l0, held);
-      if (held) continue;  // the fluid's own walls (floor, rigid wall) are there
       const bool face = i == 0 || i == nx - 1 || (bottom_is_face && j == 0) || (top_is_face && j == ny - 1);
-      l.particles.add(x, y, face ? mps::Kind::wall : mps::Kind::dummy, 1);
+      l.particles.add(x0 + (i + 0.5) * l0, y0 + (j + 0.5) * l0, face ? mps::Kind::wall : mps::Kind::dummy, 1);
     }
 }
 

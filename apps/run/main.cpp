@@ -45,6 +45,13 @@ struct SceneState {
   }
 };
 
+// config.toml, and the scene as run beside its results (unless the file is that copy already).
+void write_config_and_scene(const CLI::App& app, const fs::path& scene, const fs::path& dir) {
+  write_run_config(app, "run", dir);
+  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(scene, dir / "scene.toml"))
+    fs::copy_file(scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+}
+
 template <int D>
 int run(const Options& o, const CLI::App& app);
 int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>& scene);
@@ -119,10 +126,7 @@ int run(const Options& o, const CLI::App& app) {
     clear_outputs(dir, {"frames", "scene.pvd", "summary.json", "last_good.vtp", "config.toml", "solves.csv", "ppe",
                         "checkpoint.cbor", "probes.csv", "scene.toml"});
   sim.template add<BasicSolveLog<D>>(dir, std::set<int>(o.export_ppe.begin(), o.export_ppe.end()), scene.title);
-  write_run_config(app, "run", dir);
-  // The scene as run, beside its results (unless the file is that copy already).
-  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(o.scene, dir / "scene.toml"))
-    fs::copy_file(o.scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+  write_config_and_scene(app, o.scene, dir);
   fs::create_directories(dir / "frames");
   FrameSeries series(dir, "scene", scene.frames, scene.end_time);
   if (!probes.probes().empty()) series.set_probes(std::move(probes));
@@ -173,9 +177,7 @@ int run_alone(const Options& o, const CLI::App& app, const scene_file::Scene<2>&
   if (!checkpoints.restart())
     clear_outputs(dir, {"frames", "scene.pvd", "summary.json", "last_good.vtp", "config.toml", "checkpoint.cbor",
                         "probes.csv", "energy.csv", "scene.toml"});
-  write_run_config(app, "run", dir);
-  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(o.scene, dir / "scene.toml"))
-    fs::copy_file(o.scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+  write_config_and_scene(app, o.scene, dir);
   fs::create_directories(dir / "frames");
   auto write_series = [&] {
     if (!samples.probes.probes().empty()) samples.probes.write_csv(dir / "probes.csv");
@@ -241,9 +243,7 @@ int run_acoustic(const Options& o, const CLI::App& app) {
   if (!checkpoints.restart())
     clear_outputs(dir, {"frames", "maps", "acoustic.pvd", "centerline.csv", "energy.csv", "summary.json",
                         "last_good.vtp", "config.toml", "checkpoint.cbor", "scene.toml"});
-  write_run_config(app, "run", dir);
-  if (!fs::exists(dir / "scene.toml") || !fs::equivalent(o.scene, dir / "scene.toml"))
-    fs::copy_file(o.scene, dir / "scene.toml", fs::copy_options::overwrite_existing);
+  write_config_and_scene(app, o.scene, dir);
   run.summary_extra = {{"scene_file", fs::path(o.scene).string()}};
   return acoustic::run_acoustic(solver, run, scene.parameters, checkpoints, setup_s, cfl_limit);
 }

@@ -635,7 +635,6 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       if (const toml::table* cylinder = table_at(file, k, "clamp_cylinder")) {
         const Keys ck(file, *cylinder, "clamp_cylinder", {"centre", "radius"});
         const mps::Vec<D> centre = vector_of<D>(file, ck.need("centre", "clamp_cylinder"), "centre", "m");
-        e.in_cylinder = true;
         e.cylinder_centre = {centre[0], centre[1]};
         e.cylinder_radius = number_in(file, ck, "radius", 0, 1e-9, 1e6, "positive [m]");
         if (e.clamp != mps::x_low)
@@ -702,7 +701,7 @@ Scene<D> read_scene(const std::filesystem::path& path) {
       nlohmann::json j = box_json(e.box);
       if (!s.solid_alone) j["walls"] = face_names<D>(e.walls);
       j["clamp"] = face_names<D>(e.clamp).front();
-      if (e.in_cylinder)
+      if (e.cylinder_radius > 0)
         j["clamp_cylinder"] = {{"centre_m", {e.cylinder_centre[0], e.cylinder_centre[1]}},
                                {"radius_m", e.cylinder_radius}};
       if (s.solid_alone) j["first_mode_tip_velocity_m_per_s"] = e.first_mode_tip_velocity;
@@ -1127,7 +1126,7 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
 mps::ElasticBody elastic_body(const Elastic<2>& e, double l0) {
   const auto cells = [&](std::size_t a) { return static_cast<int>(std::lround((e.box.hi[a] - e.box.lo[a]) / l0)); };
   const mps::BodyLattice lattice{e.box.lo[0], e.box.lo[1], cells(0), cells(1), l0};
-  return e.in_cylinder ? mps::cylinder_clamped_box_body(lattice, e.cylinder_centre[0], e.cylinder_centre[1],
+  return e.cylinder_radius > 0 ? mps::cylinder_clamped_box_body(lattice, e.cylinder_centre[0], e.cylinder_centre[1],
                                                         e.cylinder_radius, Elastic<2>::clamp_layers)
                        : mps::clamped_box_body(lattice, e.clamp, Elastic<2>::clamp_layers);
 }
@@ -1269,7 +1268,7 @@ AcousticScene read_acoustic_scene(const std::filesystem::path& path, double end_
     if (!(run.t_end >= c.dt()))
       fail(file, *t, "the end time is shorter than one step (dt = cfl l0 / c0 = " + text(c.dt()) + " s)");
   }
-  s.out = std::filesystem::path("runs") / path.stem();
+  run.dir = std::filesystem::path("runs") / path.stem();
   const auto times = [&](const Keys& ok, const std::string& key) {
     std::vector<double> v;
     const toml::node* node = ok.find(key);
@@ -1286,7 +1285,7 @@ AcousticScene read_acoustic_scene(const std::filesystem::path& path, double end_
     const Keys ok(file, *output, "[output]", {"out", "samples", "maps", "frames", "tolerance"});
     if (ok.find("out") != nullptr) {
       const std::filesystem::path out = ok.text("out", "[output]", "");
-      s.out = out.is_relative() ? (path.parent_path() / out).lexically_normal() : out;
+      run.dir = out.is_relative() ? (path.parent_path() / out).lexically_normal() : out;
     }
     run.samples = times(ok, "samples");
     run.maps = times(ok, "maps");
@@ -1301,7 +1300,6 @@ AcousticScene read_acoustic_scene(const std::filesystem::path& path, double end_
   std::sort(run.maps.begin(), run.maps.end());
   if (std::none_of(run.samples.begin(), run.samples.end(), [&](double t) { return std::abs(t - run.t_end) < 1e-12; }))
     run.samples.push_back(run.t_end);
-  run.dir = s.out;
   s.parameters = {{"title", s.title}, {"dimensions", 2}, {"spacing_m", c.l0},
                   {"box_m", {c.box.x0, c.box.y0, c.box.x1, c.box.y1}}, {"boundary", mps::to_string(c.boundary)},
                   {"c0_m_per_s", c.c0}, {"rho0_kg_per_m3", c.rho0}, {"mean_flow_m_per_s", {c.u0x, c.u0y}},

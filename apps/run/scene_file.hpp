@@ -108,9 +108,9 @@ struct Elastic {
   double mount_to = 0;
   mps::ElasticMaterial material;
   double relaxation = 1, cfl = 0.3, hourglass = 30;
-  bool in_cylinder = false;
   mps::Vec<2> cylinder_centre{};
-  double cylinder_radius = 0, first_mode_tip_velocity = 0;
+  double cylinder_radius = 0;  // 0: held at its clamp face, not in a cylinder
+  double first_mode_tip_velocity = 0;
   static constexpr int clamp_layers = 3;  // mps::ElasticConfig's kernel radius, 3 spacings
 };
 
@@ -181,9 +181,9 @@ mps::BasicProbeSeries<D> read_probes(const Scene<D>& scene, mps::BasicSimulation
 // repeat_frequency), the times it is compared with the exact solution and mapped, its frames and output folder: what
 // `acoustic` runs, as data.
 struct AcousticScene {
-  std::filesystem::path file, out;
+  std::filesystem::path file;
   std::string title;
-  acoustic::AcousticRun run;
+  acoustic::AcousticRun run;  // its dir: the file's [output] out
   nlohmann::json parameters;  // the scene as its summary records it
 };
 // Whether the file is an acoustic scene (has an [acoustic] table).

@@ -12,6 +12,7 @@ import io
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -140,7 +141,10 @@ def main():
                 continue
             case = app + "_" + str(abs(hash(args)))
             whole, stopped, every = tmp / f"{case}_whole", tmp / f"{case}_stopped", tmp / f"{case}_every"
-            code = subprocess.run(command(build, app, args, whole), env=ENV, capture_output=True).returncode
+            # The uninterrupted run writes checkpoints as it goes (--checkpoint-every), which must not change its
+            # outputs: the run stopped by SIGTERM below writes none until stopped, and must give the same.
+            code = subprocess.run(command(build, app, args, whole, "--checkpoint-every", EVERY.get(app, "10")),
+                                  env=ENV, capture_output=True).returncode
             if code not in (0, 2):
                 failures.append(f"{app}: the uninterrupted run exited {code}")
                 continue
@@ -170,9 +174,8 @@ def main():
                 failures.append(f"{app}: the restart exited {done.returncode} ({done.stderr.strip()[-300:]})")
             failures += [f"{app} after SIGTERM at step {summary['steps']}: {d}" for d in differences(whole, stopped)]
 
-            # --checkpoint-every: restarted from the last one, into a folder of its own.
-            subprocess.run(command(build, app, args, every, "--checkpoint-every", EVERY.get(app, "10")), env=ENV,
-                           capture_output=True)
+            # --checkpoint-every: the uninterrupted run restarted from its last checkpoint, into a copy of its folder.
+            shutil.copytree(whole, every)
             saved = tmp / f"{case}.cbor"
             (every / "checkpoint.cbor").rename(saved)
             done = subprocess.run(command(build, app, args, every, "--restart", str(saved)), env=ENV,

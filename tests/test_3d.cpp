@@ -403,10 +403,11 @@ TEST(ThreeD, SquareDuctDevelopsTheSeriesSolutionsProfile) {
   EXPECT_LT(r.largest_error, 0.02 * r.peak);
 }
 
-// The target, 1 % at 20 across (measured 0.45 %); about two minutes on one thread, the suite's longest test.
-TEST(ThreeD, SquareDuctAt20AcrossIsWithinOnePercent) {
-  const DuctRun r = run_duct(20, 3.0);
-  std::printf("duct, 20 across, t = 3 s: largest error %.3g m/s of a peak %.3g m/s (%.2f %%)\n", r.largest_error,
+// The target, 1 %, at 14 across (measured 0.71 %; 1.47 % at 10 and 0.45 % at 20 across: second order). 20
+// across took 95 s and 14 across 34 s on one thread: the cost grows as across^4 with the viscous time step.
+TEST(ThreeD, SquareDuctAt14AcrossIsWithinOnePercent) {
+  const DuctRun r = run_duct(14, 3.0);
+  std::printf("duct, 14 across, t = 3 s: largest error %.3g m/s of a peak %.3g m/s (%.2f %%)\n", r.largest_error,
               r.peak, 100 * r.largest_error / r.peak);
   EXPECT_LT(r.largest_error, 0.01 * r.peak);
 }

@@ -1126,9 +1126,10 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
 mps::ElasticBody elastic_body(const Elastic<2>& e, double l0) {
   const auto cells = [&](std::size_t a) { return static_cast<int>(std::lround((e.box.hi[a] - e.box.lo[a]) / l0)); };
   const mps::BodyLattice lattice{e.box.lo[0], e.box.lo[1], cells(0), cells(1), l0};
-  return e.cylinder_radius > 0 ? mps::cylinder_clamped_box_body(lattice, e.cylinder_centre[0], e.cylinder_centre[1],
-                                                        e.cylinder_radius, Elastic<2>::clamp_layers)
-                       : mps::clamped_box_body(lattice, e.clamp, Elastic<2>::clamp_layers);
+  if (e.cylinder_radius > 0)
+    return mps::cylinder_clamped_box_body(lattice, e.cylinder_centre[0], e.cylinder_centre[1], e.cylinder_radius,
+                                          Elastic<2>::clamp_layers);
+  return mps::clamped_box_body(lattice, e.clamp, Elastic<2>::clamp_layers);
 }
 
 mps::ElasticConfig elastic_config(const Scene<2>& s, const Elastic<2>& e) {

@@ -688,16 +688,17 @@ void bind_simulation(py::module_& m) {
           "(0: no limit; the 3-D dam break's 1 keeps fluid pressed onto a wall out of the free surface).")
       .def(
           "add_wall_backstop",
-          [](Simulation<D>& s, Typed<AxisBoxLike> tank, const py::list& obstacles) {
+          [](Simulation<D>& s, Typed<AxisBoxLike> tank, const py::list& obstacles, double slack) {
             const auto box = axis_box_of<D>(tank, "the tank");
             std::vector<typename mps::BasicWallBackstop<D>::AxisBox> inside;
             for (py::handle o : obstacles) inside.push_back(axis_box_of<D>(o, "an obstacle"));
-            s.locked([&] { s.sim->template add<mps::BasicWallBackstop<D>>(box, std::move(inside)); });
+            s.locked([&] { s.sim->template add<mps::BasicWallBackstop<D>>(box, std::move(inside), slack); });
           },
-          py::arg("tank"), py::arg("obstacles") = py::list(),
-          "Fluid that crosses a face of the tank (below its top) or of an obstacle is put back on the face and loses\n"
-          "its velocity into the wall (mps::WallBackstop): a backstop for 3-D wall lattices, whose holes let pressed\n"
-          "fluid through. tank and each obstacle: (x0, y0, x1, y1) in 2-D, (x0, y0, z0, x1, y1, z1) in 3-D.")
+          py::arg("tank"), py::arg("obstacles") = py::list(), py::arg("slack") = 0.0,
+          "Fluid that goes more than slack [m] past a face of the tank (below its top) or of an obstacle is put back\n"
+          "on the face and loses its velocity into the wall (mps::WallBackstop): a backstop for 3-D wall lattices,\n"
+          "whose holes let pressed fluid through, and for a 2-D corner hit by a surge (the 2-D columns take l0/2).\n"
+          "tank and each obstacle: (x0, y0, x1, y1) in 2-D, (x0, y0, z0, x1, y1, z1) in 3-D.")
       .def(
           "add_wet_walls", [](Simulation<D>& s) { s.locked([&] { s.sim->template add<mps::BasicWetWalls<D>>(); }); },
           "Wall particles next to fluid that is not free surface stay PPE unknowns (mps::WetWalls).")

@@ -649,6 +649,45 @@ TEST(StepComponents, FluidLeavingTheRegionBecomesACountedGhostAndTheRunGoesOn) {
   }
 }
 
+// The wall backstop with a slack: fluid less than the slack past a tank's wall line or into an obstacle moves freely
+// (pressed against a wall); deeper, it is put on the face with its velocity into the solid removed. Lone particles (no
+// neighbours, free surface, no body force) move by u dt in one step.
+TEST(StepComponents, WallBackstopLeavesFluidWithinItsSlackAndPutsDeeperFluidOnTheFace) {
+  const double dt = 1e-4, slack = 0.025;
+  struct Case {
+    mps::Vec<2> r, u, r_after, u_after;
+  };
+  const std::vector<Case> cases = {
+      {{1.01, 0.5}, {1.0, 0.0}, {1.01 + dt, 0.5}, {1.0, 0.0}},            // within the slack of x_high: free
+      {{1.03, 0.4}, {1.0, 0.5}, {1.0, 0.4 + 0.5 * dt}, {0.0, 0.5}},       // deeper: on the wall line
+      {{0.1, -0.02}, {0.0, 0.0}, {0.1, -0.02}, {0.0, 0.0}},               // within the floor's slack: stays
+      {{0.9, -0.03}, {0.5, -1.0}, {0.9 + 0.5 * dt, 0.0}, {0.5, 0.0}},     // under it: on the floor
+      {{0.32, 0.1}, {0.0, 0.0}, {0.32, 0.1}, {0.0, 0.0}},                 // within the obstacle's slack
+      {{0.35, 0.1}, {1.0, 0.0}, {0.3, 0.1}, {0.0, 0.0}}};                 // deeper: out by its nearest side
+  mps::Particles start;
+  for (const Case& k : cases) start.add(k.r, mps::Kind::fluid, 0, k.u);
+  mps::SimulationConfig c;
+  c.l0 = 0.005;  // the particles further apart than the largest radius, 4.1 l0
+  c.dt_max = dt;
+  mps::Simulation sim(start, mps::Domain{-0.5, 1.5, -0.5, 1.5}, c);
+  using Box = mps::WallBackstop::AxisBox;
+  const auto& backstop =
+      sim.add<mps::WallBackstop>(Box{{0, 0}, {1, 1}}, std::vector<Box>{{{0.3, 0}, {0.7, 0.2}}}, slack);
+  sim.step();
+  ASSERT_EQ(sim.last_step().dt, dt);
+  const mps::Particles& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Case& k = cases[static_cast<std::size_t>(p.id[i])];
+    for (std::size_t a = 0; a < 2; ++a) {
+      EXPECT_NEAR(p.position(i)[a], k.r_after[a], 1e-12) << "particle " << p.id[i] << " axis " << a;
+      EXPECT_NEAR((*p.velocities()[a])[i], k.u_after[a], 1e-12) << "particle " << p.id[i] << " axis " << a;
+    }
+  }
+  EXPECT_EQ(backstop.returned(), 3);
+  for (double bad : {-0.01, std::numeric_limits<double>::quiet_NaN()})
+    EXPECT_THROW(mps::WallBackstop(Box{{0, 0}, {1, 1}}, {}, bad), std::invalid_argument);
+}
+
 namespace {
 // Counts the wall particles with lo <= y < hi, and those of them flagged free surface (dry), as the PPE sees them.
 class DryWallCounter : public mps::StepComponent {

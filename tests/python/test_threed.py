@@ -109,3 +109,14 @@ def test_the_wall_backstop_puts_fluid_through_the_floor_back_on_it():
     assert abs(q.x[0] - (0.1 + 0.3e-3)) < 1e-12 and q.u[0] == 0.3
     with pytest.raises(ValueError, match="an obstacle: each lower corner must lie below its upper"):
         sim.add_wall_backstop((0, 0, 0, 1, 1, 1), [(0.6, 0.4, 0, 0.4, 0.6, 0.2)])
+    with pytest.raises(ValueError, match="the slack must be finite and at least 0 m"):
+        sim.add_wall_backstop((0, 0, 0, 1, 1, 1), slack=-0.01)
+
+
+def test_the_wall_backstop_leaves_fluid_within_its_slack():
+    """The same step through the floor with a slack of 1 mm: the particle 0.8 mm under the floor stays there."""
+    p = sparsemps.Particles3([[0.1, 0.5, 0.0005]], "fluid", velocities=[[0.3, 0.0, -1.3]])
+    sim = sparsemps.Simulation3(p, (-0.5, 1.5, -0.5, 1.5, -0.5, 1.5), l0=0.05, dt_max=1e-3)
+    sim.add_wall_backstop((0, 0, 0, 1, 1, 1), slack=1e-3)
+    sim.step()
+    assert abs(sim.particles.z[0] - (0.0005 - 1.3e-3)) < 1e-12 and sim.particles.w[0] == -1.3

@@ -182,6 +182,14 @@ void BasicRemoveEscaped<D>::after_corrector(StepContext& c) {
 }
 
 template <int D>
+BasicWallBackstop<D>::BasicWallBackstop(AxisBox tank, std::vector<AxisBox> obstacles, double slack)
+    : tank_(tank), obstacles_(std::move(obstacles)), slack_(slack) {
+  if (!(slack >= 0.0 && std::isfinite(slack)))
+    throw std::invalid_argument("WallBackstop: the slack must be finite and at least 0 m, got " +
+                                std::to_string(slack));
+}
+
+template <int D>
 void BasicWallBackstop<D>::after_corrector(StepContext& c) {
   BasicParticles<D>& p = c.particles;
   const auto r = p.positions();
@@ -199,8 +207,8 @@ void BasicWallBackstop<D>::after_corrector(StepContext& c) {
     };
     if ((*r[up])[i] < tank_.hi[up])
       for (std::size_t a = 0; a < D; ++a) {
-        if ((*r[a])[i] < tank_.lo[a]) put_on(a, tank_.lo[a], -1.0);
-        if (a != up && (*r[a])[i] > tank_.hi[a]) put_on(a, tank_.hi[a], 1.0);
+        if ((*r[a])[i] < tank_.lo[a] - slack_) put_on(a, tank_.lo[a], -1.0);
+        if (a != up && (*r[a])[i] > tank_.hi[a] + slack_) put_on(a, tank_.hi[a], 1.0);
       }
     for (const AxisBox& b : obstacles_) {
       // Out through the nearest face; not through the bottom of an obstacle standing on the tank's floor (fluid put
@@ -212,7 +220,7 @@ void BasicWallBackstop<D>::after_corrector(StepContext& c) {
       for (std::size_t a = 0; a < D && inside; ++a) {
         const double x = (*r[a])[i], below = x - b.lo[a], above = b.hi[a] - x;
         // On a face is outside, but on the floor under an obstacle standing on it is inside.
-        inside = (below > 0.0 || (below == 0.0 && a == up && on_floor)) && above > 0.0;
+        inside = (below > slack_ || (below >= 0.0 && a == up && on_floor)) && above > slack_;
         if (below < depth && !(a == up && on_floor)) depth = below, axis = a, upper = false;
         if (above < depth) depth = above, axis = a, upper = true;
       }

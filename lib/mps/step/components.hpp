@@ -220,8 +220,9 @@ class BasicWallBackstop : public BasicStepComponent<D> {
     Vec<D> hi;  ///< upper corner [m]
   };
   /// Fluid is kept inside `tank` below its top and outside every obstacle (an obstacle whose bottom lies on the tank's
-  /// floor is left by its sides or top only).
-  BasicWallBackstop(AxisBox tank, std::vector<AxisBox> obstacles) : tank_(tank), obstacles_(std::move(obstacles)) {}
+  /// floor is left by its sides or top only). Fluid less than `slack` [m] past a face is left where it is (pressed
+  /// against a wall; the 2-D columns allow l0/2, up to the first wall layer's centres); further, it is put on the face.
+  BasicWallBackstop(AxisBox tank, std::vector<AxisBox> obstacles, double slack = 0.0);
   void after_corrector(StepContext& c) override;
   [[nodiscard]] long returned() const { return returned_; }  ///< fluid particles put back so far (one per step each)
   [[nodiscard]] nlohmann::json save_state() const override { return {{"returned", returned_}}; }  ///< the count
@@ -234,6 +235,7 @@ class BasicWallBackstop : public BasicStepComponent<D> {
  private:
   AxisBox tank_;
   std::vector<AxisBox> obstacles_;
+  double slack_;
   long returned_ = 0;
 };
 using WallBackstop = BasicWallBackstop<2>;   ///< 2-D

@@ -208,6 +208,26 @@ TEST(DamBreak, HigherOrderSourceQuietsTheWallPressureOfTheSeedColumn) {
   EXPECT_NEAR(hs.peak, 0.654, 0.1 * 0.654);
 }
 
+// The tank is its built walls: the seed column's 5.366 H is no whole number of spacings, and the scene's tank length
+// (where the pressure probes sit and the wall backstop acts) is the first wall layer's centres less l0/2 at every
+// spacing. The classic column's 8a, already whole, is kept to the bit.
+TEST(DamBreak, TheTankLengthIsWhereTheWallIsBuilt) {
+  for (double l0 : {0.04, 0.02, 0.01}) {
+    dambreak::Params p = dambreak::defaults(dambreak::Column::seed);
+    p.l0 = l0;
+    const dambreak::Scene scene(p);
+    const mps::Particles& s = scene.sim().particles();
+    double first_layer = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < s.size(); ++i)
+      if (s.kind[i] == mps::Kind::wall && s.y[i] > 0.0 && s.x[i] > 0.5 * p.tank_length)  // the downstream wall
+        first_layer = std::min(first_layer, s.x[i]);
+    EXPECT_NEAR(scene.params().tank_length, first_layer - 0.5 * l0, 1e-9 * l0) << "l0 = " << l0;
+    EXPECT_GT(std::abs(scene.params().tank_length - p.tank_length), 0.1 * l0) << "l0 = " << l0;
+  }
+  const dambreak::Params classic = dambreak::defaults(dambreak::Column::classic);
+  EXPECT_EQ(dambreak::Scene(classic).params().tank_length, classic.tank_length);
+}
+
 // A step far beyond the CFL limit is stopped by the guard, which names the app's time-step option.
 TEST(DamBreak, ATimeStepFarBeyondTheCflLimitIsStoppedByTheGuard) {
   dambreak::Params p = dambreak::defaults(dambreak::Column::classic);

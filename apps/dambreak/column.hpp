@@ -127,6 +127,10 @@ FileScene from_particles(mps::Particles particles, double dx, const Params& opti
 double file_spacing(double median, double dx, std::string& how);
 // A length measured on lattice particles: a whole number of spacings when it is one to round-off.
 double snapped(double length, double l0);
+// The tank's length as its walls are built (add_rectangle_walls): the nearest whole number of spacings. The seed
+// column's 5.366 H is 0.15-0.4 l0 off its wall at H/25-H/100; the probes, the wall checks and the backstop take the
+// built wall. Unchanged when it is already whole (the classic column's 8a).
+double built_tank_length(const Params& p);
 // Whether a file's particles are `built` (a built-in scene's) in any order: the same kinds and groups at the same
 // positions to 1e-9 l0, at rest.
 template <int D>
@@ -172,9 +176,13 @@ class Scene {
   // Fluid removed as spray over the walls, as mps::RemoveEscaped counted it (so that fluid plus spray equals the
   // initial count is a check, not a definition); on ranks the sum over them (collective).
   [[nodiscard]] long removed() const;
+  // Fluid particles the wall backstop put back on a wall line from inside the wall, summed over steps (collective on
+  // ranks).
+  [[nodiscard]] long backstop_returns() const;
   [[nodiscard]] long initial_fluid() const { return initial_fluid_; }
-  // Fluid particles inside a wall (below its top and past its first layer's centres, l0/2 beyond the wall line): the
-  // most there were at any sample. And the deepest any fluid went past a wall line [m] (<= 0: never reached it).
+  // Fluid particles inside a wall (below its top and past its first layer's centres, l0/2 beyond the wall line) after
+  // the backstop: the most there were at any sample. And the deepest any fluid went past a wall line [m] (<= 0: never
+  // reached it).
   [[nodiscard]] long most_inside_walls() const { return most_inside_walls_; }
   [[nodiscard]] double deepest_past_wall_line() const { return deepest_past_wall_line_; }
   // For a checkpoint: the samples and wall counts so far (the simulation's own state is Simulation::checkpoint()).

@@ -210,6 +210,7 @@ Start make_start(const Options& o) {
     }
     if (o.end_time > 0) p.end_time = o.end_time;
     p.l0 = o.dx > 0 ? o.dx : dambreak::defaults(column).l0;
+    p.tank_length = dambreak::built_tank_length(p);
     if (p.l0 > dambreak::coarsest_spacing(p))
       throw std::invalid_argument("--dx " + short_number(p.l0) + " m is coarser than the " + start.column_name +
                                   " column takes: at most " + short_number(dambreak::coarsest_spacing(p)) +
@@ -465,7 +466,7 @@ void check_impact(const Series& series, const dambreak::Params& p, const Experim
 
 // Rank 0, after the run: the series, the checks against the experiments and the summary; returns the exit status.
 int report(const fs::path& dir, const dambreak::Scene& scene, const Experiments& e, const FrontTolerances& front,
-           long removed, const nlohmann::json& params, const FrameSeries& frames) {
+           long removed, long backstop_returns, const nlohmann::json& params, const FrameSeries& frames) {
   const mps::Simulation& sim = scene.sim();
   const dambreak::Params& p = scene.params();
   const Series series = write_series(dir, scene, sim.config().rho);
@@ -478,6 +479,7 @@ int report(const fs::path& dir, const dambreak::Scene& scene, const Experiments&
   checks["fluid_removed_as_spray_count"] = removed;
   checks["most_fluid_inside_walls_count"] = scene.most_inside_walls();
   checks["deepest_past_wall_line_l0"] = std::max(0.0, scene.deepest_past_wall_line() / p.l0);
+  checks["fluid_returned_to_a_face_count"] = backstop_returns;
   write_solves(dir, sim);
   write_summary(dir, {{"status", p.column != dambreak::Column::classic ? "completed" : pass ? "passed" : "check failed"},
                       {"parameters", params},
@@ -485,7 +487,9 @@ int report(const fs::path& dir, const dambreak::Scene& scene, const Experiments&
                       {"steps", sim.last_step().step}, {"time_s", sim.time()}, {"checks", checks},
                       {"timings", timings_json(sim.times(), sim.last_step().step, sim.particles().size())}});
   std::printf("spray removed: %ld particles; most fluid particles inside a wall at once: %ld; deepest past a wall "
-              "line: %.3f l0\n", removed, scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall_line() / p.l0));
+              "line: %.3f l0; put back on a wall line by the wall backstop: %ld times\n",
+              removed, scene.most_inside_walls(), std::max(0.0, scene.deepest_past_wall_line() / p.l0),
+              backstop_returns);
   std::printf("outputs: %s (ParaView), front.csv, level.csv, pressure.csv, summary.json in %s\n",
               frames.path().string().c_str(), dir.string().c_str());
   return pass ? 0 : 2;
@@ -878,9 +882,9 @@ int main(int argc, char** argv) {
       return ranks.root() ? report_guard_stop(dir, e, params, sim, &scene.all_particles()) : 1;
     }
     progress.finish(sim.time(), sim.last_step().step);
-    const long removed = scene.removed();
+    const long removed = scene.removed(), backstop_returns = scene.backstop_returns();
     if (!ranks.root()) return 0;
-    return report(dir, scene, experiments, o.front, removed, params, series);
+    return report(dir, scene, experiments, o.front, removed, backstop_returns, params, series);
   } catch (const std::exception& e) {
     if (!ranks.every_rank_failed()) ranks.end_alone(error_message(e));
     ranks.say_error(error_message(e));

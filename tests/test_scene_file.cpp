@@ -237,6 +237,10 @@ TEST(SceneFile, MalformedFilesAreRefusedWithTheirLineAndKey) {
   expect("no_run", [] { std::string t = tank(); t.erase(t.find("[run]")); return t; }(),
          "it needs [run] with 'end_time'");
   expect("component", tank("[components]\nsplash = true\n"), "line 16: 'splash' is no key of [components]");
+  expect("backstop", tank("[components]\nwall_backstop = \"yes\"\n"),
+         "line 16: 'wall_backstop' must be true, false or a table {slack = S}");
+  expect("backstop_slack", tank("[components]\nwall_backstop = {slack = -0.5}\n"),
+         "line 16: 'slack' must be in [0, 10] l0");
   expect("too_fine",
          [] {
            std::string t = tank();

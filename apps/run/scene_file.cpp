@@ -372,7 +372,15 @@ void read_fluid_numerics(const std::string& file, const Keys& top, Scene<D>& s, 
     }
     s.wet_walls = switch_at(file, k, "wet_walls");
     s.remove_escaped = switch_at(file, k, "remove_escaped");
-    s.wall_backstop = switch_at(file, k, "wall_backstop");
+    // true, or a table with the slack: fluid less than it past a face is left alone (the 2-D dam break's l0/2)
+    if (const toml::node* b = k.find("wall_backstop"); b != nullptr && !b->is_boolean()) {
+      if (!b->is_table()) fail(file, *b, "'wall_backstop' must be true, false or a table {slack = S} (S in l0)");
+      const Keys bk(file, *b->as_table(), "wall_backstop", {"slack"});
+      s.wall_backstop = true;
+      s.wall_backstop_slack = number_in(file, bk, "slack", 0, 0, 10, "in [0, 10] l0");
+    } else {
+      s.wall_backstop = switch_at(file, k, "wall_backstop");
+    }
     if ((s.remove_escaped || s.wall_backstop) && !s.has_tank)
       fail(file, *c, "remove_escaped and wall_backstop act on the tank's walls; this scene has no [tank]");
   }
@@ -380,7 +388,7 @@ void read_fluid_numerics(const std::string& file, const Keys& top, Scene<D>& s, 
                         {"asymmetry", s.asymmetry},
                         {"asymmetry_interior_density_over_n0", s.asymmetry_interior_density},
                         {"wet_walls", s.wet_walls}, {"remove_escaped", s.remove_escaped},
-                        {"wall_backstop", s.wall_backstop}};
+                        {"wall_backstop", s.wall_backstop}, {"wall_backstop_slack_l0", s.wall_backstop_slack}};
 }
 
 template <int D>
@@ -1104,7 +1112,7 @@ std::unique_ptr<mps::BasicSimulation<D>> make_simulation(const Scene<D>& s,
     for (const Obstacle<D>& o : s.obstacles)
       if (!(o.amplitude > 0)) boxes.push_back({o.box.lo, o.box.hi});  // a moving box is not where it started
     sim->template add<mps::BasicWallBackstop<D>>(typename mps::BasicWallBackstop<D>::AxisBox{tank.lo, tank.hi},
-                                                 std::move(boxes));
+                                                 std::move(boxes), s.wall_backstop_slack * s.config.l0);
   }
   if constexpr (D == 2) {
     for (const Elastic<D>& e : s.elastic) {

@@ -142,6 +142,7 @@ struct Scene {
   bool wet_walls = false;       // mps::WetWalls
   bool remove_escaped = false;  // mps::RemoveEscaped: fluid over the tank's walls or near the domain's ceiling
   bool wall_backstop = false;   // mps::WallBackstop: fluid kept inside the tank and out of the obstacles
+  double wall_backstop_slack = 0;  // ... once more than this past a face [l0]
   double end_time = 0;          // [s]
   std::filesystem::path out;    // the file's out relative to its folder; by default runs/<file stem>
   int frames = 20;

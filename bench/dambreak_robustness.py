@@ -6,8 +6,8 @@ returns) and a chart of each variant's 0.2 H signal against the experiment.
 
   bench/dambreak_robustness.py BUILD_DIR [--spacings 25,50,100] [--runs DIR] [--jobs 2]
 
-One thread per run, two runs at a time: H/25 about 20 s a run, H/50 about 2.5 min, H/100 about 20 min (about 1 h 15 min
-for the default eleven runs). A run whose summary is already in --runs is read, not rerun (delete it to rerun).
+One thread per run, two runs at a time: an H/50 run took about 2.5 min here and an H/100 run 20-36 min beside other
+runs. A run whose summary is already in --runs is read, not rerun (delete it to rerun).
 """
 import argparse
 import csv

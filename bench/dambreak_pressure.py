@@ -37,7 +37,9 @@ def run(exe, out, treatment, across, extra):
     return json.loads(summary.read_text())
 
 
-def plot(runs, chart, spacings, treatments):
+def plot_against_buchner(chart, spacings, curves, top=1.6):
+    """One panel per spacing: Buchner's 0.2 H record and the 31-step mean of each run's, curves(across) giving
+    (label, pressure.csv) pairs; a missing file is left out."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -47,8 +49,7 @@ def plot(runs, chart, spacings, treatments):
     fig, axes = plt.subplots(len(spacings), 1, figsize=(10, 3.2 * len(spacings)), squeeze=False)
     for ax, across in zip(axes[:, 0], spacings):
         ax.plot(data[:, 0], data[:, 1], "k.", ms=3, label="Buchner (2002)")
-        for treatment in treatments:
-            path = runs / f"H{across}_{treatment.replace('+', '_')}" / "pressure.csv"
+        for label, path in curves(across):
             if not path.exists():
                 continue
             with path.open() as f:
@@ -56,15 +57,20 @@ def plot(runs, chart, spacings, treatments):
             t = np.array([float(r["t_sqrt_g_over_H"]) for r in table])
             p = np.array([float(r["p_over_rho_g_H_at_0.2H"]) for r in table])
             smooth = np.convolve(p, np.ones(31) / 31, mode="same")
-            ax.plot(t, smooth, lw=1.2, label=f"{treatment} (31-step mean)")
+            ax.plot(t, smooth, lw=1.2, label=f"{label} (31-step mean)")
         ax.set_xlim(2, 7)
-        ax.set_ylim(-0.1, 1.6)
+        ax.set_ylim(-0.1, top)
         ax.set_ylabel("p / (rho g H) at 0.2 H")
         ax.set_title(f"seed column, H/{across}")
         ax.legend(fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("t sqrt(g/H)")
     fig.tight_layout()
     fig.savefig(chart, dpi=110)
+
+
+def plot(runs, chart, spacings, treatments):
+    plot_against_buchner(chart, spacings, lambda across: [
+        (t, runs / f"H{across}_{t.replace('+', '_')}" / "pressure.csv") for t in treatments])
 
 
 def main():

@@ -17,7 +17,7 @@ import subprocess
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from dambreak_pressure import FIGURES, KEYS
+from dambreak_pressure import FIGURES, KEYS, plot_against_buchner
 
 # label, folder, the options beside --column seed --dx; the shifting variants at H/50 only
 VARIANTS = [("auto (default)", "auto", []), ("IC-CG", "eigen-cg", ["--solver", "eigen-cg"]),
@@ -44,29 +44,8 @@ def run(exe, out, options, across):
 
 
 def plot(runs, chart, spacings):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-    data = np.loadtxt(Path(__file__).resolve().parent.parent / "data" / "dambreak" / "buchner_exp_data.txt")
-    data = data[np.argsort(data[:, 0], kind="stable")]
-    fig, axes = plt.subplots(len(spacings), 1, figsize=(10, 3.2 * len(spacings)), squeeze=False)
-    for ax, across in zip(axes[:, 0], spacings):
-        ax.plot(data[:, 0], data[:, 1], "k.", ms=3, label="Buchner (2002)")
-        for label, name, _ in variants_at(across):
-            with (folder(runs, name, across) / "pressure.csv").open() as f:
-                table = list(csv.DictReader(f))
-            t = np.array([float(r["t_sqrt_g_over_H"]) for r in table])
-            p = np.array([float(r["p_over_rho_g_H_at_0.2H"]) for r in table])
-            ax.plot(t, np.convolve(p, np.ones(31) / 31, mode="same"), lw=1.1, label=f"{label} (31-step mean)")
-        ax.set_xlim(2, 7)
-        ax.set_ylim(-0.1, 1.3)
-        ax.set_ylabel("p / (rho g H) at 0.2 H")
-        ax.set_title(f"seed column, H/{across}")
-        ax.legend(fontsize=7, ncol=3)
-    axes[-1, 0].set_xlabel("t sqrt(g/H)")
-    fig.tight_layout()
-    fig.savefig(chart, dpi=110)
+    plot_against_buchner(chart, spacings, lambda across: [
+        (label, folder(runs, name, across) / "pressure.csv") for label, name, _ in variants_at(across)], top=1.3)
 
 
 def main():

@@ -210,7 +210,6 @@ Start make_start(const Options& o) {
     }
     if (o.end_time > 0) p.end_time = o.end_time;
     p.l0 = o.dx > 0 ? o.dx : dambreak::defaults(column).l0;
-    p.tank_length = dambreak::built_tank_length(p);
     if (p.l0 > dambreak::coarsest_spacing(p))
       throw std::invalid_argument("--dx " + short_number(p.l0) + " m is coarser than the " + start.column_name +
                                   " column takes: at most " + short_number(dambreak::coarsest_spacing(p)) +

@@ -2,12 +2,16 @@
 """Where the seed column's first impact is late (docs/dambreak.md, issue 38): the front's arrival at the downstream
 wall, every wall probe's arrival, and how fast the water climbs the wall past the 0.2 H sensor, at each spacing.
 Writes bench/results/dambreak_impact.csv, the tongue's depth just before the impact against Ritter's shallow-water
-solution (dambreak_impact_depth.csv), and a chart of the three.
+solution (dambreak_impact_depth.csv), the noise after it (dambreak_impact_noise.csv), and a chart.
 
   bench/dambreak_impact.py BUILD_DIR [--spacings 25,50,100] [--runs DIR] [--jobs 2]
 
-Each run is the default seed column to t sqrt(g/H) = 3.6 with a frame every 0.02 (H/100: about 10 minutes on one
+Each run is the default seed column to t sqrt(g/H) = 5 with a frame every 0.02 (H/100: about 16 minutes on one
 thread). A run whose summary is already in --runs is read, not rerun (delete it to rerun).
+
+The noise over the plateau (dambreak_impact_noise.csv): each probe's signal less its centred mean over 0.1, over
+t sqrt(g/H) in [3.5, 5]: its RMS, its correlation with the 0.2 H probe's, the 0.2 H noise's correlation with itself one
+step later, and with the step's change in the PPE's unknown count (solves.csv), which the surface test's flips move.
 """
 import argparse
 import csv
@@ -28,7 +32,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 G, H = 9.81, 1.0  # the seed column is 1 m high
-END_T, FRAME_T = 3.6, 0.02
+END_T, FRAME_T, CHART_T = 5.0, 0.02, 3.6
+PLATEAU = (3.5, 5.0)  # the checks' plateau window, where the noise is read [t sqrt(g/H)]
 ARRIVAL = 0.25  # the checks' arrival level [rho g H]
 SENSOR = (0.125, 0.275)  # the 0.2 H sensor's extent [H]
 WETTED_LEVELS = (0.05, 0.125, 0.2, 0.275)
@@ -103,9 +108,35 @@ def centred_mean(t, values, width):
     return (sums[hi] - sums[lo]) / (hi - lo)
 
 
+def plateau_noise(out, t, probes):
+    """Rows of the noise figures over PLATEAU, one per probe (see the module's doc)."""
+    noise = {name: p - centred_mean(t, p, 0.1) for name, p in probes.items()}
+    window = (t >= PLATEAU[0]) & (t <= PLATEAU[1])
+    reference = noise["p_over_rho_g_H_at_0.2H"][window]
+    with (out / "solves.csv").open() as f:
+        unknowns = np.array([float(r["unknowns"]) for r in csv.DictReader(f)])
+    # pressure.csv's row k + 1 follows step k + 1, solves.csv's row k
+    flips = np.diff(unknowns, prepend=unknowns[0])[np.nonzero(window[1:])[0]]
+    rows = []
+    for name, values in noise.items():
+        rows.append({"probe": name.split("_at_")[1], "noise_rms": f"{values[window].std():.4f}",
+                     "correlation_with_0.2H": f"{np.corrcoef(values[window], reference)[0, 1]:.3f}"})
+    rows[0]["lag1_autocorrelation_0.2H"] = f"{np.corrcoef(reference[:-1], reference[1:])[0, 1]:.3f}"
+    rows[0]["correlation_0.2H_with_unknown_count_change"] = f"{np.corrcoef(reference, flips)[0, 1]:.3f}"
+    return rows
+
+
 def first_time(t, values, level):
     reached = np.nonzero(values >= level)[0]
     return float(t[reached[0]]) if len(reached) else float("nan")
+
+
+def write_rows(path, rows):
+    """A CSV of dicts; the first row names the columns (a later row may leave some empty)."""
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
 
 
 def main():
@@ -123,7 +154,7 @@ def main():
     with ThreadPoolExecutor(args.jobs) as pool:
         summaries = list(pool.map(lambda n: run(exe, runs / f"H{n}", n), spacings))
 
-    rows, curves = [], {}
+    rows, curves, noise_rows = [], {}, []
     for across, summary in zip(spacings, summaries):
         out, l0 = runs / f"H{across}", 1.0 / across
         wall = summary["parameters"]["tank_length_m"]
@@ -141,12 +172,11 @@ def main():
             row[f"wetted_to_{level}H"] = first_time(wetted[:, 0], wetted[:, 1], level)
         rows.append(row)
         curves[across] = (t, probes, wetted, depth_profile(out, l0, PROFILE_T))
+        for figures in plateau_noise(out, t, probes):
+            noise_rows.append({"spacing": f"H/{across}", **figures})
         print(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()))
-    with (results / "dambreak_impact.csv").open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-
+    write_rows(results / "dambreak_impact.csv", rows)
+    write_rows(results / "dambreak_impact_noise.csv", noise_rows)
     with (results / "dambreak_impact_depth.csv").open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["x_over_H", "ritter_depth_over_H"] + [f"depth_over_H_H{n}_T{curves[n][3][0]:.3f}"
@@ -165,7 +195,7 @@ def main():
                   label=f"{name.split('_at_')[1]} (H/{finest}, mean over 0.1)")
     left.plot(buchner[:, 0], buchner[:, 1], "k.", ms=4, label="Buchner (2002), 0.2H")
     left.axhline(ARRIVAL, color="grey", lw=0.5, ls=":")
-    left.set(xlim=(2.3, END_T), ylim=(-0.1, 1.8), xlabel="t sqrt(g/H)", ylabel="p / (rho g H)",
+    left.set(xlim=(2.3, CHART_T), ylim=(-0.1, 1.8), xlabel="t sqrt(g/H)", ylabel="p / (rho g H)",
              title="wall probes at the first impact")
     left.legend(fontsize=8)
     for across in spacings:
@@ -173,7 +203,7 @@ def main():
         right.plot(wetted[:, 0], wetted[:, 1], lw=1.2, label=f"H/{across}")
     right.axhspan(*SENSOR, color="orange", alpha=0.2, label="the 0.2H sensor")
     right.axvline(2.512, color="k", lw=0.8, ls="--", label="Buchner's arrival at 0.2H")
-    right.set(xlim=(2.3, END_T), ylim=(0, 1.2), xlabel="t sqrt(g/H)", ylabel="height / H",
+    right.set(xlim=(2.3, CHART_T), ylim=(0, 1.2), xlabel="t sqrt(g/H)", ylabel="height / H",
               title="water standing on the downstream wall")
     right.legend(fontsize=8)
     fine_x = np.linspace(2.0, 5.36, 200) * H

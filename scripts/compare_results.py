@@ -42,7 +42,7 @@ CASES = {
     "acoustic-two-pulse": ("acoustic", "--case two-pulse --size 40 --l0 0.5 --end-time 0.05 --no-maps --frames 2"),
     "dambreak-classic": ("dambreak", "--column classic --end-time 0.1 --frames 2"),
     "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
-    # the seed column at its own spacing through both impacts (about 2.5 min): the wall pressure there moves with the
+    # the seed column at its own spacing through both impacts (about 2 min): the wall pressure there moves with the
     # solver's last digits, which the short cases above end before
     "dambreak-seed-h50": ("dambreak", "--column seed --dx 0.02 --frames 2"),
     "dambreak-classic-shifting-plain-gradient": ("dambreak", "--column classic --end-time 0.1 --frames 2 --shifting 1 "

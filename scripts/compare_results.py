@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-# name -> (app, arguments); each a few seconds at these sizes, but for the seed column's full run.
+# name -> (app, arguments); each a few seconds at these sizes, except dambreak-seed-h50 (about 2 min).
 CASES = {
     "demo-inlet-re40": ("poiseuille", "--mode inlet --re 40 --across 10 --end-time 3 --frames 2"),
     "inlet-re4-shifting-implicit": ("poiseuille", "--mode inlet --re 4 --across 10 --end-time 0.5 --frames 2 "
@@ -42,8 +42,8 @@ CASES = {
     "acoustic-two-pulse": ("acoustic", "--case two-pulse --size 40 --l0 0.5 --end-time 0.05 --no-maps --frames 2"),
     "dambreak-classic": ("dambreak", "--column classic --end-time 0.1 --frames 2"),
     "dambreak-seed-no-collisions": ("dambreak", "--column seed --end-time 0.3 --frames 2 --collision 0 --asymmetry 0"),
-    # the seed column at its own spacing through both impacts (about 2 min): the wall pressure there moves with the
-    # solver's last digits, which the short cases above end before
+    # the seed column at its own spacing through both impacts: the other dam-break cases end before the impact, where
+    # the wall pressure moves with the solver's last digits
     "dambreak-seed-h50": ("dambreak", "--column seed --dx 0.02 --frames 2"),
     "dambreak-classic-shifting-plain-gradient": ("dambreak", "--column classic --end-time 0.1 --frames 2 --shifting 1 "
                                                              "--gradient plain"),

@@ -12,14 +12,13 @@ About 1.5 minutes on one thread. The run is not the app's bit for bit (the app a
 here the domain is taller instead), so its figures are the app's in kind, not in every digit.
 """
 import argparse
-import csv
 import math
 from pathlib import Path
 
 import numpy as np
 
 import sparsemps as sps
-from dambreak_impact import PLATEAU, centred_mean
+from dambreak_impact import PLATEAU, centred_mean, write_rows
 
 L0, H, G, TANK = 0.02, 1.0, 9.81, 5.36
 START_T = 3.0  # the smoothing needs half its window before the plateau's start
@@ -72,11 +71,7 @@ def main():
              "correlation_with_0.2H": f"{np.corrcoef(values, noise['sensor_0.2H'])[0, 1]:.3f}",
              "correlation_with_0.01H": f"{np.corrcoef(values, noise['sensor_0.01H'])[0, 1]:.3f}"}
             for name, values in noise.items()]
-    out = Path(args.results) / "dambreak_noise_sources.csv"
-    with out.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(Path(args.results) / "dambreak_noise_sources.csv", rows)
     for row in rows:
         print(row)
 

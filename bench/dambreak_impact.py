@@ -13,7 +13,6 @@ The noise over the plateau (dambreak_impact_noise.csv): each probe's signal less
 t sqrt(g/H) in [3.5, 5]: its RMS, its correlation with the 0.2 H probe's, the 0.2 H noise's correlation with itself one
 step later, and with the step's change in the PPE's unknown count (solves.csv), which the surface test's flips move.
 """
-import argparse
 import csv
 import json
 import math
@@ -27,6 +26,8 @@ import matplotlib
 import numpy as np
 import vtk
 from vtk.util.numpy_support import vtk_to_numpy
+
+from dambreak_pressure import seed_bench_setup, write_rows
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -141,26 +142,8 @@ def first_time(t, values, level):
     return float(t[reached[0]]) if len(reached) else float("nan")
 
 
-def write_rows(path, rows):
-    """A CSV of dicts; its columns are every key in order of first appearance (a row may leave some empty)."""
-    with path.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(dict.fromkeys(k for row in rows for k in row)))
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("build")
-    ap.add_argument("--results", default="bench/results")
-    ap.add_argument("--runs", default="runs/dambreak_impact")
-    ap.add_argument("--spacings", default="25,50,100")
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args()
-    results, runs = Path(args.results), Path(args.runs)
-    results.mkdir(parents=True, exist_ok=True)
-    exe = Path(args.build) / "apps" / "dambreak" / "dambreak"
-    spacings = [int(s) for s in args.spacings.split(",")]
+    args, results, runs, exe, spacings = seed_bench_setup("runs/dambreak_impact", "25,50,100")
     with ThreadPoolExecutor(args.jobs) as pool:
         summaries = list(pool.map(lambda n: run(exe, runs / f"H{n}", n), spacings))
 

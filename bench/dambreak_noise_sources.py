@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 import sparsemps as sps
-from dambreak_impact import PLATEAU, centred_mean, write_rows
+from dambreak_impact import PLATEAU, centred_mean
+from dambreak_pressure import write_rows
 
 L0, H, G, TANK = 0.02, 1.0, 9.81, 5.36
 START_T = 3.0  # the smoothing needs half its window before the plateau's start

@@ -26,6 +26,31 @@ KEYS = {"arrival": "arrival_t_sqrt_g_over_H", "first_peak": "first_peak_over_rho
         "second_arrival": "second_arrival_t_sqrt_g_over_H", "second_peak": "second_peak_over_rho_g_H"}
 
 
+def seed_bench_setup(runs, spacings, add_options=lambda parser: None):
+    """The seed-column benches' command line, BUILD [--results] [--runs] [--spacings] [--jobs] and the caller's own
+    options: (the arguments, the results folder (made), the runs folder, the dambreak app, the spacings' N of H/N)."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("build")
+    ap.add_argument("--results", default="bench/results")
+    ap.add_argument("--runs", default=runs)
+    ap.add_argument("--spacings", default=spacings)
+    ap.add_argument("--jobs", type=int, default=2)
+    add_options(ap)
+    args = ap.parse_args()
+    results = Path(args.results)
+    results.mkdir(parents=True, exist_ok=True)
+    return (args, results, Path(args.runs), Path(args.build) / "apps" / "dambreak" / "dambreak",
+            [int(n) for n in args.spacings.split(",")])
+
+
+def write_rows(path, rows):
+    """A CSV of dicts; its columns are every key in order of first appearance (a row may leave some empty)."""
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(dict.fromkeys(k for row in rows for k in row)))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run(exe, out, treatment, across, extra):
     summary = out / "summary.json"
     if summary.exists():
@@ -73,21 +98,14 @@ def plot(runs, chart, spacings, treatments):
         (t, runs / f"H{across}_{t.replace('+', '_')}" / "pressure.csv") for t in treatments])
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("build")
-    ap.add_argument("--results", default="bench/results")
-    ap.add_argument("--runs", default="runs/dambreak_pressure")
-    ap.add_argument("--spacings", default="25,50")
+def own_options(ap):
     ap.add_argument("--treatments", default=",".join(TREATMENTS))
-    ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--name", default="dambreak_treatments", help="the CSV's and the chart's name in --results")
     ap.add_argument("--extra", default="", help="more dambreak options for every run, e.g. '--sensor-height 0.15'")
-    args = ap.parse_args()
-    results, runs = Path(args.results), Path(args.runs)
-    results.mkdir(parents=True, exist_ok=True)
-    exe = Path(args.build) / "apps" / "dambreak" / "dambreak"
-    spacings = [int(s) for s in args.spacings.split(",")]
+
+
+def main():
+    args, results, runs, exe, spacings = seed_bench_setup("runs/dambreak_pressure", "25,50", own_options)
     treatments = args.treatments.split(",")
     jobs = [(t, n) for n in spacings for t in treatments]
     with ThreadPoolExecutor(args.jobs) as pool:
@@ -103,10 +121,7 @@ def main():
             for name in FIGURES:
                 row[name] = probe.get(KEYS[name], "")
             rows.append(row)
-    with (results / f"{args.name}.csv").open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(results / f"{args.name}.csv", rows)
     for row in rows:
         if row["probe_H"] == 0.2:
             print(" ".join(f"{row[k]:.3f}" if isinstance(row[k], float) else str(row[k])

@@ -9,15 +9,12 @@ returns) and a chart of each variant's 0.2 H signal against the experiment.
 One thread per run, two runs at a time: an H/50 run took about 2.5 min here and an H/100 run 20-36 min beside other
 runs. A run whose summary is already in --runs is read, not rerun (delete it to rerun).
 """
-import argparse
-import csv
 import json
 import os
 import subprocess
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
-from dambreak_pressure import FIGURES, KEYS, plot_against_buchner
+from dambreak_pressure import FIGURES, KEYS, plot_against_buchner, seed_bench_setup, write_rows
 
 # label, folder, the options beside --column seed --dx; the shifting variants at H/50 only
 VARIANTS = [("auto (default)", "auto", []), ("IC-CG", "eigen-cg", ["--solver", "eigen-cg"]),
@@ -49,17 +46,7 @@ def plot(runs, chart, spacings):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("build")
-    ap.add_argument("--results", default="bench/results")
-    ap.add_argument("--runs", default="runs/dambreak_robustness")
-    ap.add_argument("--spacings", default="25,50,100")
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args()
-    results, runs = Path(args.results), Path(args.runs)
-    results.mkdir(parents=True, exist_ok=True)
-    exe = Path(args.build) / "apps" / "dambreak" / "dambreak"
-    spacings = [int(s) for s in args.spacings.split(",")]
+    args, results, runs, exe, spacings = seed_bench_setup("runs/dambreak_robustness", "25,50,100")
     jobs = [(across, v) for across in spacings for v in variants_at(across)]
     with ThreadPoolExecutor(args.jobs) as pool:
         summaries = list(pool.map(lambda j: run(exe, folder(runs, j[1][1], j[0]), j[1][2], j[0]), jobs))
@@ -74,10 +61,7 @@ def main():
             row[name] = checks["impact"][KEYS[name]]
         rows.append(row)
         print(" ".join(f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.values()))
-    with (results / "dambreak_robustness.csv").open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(results / "dambreak_robustness.csv", rows)
     plot(runs, results / "dambreak_robustness.png", spacings)
 
 

@@ -117,6 +117,26 @@ TEST(DamBreak, ImpactFindsThePlateauTheSecondImpactAndTheNoiseRms) {
   EXPECT_TRUE(std::isnan(dambreak::impact(t, pressure).second_arrival));
 }
 
+// Sampled at a record's times, a signal is the mean over each sample's interval (midpoint to midpoint): a line gives
+// its interval's middle, a saw of +-0.1 at every step averages away, and samples whose interval reaches past the
+// signal's end (0.8's reaches 1.0) or holds no step (three samples closer than the step) are left out.
+TEST(DamBreak, SampledAtARecordsTimesAveragesOverEachSamplesInterval) {
+  std::vector<double> t, line, saw;
+  for (int k = 0; k < 1000; ++k) {  // steps at 0.0005, 0.0015, ..., 0.9995: none on an interval's end
+    t.push_back((k + 0.5) * 0.001);
+    line.push_back(2.0 * t.back());
+    saw.push_back(0.5 + (k % 2 ? 0.1 : -0.1));
+  }
+  const std::vector<double> at{0.0, 0.2, 0.4, 0.4001, 0.4002, 0.6, 0.8, 1.2};
+  const auto [kept_t, kept_line] = dambreak::sampled_at(t, line, at);
+  ASSERT_EQ(kept_t, (std::vector<double>{0.0, 0.2, 0.4, 0.4002, 0.6}));
+  // intervals [0, 0.1), [0.1, 0.3), [0.3, 0.40005), [0.40015, 0.5001), [0.5001, 0.7): twice their middles
+  const std::vector<double> expected{0.1, 0.4, 0.7, 0.9, 1.2};
+  for (std::size_t s = 0; s < kept_t.size(); ++s) EXPECT_NEAR(kept_line[s], expected[s], 1e-9) << "at " << kept_t[s];
+  for (double v : dambreak::sampled_at(t, saw, at).second) EXPECT_NEAR(v, 0.5, 1e-12);  // 100 or 200 steps each
+  EXPECT_TRUE(dambreak::sampled_at({}, {}, at).first.empty());
+}
+
 TEST(DamBreak, RefusesAColumnThatDoesNotFitAndExperimentalDataThatIsNotNumbers) {
   dambreak::Params p = dambreak::defaults(dambreak::Column::classic);
   p.width = p.tank_length;

@@ -561,6 +561,27 @@ FrontOffset fit_front_offset(const std::vector<Sample>& samples, const Params& p
   return best;
 }
 
+std::pair<std::vector<double>, std::vector<double>> sampled_at(const std::vector<double>& t,
+                                                               const std::vector<double>& p,
+                                                               const std::vector<double>& at) {
+  std::pair<std::vector<double>, std::vector<double>> kept;
+  if (t.empty()) return kept;
+  std::size_t k = 0;
+  for (std::size_t s = 0; s < at.size(); ++s) {
+    const double from = s == 0 ? at[s] : 0.5 * (at[s - 1] + at[s]);
+    const double to = s + 1 == at.size() ? at[s] : 0.5 * (at[s] + at[s + 1]);
+    if (to > t.back()) break;  // a cut interval's mean would be another sample's
+    while (k < t.size() && t[k] < from) ++k;
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (std::size_t j = k; j < t.size() && (t[j] < to || (s + 1 == at.size() && t[j] <= to)); ++j, ++n) sum += p[j];
+    if (n == 0) continue;
+    kept.first.push_back(at[s]);
+    kept.second.push_back(sum / static_cast<double>(n));
+  }
+  return kept;
+}
+
 Impact impact(const std::vector<double>& t, const std::vector<double>& p, double threshold, double window,
               double smooth) {
   const double nan = std::numeric_limits<double>::quiet_NaN();

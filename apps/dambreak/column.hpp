@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mps/io/probes.hpp"
@@ -240,6 +241,14 @@ struct Impact {
 };
 Impact impact(const std::vector<double>& time, const std::vector<double>& pressure, double threshold = 0.25,
               double window = 0.5, double smooth = 0.1);
+
+// The signal as a record sampled only at `at` (ascending) sees it: at each sample time the signal's mean from the
+// midpoint with the previous sample to the midpoint with the next. A digitised curve shows no noise faster than its
+// spacing, so a run's noise is compared with Buchner's at his record's own sampling (docs/dambreak.md). Samples whose
+// interval holds no step of the signal, or reaches past its end, are left out; returns the kept times and means.
+std::pair<std::vector<double>, std::vector<double>> sampled_at(const std::vector<double>& time,
+                                                               const std::vector<double>& pressure,
+                                                               const std::vector<double>& at);
 
 // Martin & Moyce's and Koshizuka & Oka's time unit: T = t sqrt(2 g / a).
 inline double front_time_scale(const Params& p) { return std::sqrt(2.0 * p.g / p.width); }

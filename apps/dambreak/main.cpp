@@ -447,6 +447,10 @@ void check_impact(const Series& series, const dambreak::Params& p, const Experim
     probes.push_back(at);
     if (std::abs(p.pressure_probes[k] - 0.2) > 1e-12) continue;
     figures(buchner, "_buchner", at);
+    const auto [sampled_t, sampled_p] = dambreak::sampled_at(series.t_hat, series.pressures[k], bt);
+    const dambreak::Impact sampled = dambreak::impact(sampled_t, sampled_p);
+    put(at, "noise_at_buchner_sampling_over_range", sampled.noise);
+    put(at, "noise_rms_at_buchner_sampling_over_rho_g_H", sampled.noise_rms);
     checks["impact"] = at;
     if (!std::isfinite(run.arrival)) {
       std::printf("impact at 0.2 H: the pressure there never reached 0.25 rho g H\n");
@@ -456,6 +460,8 @@ void check_impact(const Series& series, const dambreak::Params& p, const Experim
                 "noise %.3f of the range (Buchner %.3f), %.3f rho g H RMS (Buchner %.3f)\n",
                 run.arrival, buchner.arrival, run.peak, buchner.peak, run.noise, buchner.noise, run.noise_rms,
                 buchner.noise_rms);
+    std::printf("  sampled as Buchner's record is (%zu points): noise %.3f of the range, %.3f rho g H RMS\n",
+                sampled_t.size(), sampled.noise, sampled.noise_rms);
     if (std::isfinite(run.second_arrival))
       std::printf("second impact at 0.2 H: arrival %.3f (Buchner %.3f), peak %.3f rho g H (Buchner %.3f)\n",
                   run.second_arrival, buchner.second_arrival, run.second_peak, buchner.second_peak);

@@ -61,11 +61,11 @@ def run(exe, out, across):
     return json.loads(summary.read_text())
 
 
-def fluid_frames(out, after):
-    """(T, fluid positions) of each frame from t sqrt(g/H) = after on."""
+def fluid_frames(out, after, scale=math.sqrt(G / H)):
+    """(T, fluid positions) of each frame from T = after on, T being t times `scale` (t sqrt(g/H) by default)."""
     pvd = (out / "dambreak.pvd").read_text()
     for time, name in re.findall(r'timestep="([^"]+)"[^>]*file="([^"]+)"', pvd):
-        T = float(time) * math.sqrt(G / H)
+        T = float(time) * scale
         if T < after:
             continue
         reader = vtk.vtkXMLPolyDataReader()

@@ -243,9 +243,10 @@ Impact impact(const std::vector<double>& time, const std::vector<double>& pressu
               double window = 0.5, double smooth = 0.1);
 
 // The signal as a record sampled only at `at` (ascending) sees it: at each sample time the signal's mean from the
-// midpoint with the previous sample to the midpoint with the next. A digitised curve shows no noise faster than its
-// spacing, so a run's noise is compared with Buchner's at his record's own sampling (docs/dambreak.md). Samples whose
-// interval holds no step of the signal, or reaches past its end, are left out; returns the kept times and means.
+// midpoint with the previous sample to the midpoint with the next (the first and last sample from their own time
+// inwards). A digitised curve shows no noise faster than its spacing, so a run's noise is compared with Buchner's at
+// his record's own sampling (docs/dambreak.md). Samples whose interval holds no step of the signal, or reaches past
+// its end, are left out; returns the kept times and means.
 std::pair<std::vector<double>, std::vector<double>> sampled_at(const std::vector<double>& time,
                                                                const std::vector<double>& pressure,
                                                                const std::vector<double>& at);

@@ -313,6 +313,41 @@ TEST(SolverFailure, HittingMaxIterationsThrowsWithTheResidualHistory) {
   }
 }
 
+// On one rank hypre reads the caller's own CSR arrays, each row's diagonal swapped to the front for the solve: the
+// matrix is as it was when the solve returns, converged or not, and a solve on it gives the same numbers as on a copy
+// (here after a failed and a reused solve on it).
+TEST(SolverInput, HypreGivesTheCallersMatrixBackAsItWas) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  const mps::CsrMatrix copy = ppe.matrix;
+  auto expect_untouched = [&](const char* spec) {
+    EXPECT_EQ(ppe.matrix.row_ptr, copy.row_ptr) << spec;
+    EXPECT_EQ(ppe.matrix.col, copy.col) << spec;
+    EXPECT_EQ(ppe.matrix.val, copy.val) << spec;
+  };
+  for (const char* spec : {"hypre-pcg", "hypre-pcg:filter=0.2,reuse=2", "hypre-pcg:precond=jacobi", "hypre-amg",
+                           "hypre-pcg:max_iter=2"}) {
+    auto solver = mps::make_solver(spec), fresh = mps::make_solver(spec);
+    std::vector<double> x(ppe.size(), 0.0), on_copy(ppe.size(), 0.0);
+    for (int solve = 0; solve < 2; ++solve) {
+      try {
+        (void)solver->solve(ppe.matrix, ppe.rhs, x);
+      } catch (const mps::SolverError&) {
+        EXPECT_NE(std::string(spec).find("max_iter"), std::string::npos) << spec;
+      }
+      expect_untouched(spec);
+    }
+    std::fill(x.begin(), x.end(), 0.0);
+    try {
+      (void)solver->solve(ppe.matrix, ppe.rhs, x);
+      (void)fresh->solve(copy, ppe.rhs, on_copy);
+    } catch (const mps::SolverError&) {
+      continue;
+    }
+    EXPECT_EQ(x, on_copy) << spec;
+    expect_untouched(spec);
+  }
+}
+
 TEST(SolverFailure, NanInTheInputIsAnError) {
   const mps::PpeSystem& ppe = tank().ppe;
   std::vector<double> bad_rhs = ppe.rhs;

@@ -25,6 +25,7 @@
 #include <cstdlib>
 #include <limits>
 #include <mutex>
+#include <span>
 #include <sstream>
 #include <type_traits>
 
@@ -99,6 +100,37 @@ struct ParSystem {
     for (HYPRE_IJMatrix matrix : {ij, ij_m})
       if (matrix != nullptr) HYPRE_IJMatrixDestroy(matrix);
   }
+};
+
+// On one rank hypre reads A from the caller's arrays instead of a copy, which was the PPE's largest allocation
+// after our own CSR (about 0.6 KB a particle in 2-D, 3 KB in 3-D). Its smoothers and Jacobi take each row's first
+// entry as the diagonal, so for the solve each diagonal swaps places with its row's first entry, in place, and
+// swaps back when the solve ends: the order the copy had, hence the same sums and the same numbers.
+class SwappedDiagonals {
+ public:
+  SwappedDiagonals() = default;
+  SwappedDiagonals(const SwappedDiagonals&) = delete;
+  SwappedDiagonals& operator=(const SwappedDiagonals&) = delete;
+  ~SwappedDiagonals() { swap_all(); }  // a swap undoes itself
+  // slot[r]: where row r's diagonal sits in a's own order. a's arrays are the caller's, changed only until the
+  // solve returns.
+  void swap(const CsrMatrix& a, std::span<const int> slot) {
+    a_ = const_cast<CsrMatrix*>(&a);
+    slot_ = slot;
+    swap_all();
+  }
+
+ private:
+  void swap_all() {
+    if (a_ == nullptr) return;
+    for (std::size_t r = 0; r < slot_.size(); ++r) {
+      const auto first = static_cast<std::size_t>(a_->row_ptr[r]), d = static_cast<std::size_t>(slot_[r]);
+      std::swap(a_->col[first], a_->col[d]);
+      std::swap(a_->val[first], a_->val[d]);
+    }
+  }
+  CsrMatrix* a_ = nullptr;
+  std::span<const int> slot_;
 };
 
 // A ParCSR matrix kept from solve to solve on one rank, refilled in place while its rows and capacity fit.
@@ -256,7 +288,8 @@ class HypreSolver final : public LinearSolver {
 
     const auto t0 = Clock::now();
     ParSystem sys;
-    upload(a, b, x, part, sys, report);
+    SwappedDiagonals swapped;  // puts A's own order back however the solve ends
+    upload(a, b, x, part, sys, swapped, report);
     const bool count_changed = any_rank(part.local_rows() != setup_local_rows_, comm_);
     // Jacobi has no hierarchy: hypre's DiagScale reads the diagonal in the solve itself.
     const bool rebuild = !jacobi_ && (amg_ == nullptr || count_changed || reuses_ >= reuse_ || rebuild_pending_);
@@ -386,33 +419,37 @@ class HypreSolver final : public LinearSolver {
   }
 
   void upload(const CsrMatrix& a, std::span<const double> b, std::span<const double> x, const Partition& part,
-              ParSystem& sys, const SolveReport& report) {
+              ParSystem& sys, SwappedDiagonals& swapped, const SolveReport& report) {
     const HYPRE_Int n = part.local_rows();
     rows_.resize(static_cast<std::size_t>(n));
     for (HYPRE_Int i = 0; i < n; ++i) rows_[static_cast<std::size_t>(i)] = part.ilower + i;
-    double largest = -1.0;  // the largest off-diagonal magnitude, found by the one-rank upload of A
-    sys.m = sys.a = upload_matrix(a, part, kept_, sys.ij, report, &largest);
+    double largest = -1.0;  // the largest off-diagonal magnitude, found on one rank with the diagonals
+    const bool one_rank = part.ranks == 1;
+    if (one_rank) find_diagonals(a, largest);
+    sys.m = sys.a = one_rank ? lend(a) : upload_matrix(a, part, sys.ij, report);
     if (filter_ > 0.0) {
       if (largest < 0.0) {
         const double local = largest_off_diagonal(a, static_cast<int>(part.ilower));
         MPI_Allreduce(&local, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
       }
-      if (part.ranks == 1 && upload_one_rank(a, kept_filtered_, filter_ * largest)) {
+      if (part.ranks == 1 && filter_one_rank(a, kept_filtered_, filter_ * largest)) {
         sys.m = kept_filtered_.matrix;
       } else {
         lump_weak_entries(a, filter_ * largest, filtered_, static_cast<int>(part.ilower));
-        sys.m = upload_matrix(filtered_, part, kept_filtered_, sys.ij_m, report);
+        sys.m = upload_matrix(filtered_, part, sys.ij_m, report);
       }
     }
+    // After the filtered copy, which reads a in its own order.
+    if (one_rank) swapped.swap(a, diagonal_slot_);
     set_vector(sys.b, part, b, report);
     set_vector(sys.x, part, x, report);
     set_vector(sys.r, part, b, report);
   }
 
-  HYPRE_ParCSRMatrix upload_matrix(const CsrMatrix& a, const Partition& part, KeptMatrix& kept, HYPRE_IJMatrix& ij,
-                                   const SolveReport& report, double* largest = nullptr) {
+  // Through the IJ interface: on ranks, and for a filtered matrix the one-rank copy refuses.
+  HYPRE_ParCSRMatrix upload_matrix(const CsrMatrix& a, const Partition& part, HYPRE_IJMatrix& ij,
+                                   const SolveReport& report) {
     const HYPRE_Int n = part.local_rows();
-    if (part.ranks == 1 && upload_one_rank(a, kept, 0.0, largest)) return kept.matrix;
     std::vector<HYPRE_Int> row_nnz(static_cast<std::size_t>(n)), diag(static_cast<std::size_t>(n)),
         offd(static_cast<std::size_t>(n));
     for (HYPRE_Int i = 0; i < n; ++i) {
@@ -439,20 +476,61 @@ class HypreSolver final : public LinearSolver {
     return static_cast<HYPRE_ParCSRMatrix>(object);
   }
 
-  // On one rank the matrix is copied straight into a ParCSR matrix kept from solve to solve. Through the IJ
-  // interface every step allocated, zeroed and filled a fresh matrix entry by entry, then reordered it: 0.06 s of a
-  // 1 s time step at 3e5 unknowns. hypre's smoothers take each row's first entry as its diagonal, so it is moved to
-  // the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way as before.
-  // With a threshold, off-diagonal entries smaller in magnitude are lumped onto the diagonal on the way (the
-  // filtered matrix, as lump_weak_entries makes it); *largest receives the largest off-diagonal magnitude copied.
-  bool upload_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold = 0.0, double* largest = nullptr) {
+  // Fills diagonal_slot_ with where each row's diagonal sits, by its sorted columns (partition() has checked that
+  // every row holds its diagonal), and, when a filter needs it, largest with the largest off-diagonal magnitude.
+  void find_diagonals(const CsrMatrix& a, double& largest) {
+    diagonal_slot_.resize(static_cast<std::size_t>(a.rows));
+    double most = 0.0;
+    for (int r = 0; r < a.rows; ++r) {
+      const auto begin = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
+      const auto end = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r) + 1]);
+      const auto d = static_cast<std::size_t>(
+          std::lower_bound(a.col.begin() + static_cast<std::ptrdiff_t>(begin),
+                           a.col.begin() + static_cast<std::ptrdiff_t>(end), r) - a.col.begin());
+      diagonal_slot_[static_cast<std::size_t>(r)] = static_cast<int>(d);
+      if (filter_ > 0.0) {
+        for (std::size_t k = begin; k < d; ++k) most = std::max(most, std::abs(a.val[k]));
+        for (std::size_t k = d + 1; k < end; ++k) most = std::max(most, std::abs(a.val[k]));
+      }
+    }
+    largest = most;
+  }
+
+  // A ParCSR matrix on one rank whose column and value arrays are a's own (hypre neither copies nor frees them);
+  // only its row starts are hypre's. The caller swaps the diagonals to the front before hypre reads it.
+  HYPRE_ParCSRMatrix lend(const CsrMatrix& a) {
+    static_assert(std::is_same_v<HYPRE_Int, int> && std::is_same_v<HYPRE_Complex, double>,
+                  "hypre built with other index or value types cannot read our CSR arrays");
     const HYPRE_Int n = a.rows;
-    // A filtered matrix is sized by the entries it keeps, not by A's.
-    auto need = static_cast<HYPRE_Int>(a.row_ptr.back());
-    if (threshold > 0.0)
-      need = static_cast<HYPRE_Int>(n + std::count_if(a.val.begin(), a.val.end(), [&](double v) {
-                                      return std::abs(v) >= threshold;
-                                    }));  // an upper bound: diagonals above the threshold counted twice
+    if (kept_.matrix == nullptr || kept_.rows != n) {
+      if (kept_.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept_.matrix);
+      HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
+      kept_.matrix = hypre_ParCSRMatrixCreate(comm_, n, n, starts, starts, 0, 0, 0);
+      hypre_ParCSRMatrixInitialize(kept_.matrix);  // with no entries: the row starts only
+      hypre_CSRMatrixOwnsData(hypre_ParCSRMatrixDiag(kept_.matrix)) = 0;
+      hypre_MatvecCommPkgCreate(kept_.matrix);
+      kept_.rows = n;
+    }
+    hypre_CSRMatrix* diag = hypre_ParCSRMatrixDiag(kept_.matrix);
+    std::copy(a.row_ptr.begin(), a.row_ptr.end(), hypre_CSRMatrixI(diag));
+    hypre_CSRMatrixJ(diag) = const_cast<int*>(a.col.data());
+    hypre_CSRMatrixData(diag) = const_cast<double*>(a.val.data());
+    hypre_CSRMatrixNumNonzeros(diag) = static_cast<HYPRE_Int>(a.nnz());
+    hypre_ParCSRMatrixSetNumNonzeros(kept_.matrix);
+    hypre_ParCSRMatrixSetDNumNonzeros(kept_.matrix);
+    return kept_.matrix;
+  }
+
+  // On one rank A's filtered matrix (off-diagonal entries below the threshold in magnitude lumped onto the
+  // diagonal, as lump_weak_entries makes it) is copied straight into a ParCSR matrix kept from solve to solve.
+  // Through the IJ interface every step allocated, zeroed and filled a fresh matrix entry by entry, then reordered
+  // it: 0.06 s of a 1 s time step at 3e5 unknowns. hypre's smoothers take each row's first entry as its diagonal,
+  // so it is moved to the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way.
+  bool filter_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold) {
+    const HYPRE_Int n = a.rows;
+    // Sized by the entries it keeps, not by A's: an upper bound, diagonals above the threshold counted twice.
+    const auto need = static_cast<HYPRE_Int>(
+        n + std::count_if(a.val.begin(), a.val.end(), [&](double v) { return std::abs(v) >= threshold; }));
     if (kept.matrix == nullptr || kept.rows != n || kept.capacity < need) {
       if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
       HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
@@ -466,7 +544,6 @@ class HypreSolver final : public LinearSolver {
     HYPRE_Int* row_start = hypre_CSRMatrixI(diag);
     HYPRE_Int* column = hypre_CSRMatrixJ(diag);
     HYPRE_Complex* value = hypre_CSRMatrixData(diag);
-    double most = 0.0;
     HYPRE_Int nnz = 0;
     // One pass copies, checks the columns and finds each diagonal, which then swaps places with the row's first
     // entry, as the IJ assembly does: the same order, the same smoothing sweeps, the same numbers as through IJ.
@@ -481,12 +558,9 @@ class HypreSolver final : public LinearSolver {
         if (c < 0 || c >= n) return false;
         if (c == r) {
           d = nnz;
-        } else {
-          most = std::max(most, std::abs(v));
-          if (std::abs(v) < threshold) {
-            lumped += v;
-            continue;
-          }
+        } else if (std::abs(v) < threshold) {
+          lumped += v;
+          continue;
         }
         column[nnz] = c;
         value[nnz++] = v;
@@ -496,7 +570,6 @@ class HypreSolver final : public LinearSolver {
       std::swap(column[first], column[d]);
       std::swap(value[first], value[d]);
     }
-    if (largest != nullptr) *largest = most;
     row_start[n] = nnz;
     hypre_CSRMatrixNumNonzeros(diag) = nnz;
     hypre_ParCSRMatrixSetNumNonzeros(kept.matrix);
@@ -633,7 +706,9 @@ class HypreSolver final : public LinearSolver {
   MPI_Comm comm_ = MPI_COMM_SELF;
 
   std::vector<HYPRE_BigInt> rows_;  // this rank's global row numbers
-  KeptMatrix kept_, kept_filtered_;  // the one-rank uploads of A and of its filtered copy
+  KeptMatrix kept_;                 // on one rank: A, lent (its arrays are the caller's)
+  KeptMatrix kept_filtered_;        // on one rank: the copy of A's filtered matrix
+  std::vector<int> diagonal_slot_;  // on one rank: where each row's diagonal sits in the caller's order
   CsrMatrix filtered_;
   HYPRE_Solver amg_ = nullptr;      // the kept hierarchy
   HYPRE_Int setup_local_rows_ = -1;

@@ -52,7 +52,8 @@ class LinearSolver {
   /// Throws SolverError when the iterations reach max_iter above tol, when A or b hold NaN or Inf, when x
   /// comes out with NaN or Inf, or when the method cannot handle A (cholmod: not positive definite or not
   /// symmetric). One solver object keeps state between solves (a factorisation, an AMG hierarchy): use one
-  /// per thread.
+  /// per thread. The hypre backends on one rank read a's own arrays, each row's diagonal swapped to its front
+  /// during the call and swapped back before it returns (no copy of A): no other thread may read a meanwhile.
   virtual SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) = 0;
   /// The spec that rebuilds this solver, every key spelled out with its value.
   [[nodiscard]] virtual std::string spec() const = 0;

@@ -17,7 +17,7 @@
 #include <HYPRE_parcsr_ls.h>
 #include <HYPRE_parcsr_mv.h>
 #include <HYPRE_utilities.h>
-#include <_hypre_parcsr_mv.h>  // hypre_ParCSRMatrix internals: the one-rank upload fills its arrays directly
+#include <_hypre_parcsr_mv.h>  // hypre_ParCSRMatrix internals: on one rank A is lent, its filtered copy filled
 #include <krylov.h>             // hypre_PCGData: the per-iteration residual norms PCG logs (no public getter for them)
 #include <mpi.h>
 
@@ -102,10 +102,9 @@ struct ParSystem {
   }
 };
 
-// On one rank hypre reads A from the caller's arrays instead of a copy, which was the PPE's largest allocation
-// after our own CSR (about 0.6 KB a particle in 2-D, 3 KB in 3-D). Its smoothers and Jacobi take each row's first
-// entry as the diagonal, so for the solve each diagonal swaps places with its row's first entry, in place, and
-// swaps back when the solve ends: the order the copy had, hence the same sums and the same numbers.
+// On one rank hypre reads A from the caller's arrays: a copy doubled the PPE's memory (docs/benchmarks.md). Its
+// smoothers take each row's first entry as the diagonal, so each diagonal swaps to the front for the solve and back
+// after it: the order a copy had, so the same sums and the same numbers.
 class SwappedDiagonals {
  public:
   SwappedDiagonals() = default;

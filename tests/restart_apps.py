@@ -221,7 +221,9 @@ def series_difference(a, b):
 def on_ranks(build, tmp):
     """The dam break on 2 ranks: stopped by SIGTERM (to mpirun, which passes it on) and restarted on 2 ranks, the
     same outputs bitwise; its checkpoint restarted on 1 process, and a 1-process checkpoint on 2 ranks, the same series
-    within 1e-6 (the solver's tolerance; the series are printed to 10 digits)."""
+    within 1e-5. Another process count solves with another method, each to 1e-8 (auto on ranks: hypre's Jacobi-CG; on
+    one process, once Jacobi is slow, AMG-PCG on a row per particle): the front then moves by 2e-7 to 1.4e-6 a by the
+    run's end, depending on the step the stop lands on (measured); a restart that lost state moves it by far more."""
     failures = []
     args = "--end-time 0.1 --frames 6"
     whole, stopped, one, two = (tmp / f"ranks_{n}" for n in ("whole", "stopped", "one", "two"))
@@ -245,7 +247,7 @@ def on_ranks(build, tmp):
     # 2 ranks -> 1 process.
     subprocess.run(command(build, "dambreak", args, one, "--restart", str(checkpoint)), env=ENV, capture_output=True)
     gap = series_difference(whole, one)
-    if not gap <= 1e-6:
+    if not gap <= 1e-5:
         failures.append(f"dambreak: 2 ranks' checkpoint restarted on 1 process: series {gap:.3g} from the 2 ranks' run")
     # 1 process -> 2 ranks, from the serial run's checkpoint at step 200.
     serial = tmp / "ranks_serial"
@@ -253,7 +255,7 @@ def on_ranks(build, tmp):
     subprocess.run(MPIRUN + command(build, "dambreak", args, two, "--restart", str(serial / "checkpoint.cbor")),
                    env=MPI_ENV, capture_output=True)
     gap_two = series_difference(serial, two)
-    if not gap_two <= 1e-6:
+    if not gap_two <= 1e-5:
         failures.append(f"dambreak: 1 process's checkpoint restarted on 2 ranks: series {gap_two:.3g} from the "
                         "serial run's")
     print(f"dambreak on 2 ranks: stopped at step {steps} and restarted on 2 ranks: "

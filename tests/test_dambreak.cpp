@@ -207,7 +207,9 @@ TEST(DamBreak, AParticleFileIsRecognisedAsItsColumnOrMeasuredAsANewTank) {
 
 // The seed column at H/25 to t sqrt(g/H) = 7: the higher-order source cuts the wall pressure's step-to-step noise
 // (the RMS of the 0.2 H signal less its 0.1 moving mean) more than twofold against the classic divergence source
-// (measured 0.121 against 0.309 rho g H), and its first peak stays within 10 % of Buchner's (0.699 against 0.654).
+// (measured 0.121 against 0.309 rho g H), and keeps a first peak near Buchner's 0.654. At this spacing the peak is
+// set to about 10 % by the solves' last digits: six solvers, each to 1e-8 or exact, gave 0.548-0.682
+// (docs/dambreak.md), so it is held to 20 %, which a lost impact (0.02-0.28 in the settings that lose it) fails.
 TEST(DamBreak, HigherOrderSourceQuietsTheWallPressureOfTheSeedColumn) {
   auto impact = [](const std::string& treatment) {
     dambreak::Params p = dambreak::defaults(dambreak::Column::seed);
@@ -225,7 +227,7 @@ TEST(DamBreak, HigherOrderSourceQuietsTheWallPressureOfTheSeedColumn) {
   };
   const dambreak::Impact hs = impact("hs"), classic = impact("none");
   EXPECT_LT(hs.noise_rms, 0.5 * classic.noise_rms);
-  EXPECT_NEAR(hs.peak, 0.654, 0.1 * 0.654);
+  EXPECT_NEAR(hs.peak, 0.654, 0.2 * 0.654);
 }
 
 // The tank is its built walls: the seed column's 5.366 H is no whole number of spacings, and the scene's tank length

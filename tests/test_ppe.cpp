@@ -150,6 +150,68 @@ TEST(Ppe, UnknownsAreExactlyTheWetFluidAndWallParticles) {
   for (std::size_t r = 0; r < sys.size(); ++r) EXPECT_EQ(sys.unknown[static_cast<std::size_t>(sys.particle[r])], static_cast<int>(r));
 }
 
+// Every fluid and wall particle a row: the solved rows are the unknowns' system exactly (same entries, in the same
+// order), and each held row stands alone, its solution the particle's Dirichlet value; scatter leaves held particles
+// at 0 as it leaves particles without a row, and gather starts held rows at their value.
+TEST(Ppe, EveryParticleRowsHoldTheUnknownsSystemAndStandAloneRowsForTheRest) {
+  const Box box(false);
+  std::vector<double> dirichlet(box.p.size());
+  for (std::size_t i = 0; i < dirichlet.size(); ++i) dirichlet[i] = 0.01 * box.p.y[i] - 0.002;
+  const mps::Stencil s{box.p, box.d, box.near, box.lap};
+  const mps::PpeSystem ref = mps::assemble_ppe(s, box.surface, box.source, dirichlet);
+  const mps::PpeSystem sys = mps::assemble_ppe(s, box.surface, box.source, dirichlet, 0.0, mps::ClosedGroups::gauge,
+                                               {}, mps::PpeRows::every_particle);
+  sys.matrix.validate();
+  EXPECT_TRUE(sys.matrix.is_symmetric(0.0));
+  std::size_t in_sum = 0;
+  for (std::size_t i = 0; i < box.p.size(); ++i) {
+    const bool fluid_or_wall = box.p.kind[i] == mps::Kind::fluid || box.p.kind[i] == mps::Kind::wall;
+    in_sum += fluid_or_wall ? 1 : 0;
+    EXPECT_EQ(sys.unknown[i] >= 0, fluid_or_wall) << "particle " << i;
+  }
+  ASSERT_EQ(sys.size(), in_sum);
+  ASSERT_GT(sys.held_rows, 20u);  // the surface and the dry walls above it
+  EXPECT_EQ(sys.solved_rows(), ref.size());
+  EXPECT_TRUE(sys.floating.empty());
+  // The solved rows, mapped to the reference's numbering, carry the same entries and right-hand side.
+  for (std::size_t r = 0; r < sys.size(); ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[r]);
+    const int k0 = sys.matrix.row_ptr[r], k1 = sys.matrix.row_ptr[r + 1];
+    if (sys.held[r]) {
+      ASSERT_EQ(k1 - k0, 1) << "held row " << r;
+      EXPECT_EQ(sys.matrix.col[static_cast<std::size_t>(k0)], static_cast<int>(r));
+      const double diagonal = sys.matrix.val[static_cast<std::size_t>(k0)];
+      EXPECT_GT(diagonal, 0.0);
+      EXPECT_DOUBLE_EQ(sys.rhs[r] / diagonal, dirichlet[i]);
+      EXPECT_EQ(ref.unknown[i], -1);
+      continue;
+    }
+    const auto rr = static_cast<std::size_t>(ref.unknown[i]);
+    ASSERT_EQ(k1 - k0, ref.matrix.row_ptr[rr + 1] - ref.matrix.row_ptr[rr]) << "row of particle " << i;
+    auto particle_of_entry = [](const mps::PpeSystem& system, int k) {
+      return system.particle[static_cast<std::size_t>(system.matrix.col[static_cast<std::size_t>(k)])];
+    };
+    for (int k = k0, kr = ref.matrix.row_ptr[rr]; k < k1; ++k, ++kr) {
+      EXPECT_EQ(particle_of_entry(sys, k), particle_of_entry(ref, kr));
+      EXPECT_EQ(sys.matrix.val[static_cast<std::size_t>(k)], ref.matrix.val[static_cast<std::size_t>(kr)]);
+    }
+    EXPECT_EQ(sys.rhs[r], ref.rhs[rr]);
+  }
+  // gather starts a held row at its value; scatter writes the solved rows only.
+  mps::Particles q = box.p;
+  for (double& v : q.p) v = 7.0;
+  const std::vector<double> x = sys.gather(q);
+  std::vector<double> solution(sys.size());
+  for (std::size_t r = 0; r < sys.size(); ++r) {
+    if (sys.held[r]) EXPECT_DOUBLE_EQ(x[r], dirichlet[static_cast<std::size_t>(sys.particle[r])]);
+    else EXPECT_EQ(x[r], 7.0);
+    solution[r] = 1.0 + static_cast<double>(r);
+  }
+  sys.scatter(solution, q);
+  for (std::size_t r = 0; r < sys.size(); ++r)
+    EXPECT_EQ(q.p[static_cast<std::size_t>(sys.particle[r])], sys.held[r] ? 0.0 : solution[r]);
+}
+
 TEST(Ppe, ClosedBoxGetsTheZeroMeanGaugeAndSolvesTheConsistentSingularSystem) {
   const Box box(true);
   const mps::PpeSystem sys = box.assemble();

@@ -1,6 +1,7 @@
 // The apps' --probes files (apps/common/probe_file.hpp): every kind of probe read into the library's series, and
 // every malformed file refused with its line and the key at fault.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -13,8 +14,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Named by the process too: ctest runs the tests in parallel processes, which must not share a file.
 fs::path write_file(const std::string& name, const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / ("sparsemps_probe_file_" + name + ".toml");
+  const fs::path path = fs::temp_directory_path() /
+                        ("sparsemps_probe_file_" + std::to_string(::getpid()) + "_" + name + ".toml");
   std::ofstream(path) << text;
   return path;
 }

@@ -2,6 +2,7 @@
 // configuration, a moving obstacle on its prescribed motion, an annulus's rings and turning walls, and every malformed
 // file refused with its line and key.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -18,8 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Named by the process too: ctest runs each test in its own process, in parallel, and two tests' "edited" files
+// had overwritten each other.
 fs::path write_file(const std::string& name, const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / ("sparsemps_scene_file_" + name + ".toml");
+  const fs::path path = fs::temp_directory_path() /
+                        ("sparsemps_scene_file_" + std::to_string(::getpid()) + "_" + name + ".toml");
   std::ofstream(path) << text;
   return path;
 }

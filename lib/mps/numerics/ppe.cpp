@@ -115,16 +115,17 @@ void detect_free_surface(const BasicParticles<D>& particles, std::span<const dou
 
 template <int D>
 PpeSystem assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
-                       std::span<const double> dirichlet, double shift, ClosedGroups closed, OpenSupport open) {
+                       std::span<const double> dirichlet, double shift, ClosedGroups closed, OpenSupport open,
+                       PpeRows rows) {
   PpeSystem sys;
-  assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed, open);
+  assemble_ppe(s, free_surface, source, sys, dirichlet, shift, closed, open, rows);
   return sys;
 }
 
 template <int D>
 void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, std::span<const double> source,
                   PpeSystem& sys, std::span<const double> dirichlet, double shift, ClosedGroups closed,
-                  OpenSupport open) {
+                  OpenSupport open, PpeRows rows) {
   const BasicParticles<D>& p = s.particles;
   const std::size_t n = p.size();
   if (free_surface.size() != n || source.size() != n || (!dirichlet.empty() && dirichlet.size() != n) ||
@@ -184,12 +185,21 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
         break;
       }
   }
+  const bool every_particle = rows == PpeRows::every_particle;
   for (std::size_t i = 0; i < n; ++i) {
-    if (!candidate[i]) continue;
+    if (!candidate[i] && !(every_particle && in_ppe_sum(p.kind[i]))) continue;
     sys.unknown[i] = static_cast<int>(sys.particle.size());
     sys.particle.push_back(static_cast<int>(i));
   }
   const auto m = static_cast<Index>(sys.particle.size());
+  auto solved = [&](std::size_t j) { return candidate[j] != 0; };  // not a held row (PpeRows::every_particle)
+  sys.held.assign(static_cast<std::size_t>(m), 0);
+  sys.held_rows = 0;
+  for (Index r = 0; r < m; ++r)
+    if (!solved(static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]))) {
+      sys.held[static_cast<std::size_t>(r)] = 1;
+      ++sys.held_rows;
+    }
   CsrMatrix& a = sys.matrix;
   a.rows = a.cols = static_cast<int>(m);
   a.row_ptr.assign(static_cast<std::size_t>(m) + 1, 0);
@@ -201,10 +211,11 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
     int entries = 1;
-    for (int jj : s.neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      entries += sys.unknown[j] >= 0 && coupled(i, j) ? 1 : 0;
-    }
+    if (solved(i))
+      for (int jj : s.neighbors.of(i)) {
+        const auto j = static_cast<std::size_t>(jj);
+        entries += solved(j) && coupled(i, j) ? 1 : 0;
+      }
     a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
   }
   for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
@@ -216,12 +227,13 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
 #pragma omp parallel for schedule(static) if (detail::worth_threads(m))
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+    if (!solved(i)) continue;
     auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
     std::size_t diag_slot = 0;
     bool placed = false;
     double known = 0.0;  // sum of w P_j over the Dirichlet neighbours
     const double diag = ppe_weight(i, [&](std::size_t j, double w) {
-      const int col = sys.unknown[j];
+      const int col = solved(j) ? sys.unknown[j] : -1;
       if (col < 0) {
         anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
         if (!dirichlet.empty()) known += w * dirichlet[j];
@@ -244,6 +256,25 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     a.val[diag_slot] = c * (diag + empty) + shift;
     sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
+  if (sys.held_rows > 0) {
+    // A held row stands alone, x = its value; its diagonal is the solved rows' mean, to leave A's scale as it was.
+    double sum = 0.0;
+    for (Index r = 0; r < m; ++r)
+      if (!sys.held[static_cast<std::size_t>(r)])
+        for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k)
+          if (a.col[static_cast<std::size_t>(k)] == r) sum += a.val[static_cast<std::size_t>(k)];
+    const auto solved_rows = static_cast<double>(static_cast<std::size_t>(m) - sys.held_rows);
+    const double scale = solved_rows > 0 ? sum / solved_rows : 1.0;
+    for (Index r = 0; r < m; ++r) {
+      if (!sys.held[static_cast<std::size_t>(r)]) continue;
+      const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+      const auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
+      a.col[k] = static_cast<int>(r);
+      a.val[k] = scale;
+      sys.rhs[static_cast<std::size_t>(r)] = scale * (dirichlet.empty() ? 0.0 : dirichlet[i]);
+      anchored[static_cast<std::size_t>(r)] = 1;
+    }
+  }
 
   if (closed == ClosedGroups::gauge) {
     gauge_floating_groups(sys, anchored);
@@ -264,7 +295,8 @@ void PpeSystem::gather(const BasicParticles<D>& particles, std::vector<double>& 
   x.resize(particle.size());
   for (std::size_t r = 0; r < x.size(); ++r) {
     const auto i = static_cast<std::size_t>(particle[r]);
-    x[r] = particles.p[i] - (offset.empty() ? 0.0 : offset[i]);
+    x[r] = held[r] ? rhs[r] / matrix.val[static_cast<std::size_t>(matrix.row_ptr[r])]
+                   : particles.p[i] - (offset.empty() ? 0.0 : offset[i]);
   }
 }
 
@@ -281,6 +313,7 @@ void PpeSystem::scatter(std::span<const double> solution, BasicParticles<D>& par
   for (std::size_t i = 0; i < particles.size(); ++i)
     if (in_ppe_sum(particles.kind[i])) particles.p[i] = 0.0;
   for (std::size_t r = 0; r < solution.size(); ++r) {
+    if (held[r]) continue;  // stays 0 as a particle left out would
     const auto i = static_cast<std::size_t>(particle[r]);
     const double base = offset.empty() ? 0.0 : offset[i];
     double& pr = particles.p[i];
@@ -333,9 +366,9 @@ void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::spa
   template void detect_free_surface(const BasicParticles<D>&, std::span<const double>, double, double,                \
                                     const NeighborList*, int, double, std::vector<char>&);                            \
   template PpeSystem assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>,             \
-                                  std::span<const double>, double, ClosedGroups, OpenSupport);                         \
+                                  std::span<const double>, double, ClosedGroups, OpenSupport, PpeRows);                \
   template void assemble_ppe(const BasicStencil<D>&, std::span<const char>, std::span<const double>, PpeSystem&,      \
-                             std::span<const double>, double, ClosedGroups, OpenSupport);                              \
+                             std::span<const double>, double, ClosedGroups, OpenSupport, PpeRows);                     \
   template std::vector<double> PpeSystem::gather(const BasicParticles<D>&, std::span<const double>) const;            \
   template void PpeSystem::gather(const BasicParticles<D>&, std::vector<double>&, std::span<const double>) const;     \
   template void PpeSystem::scatter(std::span<const double>, BasicParticles<D>&, bool, std::span<const double>) const; \

@@ -60,6 +60,13 @@ struct PpeSystem {
   std::vector<FloatingGroup> floating;  ///< the closed groups, each with its gauge
   /// unknown -> 1 if its row has a free-surface (Dirichlet) neighbour or a shift, which fixes its group's level
   std::vector<char> anchored;
+  /// unknown -> 1 for a held row (PpeRows::every_particle): a particle that is not solved for, alone in its row
+  /// with its value as the solution
+  std::vector<char> held;
+  std::size_t held_rows = 0;  ///< how many rows are held
+
+  /// The rows solved for: every row but the held ones.
+  [[nodiscard]] std::size_t solved_rows() const { return particle.size() - held_rows; }
 
   [[nodiscard]] std::size_t size() const { return particle.size(); }  ///< number of unknowns
   /// Particle pressures of the unknowns, as an initial guess (warm start).
@@ -96,22 +103,32 @@ enum class ClosedGroups {
           ///< the whole group itself (mps/parallel/distributed.hpp, where a group spans ranks)
 };
 
+/// Which particles get a row of the PPE.
+enum class PpeRows {
+  unknowns,        ///< the unknowns only (the file's notes)
+  every_particle,  ///< every fluid and wall particle: those not solved for (Dirichlet, dry or uncoupled) as held rows,
+                   ///< alone in their row with their value as the solution. The numbering then holds from step to
+                   ///< step while no particle comes, goes or is reordered, so a solver can keep what it built on it.
+};
+
 /// `laplacian` holds the Laplacian kernel and a neighbour list covering its radius; `free_surface` and
 /// `source` are per particle.
 /// `dirichlet` (per particle, optional): the value a free-surface particle is held at (0 if not given).
 /// `shift` (>= 0) is added to every diagonal entry, A = -lap + shift I: a compressibility term (see
 /// SimulationConfig::sound_speed). With shift > 0 no group is singular and none gets the gauge.
 /// `closed`: whether closed groups get the gauge (the default) or are left singular.
-/// `open`: the empty part of each unknown's support (none by default).
+/// `open`: the empty part of each unknown's support (none by default). `rows`: which particles get a row.
 template <int D = 2>
 PpeSystem assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                        std::span<const double> source, std::span<const double> dirichlet = {}, double shift = 0.0,
-                       ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {});
+                       ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {},
+                       PpeRows rows = PpeRows::unknowns);
 /// Same, refilling `out` in place (reusing its memory across time steps).
 template <int D = 2>
 void assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_surface, std::span<const double> source,
                   PpeSystem& out, std::span<const double> dirichlet = {}, double shift = 0.0,
-                  ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {});
+                  ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {},
+                  PpeRows rows = PpeRows::unknowns);
 
 /// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
 /// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.

@@ -103,7 +103,7 @@ class BasicRankExchange final : public BasicExchange<D> {
   void share_predicted(Particles& particles, std::vector<char>& prescribed) override;
   void share_flags(std::span<char> flags) override;
   PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held, std::span<const double> source,
-                     std::span<const double> held_value, double shift, OpenSupport open) override;
+                     std::span<const double> held_value, double shift, OpenSupport open, PpeRows rows) override;
   [[nodiscard]] const PpeSystem& ppe() const override { return ppe_.local; }
   [[nodiscard]] OwnPpeRows own_rows() const override;
   SolveReport solve(LinearSolver& solver, Particles& particles, bool from_zero, bool clamp_negative,

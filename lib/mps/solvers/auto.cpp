@@ -1,7 +1,9 @@
 // "auto": Jacobi-CG while it converges in few iterations or the unknowns keep changing (a free surface, an inlet:
 // an AMG hierarchy would be rebuilt nearly every step), AMG-preconditioned CG with its hierarchy reused once they
-// have stayed the same for a few solves and Jacobi needed many iterations. The rule reads only the systems' sizes and
-// iteration counts, so a run repeats bitwise; docs/solvers.md has the measurements behind it.
+// have stayed the same for a few solves and Jacobi needed many iterations. Once Jacobi is slow it asks the step for a
+// row per particle, which a free surface leaves the same, and its hierarchy is refreshed rather than rebuilt (hypre's
+// refresh=galerkin). The rule reads only the systems' sizes and iteration counts, so a run repeats bitwise;
+// docs/solvers.md has the measurements behind it.
 #include <mpi.h>
 
 #include <algorithm>
@@ -21,6 +23,7 @@ class AutoSolver final : public LinearSolver {
       : switch_iterations_(o.integer("switch_iterations", 0, 100000000)),
         rebuild_iterations_(o.integer("rebuild_iterations", 0, 100000000)),
         steady_solves_(o.integer("steady_solves", 1, 1000000)),
+        fixed_rows_iterations_(o.integer("fixed_rows_iterations", 0, 100000000)),
         spec_(o.spec()) {
     const std::string tol = "tol=" + o.values().at("tol");
     // A Jacobi solve stops at rebuild_iterations: past it AMG-PCG is the faster method and finishes the solve.
@@ -30,12 +33,15 @@ class AutoSolver final : public LinearSolver {
     static_cast<void>(o.number("tol", 1e-16, 1e-1));
     static_cast<void>(o.integer("reuse", 0, 1000000));
     static_cast<void>(o.number("filter", 0.0, 1.0));
+    refresh_ = o.choice("refresh", {"none", "galerkin"}) == "galerkin";
     distributed_ = context.mpi_comm.has_value();
     if (distributed_) comm_ = MPI_Comm_f2c(*context.mpi_comm);
     // Eigen solves one rank's rows only: on ranks, Jacobi-CG is hypre's PCG with the diagonal.
     jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol + jacobi_max_iter, context)
                            : make_solver("eigen-cg:precond=jacobi," + tol + jacobi_max_iter);
-    amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") + "," + tol;
+    // On ranks the rows stay the unknowns, which migration renumbers: no refresh there.
+    amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") +
+                (distributed_ ? "" : ",refresh=" + o.values().at("refresh")) + "," + tol;
     rescue_spec_ =
         (distributed_ ? "hypre-pcg:precond=jacobi," : "eigen-cg:precond=jacobi,") + tol + ",max_iter=100000";
     context_ = context;
@@ -115,14 +121,20 @@ class AutoSolver final : public LinearSolver {
     steady_ = unpack_value<int>(state, "steady");
   }
   [[nodiscard]] bool keeps_setup() const override { return amg_ && amg_->keeps_setup(); }
+  // AMG-PCG waits for the unknowns to hold still: with a row for every particle they do, even under a free surface,
+  // and its refreshed hierarchy serves from step to step. The refresh costs about 20 SpMVs a step, so it is asked for
+  // only where Jacobi is slower than that and AMG together (docs/solvers.md).
+  [[nodiscard]] bool wants_fixed_rows() const override {
+    return refresh_ && !distributed_ && (always_amg_ || last_jacobi_iterations_ > fixed_rows_iterations_);
+  }
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_, rescue_;
   std::vector<double> guess_;  // the guess of an AMG-PCG solve, for Jacobi-CG to start from should AMG break down
-  int switch_iterations_, rebuild_iterations_, steady_solves_, jacobi_max_iter_ = 1;
+  int switch_iterations_, rebuild_iterations_, steady_solves_, fixed_rows_iterations_, jacobi_max_iter_ = 1;
   std::string spec_, amg_spec_, rescue_spec_;
   SolverContext context_;
-  bool distributed_ = false, on_amg_ = false, always_amg_ = false;
+  bool distributed_ = false, on_amg_ = false, always_amg_ = false, refresh_ = true;
   MPI_Comm comm_ = MPI_COMM_SELF;
   int last_rows_ = -1, last_jacobi_iterations_ = 0;
   int steady_ = 0;  // solves in a row, this one included, with the same unknown count
@@ -145,6 +157,12 @@ SolverEntry auto_entry() {
             "the unknowns change"},
            {"steady_solves", "3", "solves in a row with the same unknown count before AMG-PCG is set up"},
            {"reuse", "20", "hypre-pcg: solves one AMG hierarchy serves while the unknowns stay the same"},
+           {"refresh", "galerkin",
+            "hypre-pcg: galerkin keeps the hierarchy across a moving free surface (a row for every particle once "
+            "Jacobi needs more than fixed_rows_iterations, coarse operators made again when rows join or leave the "
+            "solve); none: rebuilt whenever the unknowns change"},
+           {"fixed_rows_iterations", "80",
+            "with refresh=galerkin: Jacobi iterations above which the step keeps a row for every particle"},
            {"filter", "0.2",
             "hypre-pcg: AMG built on the PPE with couplings below this fraction of the strongest lumped onto the "
             "diagonal (half the solve's cost on the 4.1 l0 stencil)"}},

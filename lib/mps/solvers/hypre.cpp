@@ -10,13 +10,16 @@
 // takes the matrix it is given at solve time as level 0), the coarse levels stay those of the setup. The
 // hierarchy is rebuilt when N reuses are spent, when the unknown count changes, after a solve whose
 // iterations exceed 1.5x those of the first solve after the setup, and immediately (with the solve redone)
-// if a reused hierarchy fails to converge.
+// if a reused hierarchy fails to converge. With refresh=galerkin (one process) a kept hierarchy's coarse operators are
+// made again from the new matrix whenever rows joined or left the solve (a free surface's, with a row for every
+// particle: PpeRows::every_particle), its coarsening and interpolation kept.
 #include <HYPRE.h>
 #include <HYPRE_IJ_mv.h>
 #include <HYPRE_krylov.h>
 #include <HYPRE_parcsr_ls.h>
 #include <HYPRE_parcsr_mv.h>
 #include <HYPRE_utilities.h>
+#include <_hypre_parcsr_ls.h>  // hypre_ParAMGData: refresh=galerkin redoes a kept hierarchy's coarse operators
 #include <_hypre_parcsr_mv.h>  // hypre_ParCSRMatrix internals: on one rank A is lent, its filtered copy filled
 #include <krylov.h>             // hypre_PCGData: the per-iteration residual norms PCG logs (no public getter for them)
 #include <mpi.h>
@@ -260,12 +263,16 @@ class HypreSolver final : public LinearSolver {
         max_iter_(o.integer("max_iter", 1, 100000)),
         reuse_(o.integer("reuse", 0, 1000000)),
         filter_(method == Method::pcg ? o.number("filter", 0.0, 1.0) : 0.0),
+        galerkin_refresh_(o.choice("refresh", {"none", "galerkin"}) == "galerkin"),
         jacobi_(method == Method::pcg && o.choice("precond", {"amg", "jacobi"}) == "jacobi"),
         spec_(o.spec()) {
     if (jacobi_ && filter_ > 0.0)
       throw std::invalid_argument(name_ + ": filter builds the AMG preconditioner; precond=jacobi has none: leave "
                                           "filter out");
     ensure_runtime();
+    if (galerkin_refresh_ && context.mpi_comm)
+      throw std::invalid_argument(name_ + ": refresh=galerkin is for one process (on MPI ranks particles crossing a "
+                                          "cut renumber the unknowns); leave refresh out");
     comm_ = context.mpi_comm ? MPI_Comm_f2c(*context.mpi_comm) : MPI_COMM_SELF;
     if (comm_ == MPI_COMM_NULL)
       throw std::invalid_argument(name_ + ": the communicator passed in SolverContext is MPI_COMM_NULL");
@@ -292,7 +299,10 @@ class HypreSolver final : public LinearSolver {
     const bool count_changed = any_rank(part.local_rows() != setup_local_rows_, comm_);
     // Jacobi has no hierarchy: hypre's DiagScale reads the diagonal in the solve itself.
     const bool rebuild = !jacobi_ && (amg_ == nullptr || count_changed || reuses_ >= reuse_ || rebuild_pending_);
+    // Recorded at every solve, so that it compares with the matrix the hierarchy was last made or refreshed for.
+    const bool lone_changed = galerkin_refresh_ && !jacobi_ && any_rank(lone_rows_changed(a), comm_);
     if (rebuild) build_hierarchy(sys, part, report);
+    else if (lone_changed) refresh_coarse_operators(sys, report);
     report.setup_reused = !rebuild && !jacobi_;
     report.setup_seconds = seconds_since(t0);
 
@@ -355,6 +365,7 @@ class HypreSolver final : public LinearSolver {
   // iterations of a fresh one (docs/scaling.md).
   void renumbered() override { rebuild_pending_ = true; }
   [[nodiscard]] bool keeps_setup() const override { return amg_ != nullptr && !rebuild_pending_ && reuses_ < reuse_; }
+  [[nodiscard]] bool wants_fixed_rows() const override { return galerkin_refresh_ && reuse_ > 0; }
 
  private:
   Partition partition(const CsrMatrix& a, std::span<const double> b, std::span<double> x, SolveReport& report) const {
@@ -586,6 +597,60 @@ class HypreSolver final : public LinearSolver {
     rebuild_pending_ = false;
   }
 
+  // Whether a row of A stands alone (its diagonal only) where it did not at the hierarchy's last matrix, or the
+  // reverse: a particle that joined or left the solved rows (a free surface's), for which the kept coarse operators
+  // were not made. Remembers this matrix's.
+  bool lone_rows_changed(const CsrMatrix& a) {
+    bool changed = lone_.size() != static_cast<std::size_t>(a.rows);
+    lone_.resize(static_cast<std::size_t>(a.rows));
+    for (std::size_t r = 0; r < lone_.size(); ++r) {
+      const char lone = a.row_ptr[r + 1] - a.row_ptr[r] == 1 ? 1 : 0;
+      changed = changed || lone != lone_[r];
+      lone_[r] = lone;
+    }
+    return changed;
+  }
+
+  // refresh=galerkin: the kept hierarchy's coarsening and interpolation P stay, and each coarse operator is made
+  // again as P^T A P from the new matrix, with the smoothers' l1 norms and the coarsest level's dense copy. A
+  // Galerkin hierarchy of an SPD matrix stays SPD, where coarse operators kept from an older matrix overshoot.
+  void refresh_coarse_operators(ParSystem& sys, const SolveReport& report) {
+    auto* data = reinterpret_cast<hypre_ParAMGData*>(amg_);
+    const HYPRE_Int levels = hypre_ParAMGDataNumLevels(data);
+    hypre_ParCSRMatrix** a = hypre_ParAMGDataAArray(data);
+    hypre_ParCSRMatrix** p = hypre_ParAMGDataPArray(data);
+    a[0] = reinterpret_cast<hypre_ParCSRMatrix*>(sys.m);  // the caller's, as BoomerAMGSolve sets it
+    for (HYPRE_Int l = 0; l + 1 < levels; ++l) {
+      hypre_ParCSRMatrix* coarse = nullptr;
+      check(hypre_BoomerAMGBuildCoarseOperatorKT(p[l], a[l], p[l], 0, &coarse), name_,
+            "hypre_BoomerAMGBuildCoarseOperatorKT", report);
+      if (!hypre_ParCSRMatrixCommPkg(coarse)) hypre_MatvecCommPkgCreate(coarse);
+      hypre_ParCSRMatrixDestroy(a[l + 1]);
+      a[l + 1] = coarse;
+    }
+    if (hypre_Vector** l1 = hypre_ParAMGDataL1Norms(data); l1 != nullptr) {
+      for (HYPRE_Int l = 0; l < levels; ++l) {
+        if (l1[l] == nullptr) continue;
+        HYPRE_Real* norms = nullptr;
+        check(hypre_ParCSRComputeL1Norms(a[l], 4, nullptr, &norms), name_, "hypre_ParCSRComputeL1Norms", report);
+        hypre_SeqVectorDestroy(l1[l]);
+        l1[l] = hypre_SeqVectorCreate(hypre_ParCSRMatrixNumRows(a[l]));
+        hypre_VectorData(l1[l]) = norms;
+        hypre_SeqVectorInitialize_v2(l1[l], hypre_ParCSRMatrixMemoryLocation(a[l]));
+      }
+    }
+    if (hypre_ParAMGDataAMat(data) != nullptr) {  // the coarsest level solved by Gaussian elimination
+      hypre_TFree(hypre_ParAMGDataAMat(data), HYPRE_MEMORY_HOST);
+      hypre_TFree(hypre_ParAMGDataBVec(data), HYPRE_MEMORY_HOST);
+      hypre_TFree(hypre_ParAMGDataCommInfo(data), HYPRE_MEMORY_HOST);
+      hypre_ParAMGDataAMat(data) = nullptr;
+      hypre_ParAMGDataBVec(data) = nullptr;
+      hypre_ParAMGDataCommInfo(data) = nullptr;
+      if (hypre_ParAMGDataNewComm(data) != hypre_MPI_COMM_NULL) hypre_MPI_Comm_free(&hypre_ParAMGDataNewComm(data));
+      check(hypre_GaussElimSetup(data, levels - 1, amg_options_.relax_coarse), name_, "hypre_GaussElimSetup", report);
+    }
+  }
+
   void drop_hierarchy() {
     if (amg_ != nullptr && !g_runtime_finalised) HYPRE_BoomerAMGDestroy(amg_);
     amg_ = nullptr;
@@ -700,6 +765,7 @@ class HypreSolver final : public LinearSolver {
   double tol_;
   int max_iter_, reuse_;
   double filter_;
+  bool galerkin_refresh_;  // refresh=galerkin
   bool jacobi_;  // precond=jacobi: PCG with the diagonal, no AMG
   std::string spec_;
   MPI_Comm comm_ = MPI_COMM_SELF;
@@ -708,6 +774,7 @@ class HypreSolver final : public LinearSolver {
   KeptMatrix kept_;                 // on one rank: A, lent (its arrays are the caller's)
   KeptMatrix kept_filtered_;        // on one rank: the copy of A's filtered matrix
   std::vector<int> diagonal_slot_;  // on one rank: where each row's diagonal sits in the caller's order
+  std::vector<char> lone_;          // refresh=galerkin: which rows of the last matrix held their diagonal only
   CsrMatrix filtered_;
   HYPRE_Solver amg_ = nullptr;      // the kept hierarchy
   HYPRE_Int setup_local_rows_ = -1;
@@ -722,7 +789,10 @@ std::vector<SolverKey> hypre_keys(const char* tol, const char* max_iter) {
       {"max_iter", max_iter, "iterations before the solve is reported as failed"},
       {"reuse", "0",
        "keep the AMG hierarchy for up to N further solves while the unknown count is unchanged "
-       "(rebuilt early if iterations grow by half); 0: set up every solve"}};
+       "(rebuilt early if iterations grow by half); 0: set up every solve"},
+      {"refresh", "none",
+       "what a kept hierarchy takes from each new matrix: none (only the finest level's smoothing) | galerkin (its "
+       "coarse operators made again from it, coarsening and interpolation kept)"}};
   for (auto& k : amg_keys()) keys.push_back(std::move(k));
   return keys;
 }

@@ -68,6 +68,10 @@ class LinearSolver {
   /// preconditioner). No checkpoint holds one: a run restored from here sets it up afresh, and its solves then agree
   /// with the uninterrupted run's within the tolerance, not bitwise (docs/restart.md).
   [[nodiscard]] virtual bool keeps_setup() const { return false; }
+  /// Whether the next solves would gain from a row numbering that holds from one matrix to the next: every fluid and
+  /// wall particle a row, those not solved for alone in theirs (PpeRows::every_particle), so that a free surface
+  /// changes a kept AMG hierarchy's matrices but not its unknowns (hypre's refresh=galerkin, auto on AMG).
+  [[nodiscard]] virtual bool wants_fixed_rows() const { return false; }
 };
 
 /// A spec string taken apart: "name:key=value,..." -> name and options.

@@ -5,9 +5,9 @@ namespace mps {
 template <int D>
 PpeCounts BasicSerialExchange<D>::assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
                                            std::span<const double> source, std::span<const double> held_value,
-                                           double shift, OpenSupport open) {
-  assemble_ppe<D>(laplacian, held, source, ppe_, held_value, shift, ClosedGroups::gauge, open);
-  return {ppe_.size(), ppe_.floating.size()};
+                                           double shift, OpenSupport open, PpeRows rows) {
+  assemble_ppe<D>(laplacian, held, source, ppe_, held_value, shift, ClosedGroups::gauge, open, rows);
+  return {ppe_.solved_rows(), ppe_.floating.size()};
 }
 
 template <int D>

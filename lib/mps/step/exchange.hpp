@@ -62,9 +62,10 @@ class BasicExchange {
   /// Copies take their owners' entries of a per-particle flag.
   virtual void share_flags(std::span<char> flags) = 0;
   /// Assembles the PPE (assemble_ppe's arguments) over the particles this process holds.
+  /// `rows`: on ranks the rows are always the unknowns (a particle crossing a cut renumbers them anyway).
   virtual PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
                              std::span<const double> source, std::span<const double> held_value, double shift,
-                             OpenSupport open) = 0;
+                             OpenSupport open, PpeRows rows) = 0;
   /// This process's part of the last PPE (on ranks: its owned and halo unknowns, as assembled locally).
   [[nodiscard]] virtual const PpeSystem& ppe() const = 0;
   /// The unknowns this process owns.
@@ -124,7 +125,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void share_flags(std::span<char>) override {}              ///< no copies
   /// assemble_ppe into the kept system.
   PpeCounts assemble(const BasicStencil<D>& laplacian, std::span<const char> held, std::span<const double> source,
-                     std::span<const double> held_value, double shift, OpenSupport open) override;
+                     std::span<const double> held_value, double shift, OpenSupport open, PpeRows rows) override;
   [[nodiscard]] const PpeSystem& ppe() const override { return ppe_; }  ///< the whole PPE
   [[nodiscard]] OwnPpeRows own_rows() const override { return {ppe_.rhs, ppe_.particle}; }  ///< every row
   /// Warm start by PpeSystem::gather, the solve, PpeSystem::scatter.

@@ -633,7 +633,8 @@ void BasicSimulation<D>::assemble() {
   const PpeCounts counts =
       exchange_->assemble({particles_, domain_, neighbors_at_star(k_pressure_), k_pressure_},
                           f.held.empty() ? f.surface : f.held, f.source, f.held_value,
-                          screening > 0.0 ? 1.0 / (screening * screening) : 0.0, {f.open_weight, f.open_value});
+                          screening > 0.0 ? 1.0 / (screening * screening) : 0.0, {f.open_weight, f.open_value},
+                          solver_->wants_fixed_rows() ? PpeRows::every_particle : PpeRows::unknowns);
   info_.unknowns = counts.unknowns;
   const std::size_t own = owned_particles();
   info_.free_surface = static_cast<std::size_t>(

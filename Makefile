@@ -12,7 +12,7 @@ DEMO_OUT ?= runs/demo
 # ones in bench/results/ that docs/ shows (make bench-full UPDATE=1).
 RESULTS := $(if $(UPDATE),bench/results,bench/results/local)
 
-.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-migration bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic clean
+.PHONY: deps docs install demo hydrostatic sample-ppes bench-samples bench-petsc test test-sanitize bench bench-full bench-distributed bench-distributed-step bench-distributed-scaling bench-distributed-3d bench-rebalance bench-migration bench-core bench-solvers poiseuille acoustic bench-acoustic rotating bench-rotating bench-pareto bench-scaling bench-stability structure bench-structure fsi bench-fsi bench-default-solver bench-phase-cost bench-solver-filter bench-thread-wait bench-mps-basic bench-free-surface-amg clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -289,6 +289,13 @@ bench-phase-cost: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
 	/usr/bin/python3 bench/phase_cost.py build/release --results $(RESULTS)
 	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5 --results $(RESULTS)
+
+# auto's hierarchy kept across a moving free surface: the seed column with auto and Jacobi-CG at H/50 and H/100, one
+# run at a time (~40 min); OLD=BUILD_DIR adds an older build's auto at H/50
+bench-free-surface-amg: deps build/release/CMakeCache.txt
+	cmake --build build/release -j$(JOBS) --target dambreak
+	/usr/bin/python3 bench/free_surface_amg.py build/release --spacings 50,100 --results $(RESULTS) \
+	  $(if $(OLD),--old $(OLD) --old-spacings 50)
 
 # one thread against two with OpenMP's active and passive wait policies, idle and beside a busy process (~5 min)
 bench-thread-wait: deps build/release/CMakeCache.txt

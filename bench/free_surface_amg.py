@@ -83,7 +83,7 @@ def main():
     ap.add_argument("--old", help="an older build's directory: its auto beside this one's")
     ap.add_argument("--old-spacings", help="the spacings the older build runs at (default: all)")
     ap.add_argument("--spacings", default="50")
-    ap.add_argument("--runs", default="bench/runs/free_surface_amg")
+    ap.add_argument("--runs", default="runs/free_surface_amg")
     ap.add_argument("--results", default="bench/results")
     args = ap.parse_args()
     results = Path(args.results)

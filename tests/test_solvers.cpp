@@ -581,6 +581,7 @@ TEST(SolverReuse, GalerkinRefreshKeepsTheHierarchyWhileRowsJoinAndLeaveTheSolve)
   auto kept = mps::make_solver("hypre-pcg:reuse=20,filter=0.2,refresh=galerkin,tol=1e-10");
   EXPECT_TRUE(kept->wants_fixed_rows());
   EXPECT_FALSE(mps::make_solver("hypre-pcg:reuse=20,filter=0.2")->wants_fixed_rows());
+  EXPECT_THROW(mps::make_solver("hypre-pcg:precond=jacobi,reuse=20,refresh=galerkin"), std::invalid_argument);
   std::size_t rows = 0;
   for (int step = 0; step < 6; ++step) {
     std::vector<char> held = surface;

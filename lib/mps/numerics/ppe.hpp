@@ -68,7 +68,7 @@ struct PpeSystem {
   /// The rows solved for: every row but the held ones.
   [[nodiscard]] std::size_t solved_rows() const { return particle.size() - held_rows; }
 
-  [[nodiscard]] std::size_t size() const { return particle.size(); }  ///< number of unknowns
+  [[nodiscard]] std::size_t size() const { return particle.size(); }  ///< number of rows (held ones included)
   /// Particle pressures of the unknowns, as an initial guess (warm start).
   /// `offset` (per particle, optional): the unknowns are p - offset (see assemble_ppe's `dirichlet`).
   template <int D>

@@ -122,8 +122,8 @@ class AutoSolver final : public LinearSolver {
   }
   [[nodiscard]] bool keeps_setup() const override { return amg_ && amg_->keeps_setup(); }
   // AMG-PCG waits for the unknowns to hold still: with a row for every particle they do, even under a free surface,
-  // and its refreshed hierarchy serves from step to step. The refresh costs about 20 SpMVs a step, so it is asked for
-  // only where Jacobi is slower than that and AMG together (docs/solvers.md).
+  // and its refreshed hierarchy serves from step to step. A refresh costs more than a few PCG iterations, so it is
+  // asked for only where Jacobi is slower than that and AMG together (docs/solvers.md).
   [[nodiscard]] bool wants_fixed_rows() const override {
     return refresh_ && !distributed_ && (always_amg_ || last_jacobi_iterations_ > fixed_rows_iterations_);
   }

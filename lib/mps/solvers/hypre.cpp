@@ -269,6 +269,9 @@ class HypreSolver final : public LinearSolver {
     if (jacobi_ && filter_ > 0.0)
       throw std::invalid_argument(name_ + ": filter builds the AMG preconditioner; precond=jacobi has none: leave "
                                           "filter out");
+    if (jacobi_ && galerkin_refresh_)
+      throw std::invalid_argument(name_ + ": refresh remakes the AMG hierarchy; precond=jacobi has none: leave "
+                                          "refresh out");
     ensure_runtime();
     if (galerkin_refresh_ && context.mpi_comm)
       throw std::invalid_argument(name_ + ": refresh=galerkin is for one process (on MPI ranks particles crossing a "
@@ -302,7 +305,7 @@ class HypreSolver final : public LinearSolver {
     // Recorded at every solve, so that it compares with the matrix the hierarchy was last made or refreshed for.
     const bool lone_changed = galerkin_refresh_ && !jacobi_ && any_rank(lone_rows_changed(a), comm_);
     if (rebuild) build_hierarchy(sys, part, report);
-    else if (lone_changed) refresh_coarse_operators(sys, report);
+    else if (lone_changed) refresh_or_drop(sys, report);
     report.setup_reused = !rebuild && !jacobi_;
     report.setup_seconds = seconds_since(t0);
 
@@ -609,6 +612,16 @@ class HypreSolver final : public LinearSolver {
       lone_[r] = lone;
     }
     return changed;
+  }
+
+  // A refresh that fails part-way leaves levels of two matrices: no hierarchy is kept then.
+  void refresh_or_drop(ParSystem& sys, const SolveReport& report) {
+    try {
+      refresh_coarse_operators(sys, report);
+    } catch (...) {
+      drop_hierarchy();
+      throw;
+    }
   }
 
   // refresh=galerkin: the kept hierarchy's coarsening and interpolation P stay, and each coarse operator is made

@@ -1083,6 +1083,8 @@ void bind_scene(py::module_& m) {
       .def_readonly("free_surface", &mps::StepInfo::free_surface, "particles flagged free surface")
       .def_readonly("floating_groups", &mps::StepInfo::floating_groups, "closed groups given the gauge")
       .def_readonly("max_speed", &mps::StepInfo::max_speed, "largest fluid speed [m/s]")
+      .def_readonly("neighbors_carried", &mps::StepInfo::neighbors_carried,
+                    "the step widened the last list at r* by its fringe instead of searching (neighbor_skin)")
       .def("__repr__", [](const mps::StepInfo& s) {
         std::ostringstream out;
         out << "StepInfo(step=" << s.step << ", time=" << s.time << ", dt=" << s.dt << " (" << s.dt_limit

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iterator>
 #include <random>
 
 #include "mps/boundaries/geometry.hpp"
@@ -63,6 +64,45 @@ TEST(Neighbors, OneBinningServesSmallerRadii) {
     EXPECT_EQ(std::vector<int>(got.begin(), got.end()), expected[i]);
   }
   EXPECT_THROW((void)grid.neighbors(p, 0.2), std::invalid_argument);
+}
+
+// The search with a fringe: the list and the inner list as without one, the fringe the pairs from the radius to its
+// own, and the list widened by it the list at the fringe's radius, with periodic images, a ghost and moved particles.
+TEST(Neighbors, FringeHoldsThePairsBetweenTheRadiiAndWidensTheListToTheOuterOne) {
+  const mps::Domain d{0, 1, 0, 0.8, true, false};
+  const mps::Particles p = random_particles(1200, d, 6);
+  const double radius = 0.08, inner_radius = 0.04, outer = 0.09;
+  mps::CellGrid grid(d, radius, outer - radius);
+  EXPECT_EQ(grid.cell_size(), outer);
+  grid.bin(p);
+  mps::NeighborList list, inner, fringe;
+  grid.neighbors(p, radius, list, inner_radius, &inner, outer, fringe);
+  const auto within = brute_force(p, d, radius), within_inner = brute_force(p, d, inner_radius),
+             within_outer = brute_force(p, d, outer);
+  std::size_t fringe_pairs = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = list.of(i), got_inner = inner.of(i), got_fringe = fringe.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), within[i]) << "particle " << i;
+    EXPECT_EQ(std::vector<int>(got_inner.begin(), got_inner.end()), within_inner[i]) << "particle " << i;
+    std::vector<int> beyond;
+    std::set_difference(within_outer[i].begin(), within_outer[i].end(), within[i].begin(), within[i].end(),
+                        std::back_inserter(beyond));
+    EXPECT_EQ(std::vector<int>(got_fringe.begin(), got_fringe.end()), beyond) << "particle " << i;
+    fringe_pairs += beyond.size();
+  }
+  EXPECT_GT(fringe_pairs, p.size());  // the fringe is not empty
+  EXPECT_EQ(list.radius, radius);
+  EXPECT_EQ(fringe.radius, outer);
+  mps::add_fringe(list, fringe);
+  EXPECT_EQ(list.radius, outer);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = list.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), within_outer[i]) << "particle " << i;
+  }
+  EXPECT_THROW(mps::add_fringe(list, fringe), std::invalid_argument);  // the list is as wide as the fringe now
+  EXPECT_THROW(grid.neighbors(p, radius, list, inner_radius, &inner, 0.1, fringe), std::invalid_argument);  // > cell
+  EXPECT_THROW(grid.neighbors(p, radius, list, inner_radius, &inner, radius, fringe), std::invalid_argument);
+  EXPECT_THROW(mps::CellGrid(d, radius, -0.01), std::invalid_argument);
 }
 
 TEST(Neighbors, CellOrderIsAPermutationThatKeepsNeighbourSets) {

@@ -24,15 +24,22 @@ std::string fmt_g(double v) {
 }  // namespace
 
 template <int D>
-BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size) : domain_(domain), cell_size_(cell_size) {
+BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size)
+    : BasicCellGrid(domain, cell_size, 0.0) {}
+
+template <int D>
+BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size, double margin)
+    : domain_(domain), cell_size_(cell_size + margin) {
   domain_.validate();
   if (!(cell_size > 0.0) || !std::isfinite(cell_size))
     throw std::invalid_argument("CellGrid: cell size (the largest search radius) must be positive, got " +
                                 std::to_string(cell_size));
+  if (!(margin >= 0.0) || !std::isfinite(margin))
+    throw std::invalid_argument("CellGrid: the search margin must be finite and >= 0, got " + std::to_string(margin));
   // A periodic axis shorter than three radii would let a particle meet two images of the same neighbour.
   const auto periodic = domain_.periodic();
   for (std::size_t a = 0; a < D; ++a)
-    if (periodic[a] && domain_.extent(static_cast<int>(a)) < 3.0 * cell_size)
+    if (periodic[a] && domain_.extent(static_cast<int>(a)) < 3.0 * cell_size_)
       throw std::invalid_argument("CellGrid: a periodic axis must be at least 3 search radii long");
   // Half-radius cells: the runs scanned for a radius-r search cover (2r + h)^2 = 6.25 r^2 instead of the
   // 9 r^2 of radius-wide cells, so a third fewer distance tests.
@@ -119,7 +126,7 @@ NeighborList BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, dou
 
 template <int D>
 void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list) const {
-  search(particles, radius, list, nullptr);
+  search(particles, radius, list, nullptr, nullptr);
 }
 
 template <int D>
@@ -129,7 +136,22 @@ void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radi
     throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
   if (&inner == &list) throw std::invalid_argument("CellGrid::neighbors: the inner list must be another list");
   inner.radius = inner_radius;
-  search(particles, radius, list, &inner);
+  search(particles, radius, list, &inner, nullptr);
+}
+
+template <int D>
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                                 double inner_radius, NeighborList* inner, double fringe_radius,
+                                 NeighborList& fringe) const {
+  if (inner && (!(inner_radius > 0.0) || inner_radius > radius))
+    throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
+  if (!(fringe_radius > radius))
+    throw std::invalid_argument("CellGrid::neighbors: the fringe's outer radius must be above the radius");
+  if (&fringe == &list || &fringe == inner || inner == &list)
+    throw std::invalid_argument("CellGrid::neighbors: the inner, fringe and main lists must be three lists");
+  if (inner) inner->radius = inner_radius;
+  fringe.radius = fringe_radius;
+  search(particles, radius, list, inner, &fringe);
 }
 
 namespace {
@@ -165,21 +187,38 @@ void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<i
 
 template <int D>
 void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius, NeighborList& list,
-                              NeighborList* inner) const {
+                              NeighborList* inner, NeighborList* fringe) const {
+  if (inner && fringe) search_lists<true, true>(particles, radius, list, inner, fringe);
+  else if (inner) search_lists<true, false>(particles, radius, list, inner, fringe);
+  else if (fringe) search_lists<false, true>(particles, radius, list, inner, fringe);
+  else search_lists<false, false>(particles, radius, list, inner, fringe);
+}
+
+template <int D>
+template <bool with_inner, bool with_fringe>
+void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                                    NeighborList* inner, NeighborList* fringe) const {
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
-  if (!(radius > 0.0) || radius > cell_size_ * (1.0 + 1e-12))
+  const double scan_radius = with_fringe ? fringe->radius : radius;
+  if (!(radius > 0.0) || scan_radius > cell_size_ * (1.0 + 1e-12))
     throw std::invalid_argument("CellGrid::neighbors: radius must be in (0, cell size]");
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
-  const std::size_t expected_pairs = list.index.size(), expected_inner = inner ? inner->index.size() : 0;
+  std::array<NeighborList*, 3> lists{&list, inner, fringe};
+  std::array<std::size_t, 3> expected{};
+  for (std::size_t s = 0; s < 3; ++s)
+    if (lists[s]) {
+      expected[s] = lists[s]->index.size();
+      lists[s]->offsets.assign(particles.size() + 1, 0);
+    }
   list.radius = radius;
-  list.offsets.assign(particles.size() + 1, 0);
-  if (inner) inner->offsets.assign(particles.size() + 1, 0);
-  // Without an inner list its radius is 0: no pair is closer, and its counts stay unused.
-  const double r2 = radius * radius, inner_r2 = inner ? inner->radius * inner->radius : 0.0;
+  const double r2 = radius * radius, scan_r2 = scan_radius * scan_radius;
+  const double inner_r2 = with_inner ? inner->radius * inner->radius : 0.0;
 
   // One pass: each thread fills its contiguous share of the rows, then copies it into place; the first share is
-  // written straight into the kept list, so one thread copies and allocates nothing after the first step. The
-  // loops write every candidate and advance the count of kept ones: no branch to mispredict.
+  // written straight into the kept lists, so one thread copies and allocates nothing after the first step. The
+  // loops write every candidate and advance the count of kept ones: no branch to mispredict. With a fringe, the
+  // scan keeps the pairs within its outer radius with their squared distances, and they are dealt to the list and
+  // the fringe afterwards (a twentieth of them are the fringe's).
   const auto positions = particles.positions();
   std::array<const double*, D> coords;
   for (std::size_t a = 0; a < D; ++a) coords[a] = coords_[a].data();
@@ -188,7 +227,7 @@ void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius,
     Vec<D> r;
     for (std::size_t a = 0; a < D; ++a) r[a] = (*positions[a])[si];
     domain_.wrap(r);
-    for_each_run(r, radius, [&](int begin, int end, const Vec<D>& shift) {
+    for_each_run(r, scan_radius, [&](int begin, int end, const Vec<D>& shift) {
       Vec<D> at;
       for (std::size_t a = 0; a < D; ++a) at[a] = r[a] - shift[a];
       run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), at);
@@ -202,24 +241,27 @@ void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius,
     const std::ptrdiff_t threads = 1, thread = 0;
 #endif
     const std::ptrdiff_t first_row = n * thread / threads, end_row = n * (thread + 1) / threads;
-    std::vector<int> own_rows, own_inner_rows, row, inner_row;
-    std::vector<int>& rows = thread == 0 ? list.index : own_rows;
-    std::vector<int>& inner_rows = thread == 0 && inner ? inner->index : own_inner_rows;
-    if (thread == 0) {
-      rows.clear();
-      inner_rows.clear();
-    } else {  // about the previous list's share, read before any thread writes it
-      rows.reserve(expected_pairs / static_cast<std::size_t>(threads) + expected_pairs / 32);
-      inner_rows.reserve(expected_inner / static_cast<std::size_t>(threads) + expected_inner / 32);
+    std::array<std::vector<int>, 3> own_rows;
+    std::array<std::vector<int>*, 3> rows{};
+    for (std::size_t s = 0; s < 3; ++s) {
+      if (!lists[s]) continue;
+      rows[s] = thread == 0 ? &lists[s]->index : &own_rows[s];
+      if (thread == 0) rows[s]->clear();
+      else  // about the previous list's share, read before any thread writes it
+        rows[s]->reserve(expected[s] / static_cast<std::size_t>(threads) + expected[s] / 32);
     }
+    std::vector<int> row, inner_row, near_row, fringe_row;
+    std::vector<double> row_d2;
     for (std::ptrdiff_t i = first_row; i < end_row; ++i) {
       if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
-      std::size_t kept = 0, inner_kept = 0;
+      std::size_t kept = 0, inner_kept = 0, scanned = 0;
       const int self = static_cast<int>(i);
       scan(i, [&](std::size_t first, std::size_t last, const Vec<D>& at) {
-        if (row.size() < kept + (last - first)) {
-          row.resize(2 * (kept + (last - first)));
-          inner_row.resize(row.size());
+        scanned += last - first;
+        if (row.size() < scanned) {
+          row.resize(2 * scanned);
+          if (with_inner) inner_row.resize(row.size());
+          if (with_fringe) row_d2.resize(row.size());
         }
         for (std::size_t k = first; k < last; ++k) {
           const double dx = coords[0][k] - at[0];
@@ -230,15 +272,36 @@ void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius,
           }
           const int j = ids_[k];
           row[kept] = j;
-          inner_row[inner_kept] = j;
-          kept += (d2 < r2) & (j != self) ? 1 : 0;
-          inner_kept += (d2 < inner_r2) & (j != self) ? 1 : 0;
+          if constexpr (with_fringe) row_d2[kept] = d2;
+          kept += (d2 < scan_r2) & (j != self) ? 1 : 0;
+          if constexpr (with_inner) {
+            inner_row[inner_kept] = j;
+            inner_kept += (d2 < inner_r2) & (j != self) ? 1 : 0;
+          }
         }
       });
-      append_sorted(row, kept, rows);
-      list.offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(kept);
-      if (inner) {
-        append_sorted(inner_row, inner_kept, inner_rows);
+      std::size_t near_kept = kept, fringe_kept = 0;
+      if constexpr (with_fringe) {
+        if (near_row.size() < kept) {
+          near_row.resize(2 * kept);
+          fringe_row.resize(near_row.size());
+        }
+        near_kept = 0;
+        for (std::size_t t = 0; t < kept; ++t) {
+          near_row[near_kept] = fringe_row[fringe_kept] = row[t];
+          const bool near = row_d2[t] < r2;
+          near_kept += near ? 1 : 0;
+          fringe_kept += near ? 0 : 1;
+        }
+        append_sorted(near_row, near_kept, *rows[0]);
+        append_sorted(fringe_row, fringe_kept, *rows[2]);
+        fringe->offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(fringe_kept);
+      } else {
+        append_sorted(row, kept, *rows[0]);
+      }
+      list.offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(near_kept);
+      if constexpr (with_inner) {
+        append_sorted(inner_row, inner_kept, *rows[1]);
         inner->offsets[static_cast<std::size_t>(i) + 1] = static_cast<int>(inner_kept);
       }
     }
@@ -246,19 +309,17 @@ void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius,
 #pragma omp single
     {
       // resize keeps the first thread's share, already in place
-      for (std::size_t i = 1; i < list.offsets.size(); ++i) list.offsets[i] += list.offsets[i - 1];
-      list.index.resize(static_cast<std::size_t>(list.offsets.back()));
-      if (inner) {
-        for (std::size_t i = 1; i < inner->offsets.size(); ++i) inner->offsets[i] += inner->offsets[i - 1];
-        inner->index.resize(static_cast<std::size_t>(inner->offsets.back()));
+      for (NeighborList* l : lists) {
+        if (!l) continue;
+        for (std::size_t i = 1; i < l->offsets.size(); ++i) l->offsets[i] += l->offsets[i - 1];
+        l->index.resize(static_cast<std::size_t>(l->offsets.back()));
       }
     }  // implicit barrier
-    if (thread > 0) {
-      std::copy(rows.begin(), rows.end(), list.index.begin() + list.offsets[static_cast<std::size_t>(first_row)]);
-      if (inner)
-        std::copy(inner_rows.begin(), inner_rows.end(),
-                  inner->index.begin() + inner->offsets[static_cast<std::size_t>(first_row)]);
-    }
+    if (thread > 0)
+      for (std::size_t s = 0; s < 3; ++s)
+        if (lists[s])
+          std::copy(own_rows[s].begin(), own_rows[s].end(),
+                    lists[s]->index.begin() + lists[s]->offsets[static_cast<std::size_t>(first_row)]);
   }
 }
 
@@ -319,6 +380,33 @@ void restrict_radius(const NeighborList& list, const BasicParticles<D>& particle
       std::copy_n(row.begin(), kept, out.index.begin() + out.offsets[i]);
     }
   }
+}
+
+void add_fringe(NeighborList& list, const NeighborList& fringe) {
+  if (fringe.particles() != list.particles() || !(fringe.radius > list.radius))
+    throw std::invalid_argument("add_fringe: the fringe must have the list's rows and a larger radius");
+  std::vector<int>& index = list.index;
+  std::vector<int>& offsets = list.offsets;
+  index.resize(index.size() + fringe.index.size());
+  // Backwards, last row first: a row's merged entries land at or after its old ones and after every earlier row's
+  // old ones, so nothing is overwritten before it is read. Rows before the first fringe entry stay where they are.
+  std::size_t write = index.size();
+  for (std::size_t i = list.particles(); i-- > 0 && fringe.offsets[i + 1] > 0;) {
+    auto a = static_cast<std::size_t>(offsets[i + 1]), b = static_cast<std::size_t>(fringe.offsets[i + 1]);
+    const auto a0 = static_cast<std::size_t>(offsets[i]), b0 = static_cast<std::size_t>(fringe.offsets[i]);
+    offsets[i + 1] = static_cast<int>(write);
+    while (b > b0) {  // branch-free: which side gives the next entry is data, not a jump to mispredict
+      const int from_list = a > a0 ? index[a - 1] : -1, from_fringe = fringe.index[b - 1];
+      const bool take_list = from_list > from_fringe;
+      index[--write] = take_list ? from_list : from_fringe;
+      a -= take_list ? 1 : 0;
+      b -= take_list ? 0 : 1;
+    }
+    std::copy_backward(index.begin() + static_cast<std::ptrdiff_t>(a0), index.begin() + static_cast<std::ptrdiff_t>(a),
+                       index.begin() + static_cast<std::ptrdiff_t>(write));
+    write -= a - a0;
+  }
+  list.radius = fringe.radius;
 }
 
 template <int D>

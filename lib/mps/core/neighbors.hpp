@@ -34,6 +34,9 @@ template <int D>
 class BasicCellGrid {
  public:
   BasicCellGrid(const BasicDomain<D>& domain, double cell_size);  ///< an empty grid; throws for a bad domain or size
+  /// Same, with searches allowed up to cell_size + margin (margin >= 0) in cells sized by cell_size alone: a wider
+  /// search in the same cells keeps cell_order() as it was.
+  BasicCellGrid(const BasicDomain<D>& domain, double cell_size, double margin);
   void bin(const BasicParticles<D>& particles);  ///< sorts the particles' current positions into the cells
   /// `particles` must be those last passed to bin(), not moved since.
   [[nodiscard]] NeighborList neighbors(const BasicParticles<D>& particles, double radius) const;
@@ -44,6 +47,12 @@ class BasicCellGrid {
   /// once and restricting the list.
   void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out, double inner_radius,
                  NeighborList& inner) const;
+  /// The same search also filling `fringe` with the pairs from radius up to fringe_radius (<= cell size), and
+  /// `inner` unless null. A time loop that keeps the fringe can, while no particle has moved more than half of
+  /// fringe_radius - radius, widen `list` by it (add_fringe) to hold every pair now closer than radius, without a
+  /// search.
+  void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list, double inner_radius,
+                 NeighborList* inner, double fringe_radius, NeighborList& fringe) const;
   /// A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
   /// neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
@@ -77,7 +86,13 @@ class BasicCellGrid {
     for (std::size_t a = 1; a < D; ++a) s += d[a] * d[a];
     return s;
   }
-  void search(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner) const;
+  // Fills list (pairs within radius), inner (within its radius, <= radius) and fringe (from radius to its radius)
+  // in one scan; either may be null.
+  void search(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner,
+              NeighborList* fringe) const;
+  template <bool with_inner, bool with_fringe>
+  void search_lists(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner,
+                    NeighborList* fringe) const;
   // The cell-ordered runs [begin, end) along x that hold every binned particle within radius of r (wrapped into the
   // domain), each with the shift that turns its coordinates into the nearest periodic image.
   template <class Run>
@@ -162,6 +177,10 @@ NeighborList restrict_radius(const NeighborList& list, const BasicParticles<D>& 
 template <int D>
 void restrict_radius(const NeighborList& list, const BasicParticles<D>& particles, const BasicDomain<D>& domain,
                      double radius, NeighborList& out);
+
+/// Widens `list` in place by `fringe` (its pairs from list.radius to fringe.radius, from the same search): each row
+/// the sorted union of both, the radius the fringe's. Throws if their rows or radii do not match.
+void add_fringe(NeighborList& list, const NeighborList& fringe);
 
 /// One-off search (bins and searches once).
 template <int D>

@@ -99,6 +99,7 @@ class BasicRankExchange final : public BasicExchange<D> {
   void check(const BasicSimulation<D>& sim) const override;
   void distribute(Particles& particles) override;
   [[nodiscard]] bool reorders() const override { return false; }
+  [[nodiscard]] bool keeps_indices() const override { return false; }  ///< the halo is made anew each step
   void begin_step(Particles& particles, const BasicDomain<D>& domain, double reach, double cell_size) override;
   void share_predicted(Particles& particles, std::vector<char>& prescribed) override;
   void share_flags(std::span<char> flags) override;

@@ -73,6 +73,10 @@ struct SimulationConfig {
   int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
   /// Whether the step after `steps` completed ones puts the particles in cell order (every reorder_every-th).
   [[nodiscard]] bool reorders_after(int steps) const { return reorder_every > 0 && steps % reorder_every == 0; }
+  /// Serially, the search at r* also lists the pairs up to this far (in l0) beyond the largest radius; the next
+  /// step widens that list by them instead of searching again while no particle has moved half as far. The results
+  /// are the same bits for any value (0: search twice a step).
+  double neighbor_skin = 0.1;
   double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]
   /// The host program's option for the time step, named in the guard's advice (e.g. --dt-factor).
@@ -160,6 +164,9 @@ void for_each_parameter(F&& f) {
                     "P < 0 -> 0 where a free surface is near"});
   f(Parameter<int>{"reorder_every", &C::reorder_every, "steps", "between reorderings of the particles by cell (0: never)",
                    0, inf});
+  f(Parameter<double>{"neighbor_skin", &C::neighbor_skin, "l0",
+                      "pairs listed beyond the largest radius so the next step need not search (0: off)", 0, 1, false,
+                      false});
   f(Parameter<double>{"max_displacement", &C::max_displacement, "l0", "guard: largest move in one step", 0, inf, true});
   f(Parameter<double>{"max_speed", &C::max_speed, "m/s", "guard: largest speed (infinity: off)", 0, inf, true, false});
   f(Parameter<std::string>{"dt_option", &C::dt_option, "", "the host's option for the time step, named in the guard's "

@@ -50,6 +50,9 @@ class BasicExchange {
   virtual void distribute(Particles& particles) = 0;
   /// Whether the step may reorder particles by cell (on ranks begin_step does it for a rank's own).
   [[nodiscard]] virtual bool reorders() const = 0;
+  /// Whether a particle keeps its index from one step's search at r* to the next step's start (serially; on ranks
+  /// the halo is made anew), so that the step may carry a neighbour list over (SimulationConfig::neighbor_skin).
+  [[nodiscard]] virtual bool keeps_indices() const = 0;
   /// @}
 
   /// @{ Within a step, in this order
@@ -120,6 +123,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void check(const BasicSimulation<D>&) const override {}    ///< runs everything
   void distribute(Particles&) override {}                    ///< keeps every particle
   [[nodiscard]] bool reorders() const override { return true; }  ///< reordering by cell allowed
+  [[nodiscard]] bool keeps_indices() const override { return true; }  ///< nothing moves particles but the step
   void begin_step(Particles&, const BasicDomain<D>&, double, double) override {}    ///< nothing to move
   void share_predicted(Particles&, std::vector<char>&) override {}  ///< no copies
   void share_flags(std::span<char>) override {}              ///< no copies

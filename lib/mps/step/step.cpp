@@ -71,6 +71,25 @@ void check_initial_state(const BasicParticles<D>& p, BasicCellGrid<D>& grid, dou
   }
 }
 
+// The radius of the list at r^n: the viscosity's; the error-compensating source reads the density kernel's too.
+double radius_now(const SimulationConfig& config) {
+  return config.l0 * (config.error_compensating_source ? std::max(config.radius_laplacian, config.radius_density)
+                                                        : config.radius_laplacian);
+}
+
+// The neighbour skin in metres, where the step can carry a list over: one process, a list at r^n at the largest
+// radius (a wider carried list would cost its sums more than the search it saves), and periodic axes long enough for
+// cells that wide (a grid needs three cells along a periodic axis).
+template <int D>
+double carried_skin(const SimulationConfig& config, const BasicDomain<D>& domain, const BasicExchange<D>& exchange) {
+  const double largest = config.largest_radius() * config.l0;
+  const double skin = config.neighbor_skin * config.l0, cell = largest + skin;
+  if (!(skin > 0.0) || !exchange.keeps_indices() || radius_now(config) < largest * (1.0 - 1e-12)) return 0.0;
+  for (std::size_t a = 0; a < D; ++a)
+    if (domain.periodic()[a] && domain.extent(static_cast<int>(a)) < 3.0 * cell) return 0.0;
+  return skin;
+}
+
 std::unique_ptr<LinearSolver> given(std::unique_ptr<LinearSolver> solver) {
   if (!solver) throw std::invalid_argument("simulation: no linear solver given");
   return solver;
@@ -152,7 +171,8 @@ BasicSimulation<D>::BasicSimulation(Particles particles, Domain domain, Simulati
       k_gradient_(make_kernel(config_.radius_gradient, config_.l0, config_.weight, D)),
       k_laplacian_(make_kernel(config_.radius_laplacian, config_.l0, config_.weight, D)),
       k_pressure_(pressure_kernel_of(k_laplacian_, config_.higher_order_laplacian)),
-      grid_(domain_, config_.l0 * config_.largest_radius()) {
+      skin_(carried_skin(config_, domain_, *exchange_)),
+      grid_(domain_, config_.l0 * config_.largest_radius(), skin_) {
   if (D == 2 && config_.fz != 0.0)
     throw std::invalid_argument("simulation config: fz = " + fmt(config_.fz) + " is a 3-D body force; a 2-D "
                                 "simulation takes fx and fy");
@@ -386,6 +406,7 @@ template <int D>
 void BasicSimulation<D>::roll_back() {
   exchange_->abandon_step();
   particles_ = before_step_;
+  fringe_ready_ = false;  // near_star_ may be this step's
   info_ = info_before_;
   next_stage_ = 0;
 }
@@ -421,15 +442,39 @@ void BasicSimulation<D>::choose_time_step() {
 template <int D>
 void BasicSimulation<D>::find_neighbors_now() {
   Particles& p = particles_;
-  if (exchange_->reorders() && config_.reorders_after(info_.step)) {
+  const bool reorder = exchange_->reorders() && config_.reorders_after(info_.step);
+  if (reorder) {
     grid_.bin(p);
     p.permute(grid_.cell_order());
   }
-  grid_.bin(p);
-  // The viscosity's list; the error-compensating source reads the density kernel's neighbours at r^n too.
-  const double radius = config_.error_compensating_source ? std::max(k_laplacian_.re, k_density_.re) : k_laplacian_.re;
-  grid_.neighbors(p, radius, near_star_);
+  grid_.bin(p);  // the mirror walls and outlets read the grid at r^n
+  info_.neighbors_carried = !reorder && fringe_covers_moves();
+  if (info_.neighbors_carried) add_fringe(near_star_, fringe_);
+  else grid_.neighbors(p, radius_now(config_), near_star_);
+  fringe_ready_ = false;
   fields_.prescribed.assign(p.size(), 0);
+}
+
+// Whether every pair now within the largest radius was within it plus the skin at the last search at r*: the same
+// particles (none added, removed or made a ghost), none moved half the skin (less a margin for rounding).
+template <int D>
+bool BasicSimulation<D>::fringe_covers_moves() const {
+  const Particles& p = particles_;
+  if (!fringe_ready_ || p.size() != searched_ghost_.size()) return false;
+  const double limit = 0.5 * skin_ * (1.0 - 1e-9), limit2 = limit * limit;
+  const auto n = static_cast<Index>(p.size());
+  bool covered = true;
+#pragma omp parallel for schedule(static) reduction(&& : covered) if (detail::worth_threads(n))
+  for (Index ii = 0; ii < n; ++ii) {
+    const auto i = static_cast<std::size_t>(ii);
+    const bool ghost = p.kind[i] == Kind::ghost;
+    if (ghost != (searched_ghost_[i] != 0)) covered = false;
+    if (ghost) continue;
+    Vec<D> then;
+    for (std::size_t a = 0; a < D; ++a) then[a] = searched_at_[a][i];
+    if (!(norm2<D>(domain_.displacement(then, p.position(i))) < limit2)) covered = false;
+  }
+  return covered;
 }
 
 // The error-compensating source (Khayyer & Gotoh 2011) from the state at the step's start: e = (n - n0)/n0 and
@@ -563,12 +608,25 @@ void BasicSimulation<D>::implicit_viscous_predictor() {
 // One binning and two lists serve every kernel: one at the largest radius, one at the largest of the small ones.
 template <int D>
 void BasicSimulation<D>::find_neighbors_at_star() {
-  grid_.bin(particles_);
+  const Particles& p = particles_;
+  grid_.bin(p);
+  const double largest = config_.l0 * config_.largest_radius();
   small_radius_ = 0.0;
   for (const Kernel* k : {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_})
-    if (k->re < grid_.cell_size() * (1.0 - 1e-12)) small_radius_ = std::max(small_radius_, k->re);
-  if (small_radius_ > 0.0) grid_.neighbors(particles_, grid_.cell_size(), near_star_, small_radius_, close_star_);
-  else grid_.neighbors(particles_, grid_.cell_size(), near_star_);
+    if (k->re < largest * (1.0 - 1e-12)) small_radius_ = std::max(small_radius_, k->re);
+  if (skin_ > 0.0) {
+    grid_.neighbors(p, largest, near_star_, small_radius_, small_radius_ > 0.0 ? &close_star_ : nullptr,
+                    largest + skin_, fringe_);
+    const auto pos = p.positions();
+    for (std::size_t a = 0; a < D; ++a) searched_at_[a].assign(pos[a]->begin(), pos[a]->end());
+    searched_ghost_.resize(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) searched_ghost_[i] = p.kind[i] == Kind::ghost ? 1 : 0;
+    fringe_ready_ = true;
+  } else if (small_radius_ > 0.0) {
+    grid_.neighbors(p, largest, near_star_, small_radius_, close_star_);
+  } else {
+    grid_.neighbors(p, largest, near_star_);
+  }
 }
 
 template <int D>

@@ -37,6 +37,8 @@ struct StepInfo {
   /// @{ the PPE's unknowns, free-surface particles and closed groups (each with its gauge)
   std::size_t unknowns = 0, free_surface = 0, floating_groups = 0;  /// @}
   double max_speed = 0;         ///< the fluid's largest speed at the end of the step [m/s]
+  /// The list at r^n was the last step's at r* widened by its fringe, not a search (SimulationConfig::neighbor_skin).
+  bool neighbors_carried = false;
 };
 
 /// Wall-clock seconds spent in each phase of the step, summed over every step so far.
@@ -269,8 +271,8 @@ class BasicSimulation {
   [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
     return k.re <= small_radius_ ? close_star_ : near_star_;
   }
-  /// Neighbours at r^n within the Laplacian's radius (valid from before_predictor to before_projection: the list at
-  /// r* is later found into the same memory).
+  /// Neighbours at r^n within the Laplacian's radius, and perhaps pairs a little beyond it, which every sum skips by
+  /// its kernel (valid from before_predictor to before_projection: the list at r* is later found into the same memory).
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
   /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
   [[nodiscard]] double max_over_ranks(double value) const { return exchange_->max(value); }
@@ -291,6 +293,7 @@ class BasicSimulation {
   void begin_exchange();
   void choose_time_step();
   void find_neighbors_now();
+  [[nodiscard]] bool fringe_covers_moves() const;
   void error_compensation();
   void predict();
   void explicit_viscous_predictor();
@@ -315,6 +318,7 @@ class BasicSimulation {
   SimulationConfig config_;
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_, k_pressure_;
+  double skin_ = 0;  // the neighbour skin [m]; 0 on ranks and where a periodic axis is too short for wider cells
   CellGrid grid_;
   std::vector<std::unique_ptr<StepComponent>> components_;
   PhaseTimes times_;
@@ -322,6 +326,13 @@ class BasicSimulation {
   // costs about 200 bytes a particle.
   NeighborList near_star_, close_star_;
   double small_radius_ = 0;
+  // The pairs within the skin beyond near_star_'s radius at the last search at r*, and where the particles were then:
+  // while none has moved half the skin since, every pair now within that radius is in near_star_ + fringe_, and the
+  // next step widens near_star_ by the fringe instead of searching (every sum skips pairs beyond its kernel).
+  NeighborList fringe_;
+  std::array<std::vector<double>, D> searched_at_;
+  std::vector<char> searched_ghost_;
+  bool fringe_ready_ = false;
   int next_stage_ = 0;      // of the open step (0: none open)
   Particles before_step_;   // the state a failed step rolls back to
   StepInfo info_before_;

@@ -7,9 +7,10 @@ with its range, and the ratio of the two builds' fastest runs (noise only ever a
 steadier figure on a noisy machine). Run it on an idle machine.
 
   bench/phase_pairs.py OLD_BUILD NEW_BUILD [--sizes 1e4,1e5] [--pairs 7] [--steps 20] [--results bench/results]
-  bench/phase_pairs.py --plot-only [--results bench/results]   # the table and chart again from phase_pairs.csv
+                       [--stem phase_pairs]
+  bench/phase_pairs.py --plot-only [--results bench/results] [--stem phase_pairs]   # again from STEM.csv
 
-Writes phase_pairs.csv (one row per run) and phase_pairs.png (the ratios with their ranges).
+Writes STEM.csv (one row per run) and STEM.png (the ratios with their ranges); the stem names the comparison.
 """
 import argparse
 import csv
@@ -45,11 +46,12 @@ def main():
     ap.add_argument("--pairs", type=int, default=7)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--results", default="bench/results")
+    ap.add_argument("--stem", default="phase_pairs", help="the outputs' name: STEM.csv and STEM.png")
     a = ap.parse_args()
     results = Path(a.results)
     results.mkdir(parents=True, exist_ok=True)
     if a.plot_only:
-        with open(results / "phase_pairs.csv") as f:
+        with open(results / f"{a.stem}.csv") as f:
             rows = list(csv.DictReader(f))
         a.sizes = ",".join(dict.fromkeys(r["size"] for r in rows))
         a.pairs = 1 + max(int(r["pair"]) for r in rows)
@@ -66,7 +68,7 @@ def main():
                 rows.append({"build": name, "pair": k, "size": size, **{ph: r[ph] for ph in PHASES},
                              "fluid": r["fluid"], "iterations": r["iterations"]})
             print(size, k, flush=True)
-    with open(results / "phase_pairs.csv", "w", newline="") as f:
+    with open(results / f"{a.stem}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -75,6 +77,7 @@ def main():
 
 def plot(rows, a, results):
     fig, ax = plt.subplots(figsize=(9, 4))
+    highest = 1.35
     sizes = a.sizes.split(",")
     width = 0.8 / len(sizes)
     print(f"{'size':>6} " + " ".join(f"{ph[:-2]:>28}" for ph in PHASES))
@@ -95,17 +98,18 @@ def plot(rows, a, results):
             x = p_index + (s_index - (len(sizes) - 1) / 2) * width
             ax.bar(x, med, width, color=f"C{s_index}", label=f"{float(size):.0e} particles" if p_index == 0 else None)
             ax.errorbar(x, med, yerr=[[med - min(ratios)], [max(ratios) - med]], color="k", capsize=3, lw=1)
+            highest = max(highest, max(ratios) + 0.05, fastest + 0.05)
         print(f"{size:>6} " + " ".join(f"{c:>28}" for c in line))
     ax.axhline(1.0, color="grey", lw=1)
     ax.axhline(0.97, color="red", ls=":", lw=1)
     ax.text(len(PHASES) - 0.5, 0.97, "0.97", color="red", fontsize=7, va="top", ha="right")
     ax.set_xticks(range(len(PHASES)), [ph[:-2] for ph in PHASES])
-    ax.set_ylim(0.7, 1.35)
+    ax.set_ylim(0.7, highest)
     ax.set_ylabel("old time / new time (median of pairs, range)")
     ax.set_title(f"Body-force channel, one thread, {a.steps} steps: {a.pairs} pairs, old and new in turn", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(results / "phase_pairs.png", dpi=120)
+    fig.savefig(results / f"{a.stem}.png", dpi=120)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,25 @@ TEST(Kernel, BoundedWeightIsFiniteAtZeroAndVanishesAtRadius) {
   EXPECT_NEAR(k.w(k.re * (1 - 1e-12)), 0.0, 1e-9);
 }
 
+// The branch-free weight the Laplacian sums with: w's bits below re (and at r = 0 for the classic weight, infinity),
+// and a zero from re on, for both weights.
+TEST(Kernel, UnbranchedWeightIsWBelowTheRadiusAndZeroFromIt) {
+  for (const mps::Weight weight : {mps::Weight::bounded, mps::Weight::classic}) {
+    const mps::Kernel k = mps::make_kernel(4.1, 0.01, weight);
+    for (int step = 1; step < 4000; ++step) {
+      const double r = k.re * step / 2000.0;
+      const double unbranched = k.w_unbranched(r);
+      if (r < k.re) {
+        EXPECT_EQ(unbranched, k.w(r)) << "r = " << r;  // bitwise
+      } else {
+        EXPECT_EQ(unbranched, 0.0) << "r = " << r;  // +0 or -0
+      }
+    }
+    EXPECT_EQ(k.w_unbranched(0.0), k.w(0.0));
+    EXPECT_EQ(k.w_unbranched(std::nextafter(k.re, 0.0)), k.w(std::nextafter(k.re, 0.0)));
+  }
+}
+
 TEST(Kernel, ReferenceValuesMatchHandSumOnLattice) {
   // re = 2.1 l0 covers the 12 lattice neighbours at distances 1, sqrt2, 2 (4 each).
   const double l0 = 0.5;

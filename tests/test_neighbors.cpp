@@ -67,7 +67,7 @@ TEST(Neighbors, OneBinningServesSmallerRadii) {
 }
 
 // The search with a fringe: the list and the inner list as without one, the fringe the pairs from the radius to its
-// own, and the list widened by it the list at the fringe's radius, with periodic images, a ghost and moved particles.
+// own, and the list widened by it the list at the fringe's radius, with periodic images and a ghost.
 TEST(Neighbors, FringeHoldsThePairsBetweenTheRadiiAndWidensTheListToTheOuterOne) {
   const mps::Domain d{0, 1, 0, 0.8, true, false};
   const mps::Particles p = random_particles(1200, d, 6);

@@ -37,6 +37,12 @@ struct Kernel {
     if (r >= re) return 0.0;
     return weight == Weight::bounded ? re / (0.85 * r + 0.15 * re) - 1.0 : re / r - 1.0;
   }
+  /// w(r) as a product, without a branch: the same bits below re, +-0 from re on. A sum begun at +0 that adds every
+  /// listed pair's term with it is the sum over w > 0, without a branch to mispredict where a list reaches past re.
+  [[nodiscard]] double w_unbranched(double r) const {
+    const double inside = (weight == Weight::bounded ? re / (0.85 * r + 0.15 * re) : re / r) - 1.0;
+    return inside * (r < re ? 1.0 : 0.0);
+  }
   /// dw/dr at distance r (0 from re on).
   [[nodiscard]] double dw(double r) const {
     if (r >= re) return 0.0;

@@ -394,14 +394,11 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
   const double scale = s.kernel.laplacian_scale(D);
   const bool higher_order = s.kernel.higher_order_laplacian;
   if (!higher_order) {
-    // Every listed pair adds its term, 0 beyond re: a sum begun at +0 is unchanged by a term of +-0, so this is the
-    // w > 0 loop's result, without its branch to mispredict where a list reaches past re (a list carried over from
-    // the last step, SimulationConfig::neighbor_skin).
+    // Every listed pair adds its term (Kernel::w_unbranched): the w > 0 loop's bits, without its branch to
+    // mispredict where a list reaches past re (one carried over from the last step, SimulationConfig::neighbor_skin).
     std::array<const double*, D> X;
     for (std::size_t a = 0; a < D; ++a) X[a] = s.particles.positions()[a]->data();
     const Displacement<D> displacement(s.domain);
-    const double re = s.kernel.re;
-    const bool bounded = s.kernel.weight == Weight::bounded;
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
@@ -411,9 +408,7 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
       for (int jj : s.neighbors.of(i)) {
         const auto j = static_cast<std::size_t>(jj);
         for (std::size_t a = 0; a < D; ++a) rj[a] = X[a][j];
-        const double r = std::sqrt(norm2<D>(displacement(ri, rj)));
-        const double inside = (bounded ? re / (0.85 * r + 0.15 * re) : re / r) - 1.0;  // Kernel::w below re
-        const double w = inside * (r < re ? 1.0 : 0.0);
+        const double w = s.kernel.w_unbranched(std::sqrt(norm2<D>(displacement(ri, rj))));
         for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * w;
       }
       for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];

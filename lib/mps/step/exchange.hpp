@@ -123,7 +123,7 @@ class BasicSerialExchange final : public BasicExchange<D> {
   void check(const BasicSimulation<D>&) const override {}    ///< runs everything
   void distribute(Particles&) override {}                    ///< keeps every particle
   [[nodiscard]] bool reorders() const override { return true; }  ///< reordering by cell allowed
-  [[nodiscard]] bool keeps_indices() const override { return true; }  ///< nothing moves particles but the step
+  [[nodiscard]] bool keeps_indices() const override { return true; }  ///< no halo: the particles stay as they are
   void begin_step(Particles&, const BasicDomain<D>&, double, double) override {}    ///< nothing to move
   void share_predicted(Particles&, std::vector<char>&) override {}  ///< no copies
   void share_flags(std::span<char>) override {}              ///< no copies

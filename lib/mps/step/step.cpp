@@ -71,7 +71,9 @@ void check_initial_state(const BasicParticles<D>& p, BasicCellGrid<D>& grid, dou
   }
 }
 
-// The radius of the list at r^n: the viscosity's; the error-compensating source reads the density kernel's too.
+// The radius of the list at r^n: the viscosity's; the error-compensating source reads the density kernel's too. The
+// search adds a rounding margin (its sums skip what lies beyond): across a periodic boundary the grid's distance may
+// differ from the sums' by an ulp, and the list carried over instead holds every pair the sums count.
 double radius_now(const SimulationConfig& config) {
   return config.l0 * (config.error_compensating_source ? std::max(config.radius_laplacian, config.radius_density)
                                                         : config.radius_laplacian);
@@ -450,7 +452,7 @@ void BasicSimulation<D>::find_neighbors_now() {
   grid_.bin(p);  // the mirror walls and outlets read the grid at r^n
   info_.neighbors_carried = !reorder && fringe_covers_moves();
   if (info_.neighbors_carried) add_fringe(near_star_, fringe_);
-  else grid_.neighbors(p, radius_now(config_), near_star_);
+  else grid_.neighbors(p, radius_now(config_) * (1.0 + 1e-12), near_star_);  // radius_now: why the margin
   fringe_ready_ = false;
   fields_.prescribed.assign(p.size(), 0);
 }

@@ -273,6 +273,7 @@ class BasicSimulation {
   }
   /// Neighbours at r^n within the Laplacian's radius, and perhaps pairs a little beyond it, which every sum skips by
   /// its kernel (valid from before_predictor to before_projection: the list at r* is later found into the same memory).
+  /// A component that measures these pairs at r* (ParticleCollision) sees the pairs beyond too: see neighbor_skin.
   [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
   /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
   [[nodiscard]] double max_over_ranks(double value) const { return exchange_->max(value); }
@@ -318,7 +319,9 @@ class BasicSimulation {
   SimulationConfig config_;
   std::unique_ptr<LinearSolver> viscosity_solver_;  // only with implicit_viscosity
   Kernel k_density_, k_surface_, k_gradient_, k_laplacian_, k_pressure_;
-  double skin_ = 0;  // the neighbour skin [m]; 0 on ranks and where a periodic axis is too short for wider cells
+  // The neighbour skin [m]; 0 on ranks, where the list at r^n is narrower than the largest radius, and where a
+  // periodic axis is too short for the wider cells.
+  double skin_ = 0;
   CellGrid grid_;
   std::vector<std::unique_ptr<StepComponent>> components_;
   PhaseTimes times_;

@@ -402,9 +402,8 @@ void add_fringe(NeighborList& list, const NeighborList& fringe) {
       a -= take_list ? 1 : 0;
       b -= take_list ? 0 : 1;
     }
-    if (write != a)  // else the rest of the row is in place (and copy_backward may not copy onto itself)
-      std::copy_backward(index.begin() + static_cast<std::ptrdiff_t>(a0),
-                         index.begin() + static_cast<std::ptrdiff_t>(a), index.begin() + static_cast<std::ptrdiff_t>(write));
+    const auto at = [&](std::size_t k) { return index.begin() + static_cast<std::ptrdiff_t>(k); };
+    if (write != a) std::copy_backward(at(a0), at(a), at(write));  // else in place (copy_backward may not self-copy)
     write -= a - a0;
   }
   list.radius = fringe.radius;

@@ -73,12 +73,9 @@ struct SimulationConfig {
   int reorder_every = 20;        ///< steps between reorderings of particles by cell (0: never)
   /// Whether the step after `steps` completed ones puts the particles in cell order (every reorder_every-th).
   [[nodiscard]] bool reorders_after(int steps) const { return reorder_every > 0 && steps % reorder_every == 0; }
-  /// Serially, and where the list at r^n is at the largest radius, the search at r* also lists the pairs up to this
-  /// far (in l0) beyond it; the next step widens that list by them instead of searching again while no particle has
-  /// moved half as far (0: search twice a step). Every sum at r^n skips them, so the results are the same bits for
-  /// any value, unless a pair from beyond the largest radius comes within the collision distance at r*, a predictor
-  /// move of (largest radius - collision distance) / 2 per particle (1.65 l0 at the defaults; the guard stops a
-  /// step at 0.5 l0).
+  /// Serially, the search at r* also lists the pairs up to this far (in l0) beyond the largest radius, and the next
+  /// step reuses that list while no particle has moved half as far (0: search twice a step). The sums skip those
+  /// pairs, so results do not change (the one exception, collisions, in docs/benchmarks.md).
   double neighbor_skin = 0.1;
   double max_displacement = 0.5;  ///< guard: largest move of a particle in one step, in l0
   double max_speed = std::numeric_limits<double>::infinity();  ///< guard: largest speed [m/s]

@@ -438,6 +438,12 @@ TEST(SolverFailure, EveryBackendRefusesMalformedMatricesWithAMessageNamingTheDef
       {"unsorted columns", csr(3, {0, 2, 4, 5}, {1, 0, 0, 1, 2}, {1, 4, 1, 4, 4}), "not ascending"},
       {"missing diagonal", csr(3, {0, 2, 4, 5}, {0, 1, 0, 2, 2}, {4, 1, 1, 1, 4}), "row 1 has no diagonal"},
       {"nonsymmetric", csr(3, {0, 2, 4, 5}, {0, 1, 0, 1, 2}, {4, 1, 2, 4, 4}), "not symmetric", true},
+      // An entry whose transposed place holds none, above the diagonal and below it.
+      {"unpaired above", csr(3, {0, 2, 3, 4}, {0, 2, 1, 2}, {4, 1, 4, 4}), "not symmetric", true},
+      {"unpaired below", csr(3, {0, 1, 2, 4}, {0, 1, 0, 2}, {4, 4, 1, 4}), "not symmetric", true},
+      {"row_ptr decreasing", csr(3, {0, 3, 2, 5}, {0, 1, 2, 1, 2}, {4, 1, 1, 4, 4}), "row_ptr decreases at row 1"},
+      {"NaN off the diagonal", csr(2, {0, 2, 4}, {0, 1, 0, 1}, {4, std::nan(""), std::nan(""), 4}),
+       "NaN or Inf in the matrix"},
       {"negative diagonal", csr(2, {0, 1, 2}, {0, 1}, {4, -1}), "diagonal entry <= 0", true},
       // hypre checked the diagonal's sign before finiteness and called a NaN "<= 0".
       {"NaN diagonal", csr(2, {0, 1, 2}, {0, 1}, {4, std::nan("")}), "NaN or Inf in the matrix"},
@@ -543,6 +549,38 @@ TEST(SolverFilter, FilteredAmgPreconditionsTheSameSolutionAndOnlyPcgOffersIt) {
     EXPECT_NE(std::string(e.what()).find("no key 'filter'"), std::string::npos) << e.what();
   }
   EXPECT_NE(mps::make_solver("auto")->spec().find("filter=0.2"), std::string::npos);
+}
+
+// On one rank the filtered matrix is kept between solves and filled into the room it has; a matrix that keeps more
+// entries than that room makes it anew, and the solve is the one a fresh solver gives, bit for bit.
+TEST(SolverFilter, AFilteredMatrixThatOutgrowsItsRoomIsMadeAnew) {
+  const mps::PpeSystem& ppe = tank().ppe;
+  const mps::CsrMatrix& a = ppe.matrix;
+  // One pair three times the strongest (its diagonals raised as much, so the matrix stays SPD) raises the filter's
+  // threshold above every coupling but the nearest: that matrix's filtered copy keeps about 5 entries a row, A's 21.
+  mps::CsrMatrix one_strong = a;
+  const int i = 0, j = a.col[static_cast<std::size_t>(a.row_ptr[1] - 1)];
+  ASSERT_GT(j, i);
+  auto entry = [&](int r, int c) -> double& {
+    const auto row = static_cast<std::size_t>(r);
+    const auto begin = static_cast<std::size_t>(one_strong.row_ptr[row]);
+    for (auto k = begin; k < static_cast<std::size_t>(one_strong.row_ptr[row + 1]); ++k)
+      if (one_strong.col[k] == c) return one_strong.val[k];
+    throw std::logic_error("no entry");
+  };
+  const double strong = -2.0 * mps::largest_off_diagonal(a);
+  entry(i, j) += strong;
+  entry(j, i) += strong;
+  entry(i, i) -= strong;
+  entry(j, j) -= strong;
+  auto kept = mps::make_solver("hypre-pcg:tol=1e-12,filter=0.2");
+  std::vector<double> x_small(ppe.size(), 0.0), x_kept(ppe.size(), 0.0), x_fresh(ppe.size(), 0.0);
+  EXPECT_LT(kept->solve(one_strong, ppe.rhs, x_small).relative_residual, 1e-12);
+  const mps::SolveReport r_kept = kept->solve(a, ppe.rhs, x_kept);
+  const mps::SolveReport r_fresh = mps::make_solver("hypre-pcg:tol=1e-12,filter=0.2")->solve(a, ppe.rhs, x_fresh);
+  EXPECT_EQ(r_kept.iterations, r_fresh.iterations);
+  EXPECT_EQ(x_kept, x_fresh);
+  EXPECT_LT(r_kept.relative_residual, 1e-12);
 }
 
 TEST(SolverReuse, TheHierarchyIsRebuiltAfterReuseSolvesAndWhenTheCountChanges) {

@@ -30,6 +30,10 @@ struct CsrMatrix {
 void lump_weak_entries(const CsrMatrix& a, double threshold, CsrMatrix& m, int first_row = 0);
 /// The largest |a_ij| with i != j (0 for a diagonal matrix).
 double largest_off_diagonal(const CsrMatrix& a, int first_row = 0);
+/// CsrMatrix::is_symmetric's test for a square matrix whose row r holds only columns greater than r from entry
+/// after[r] on (one past its diagonal, where it has one), and whose largest |a_ij| is `largest`: a caller that has
+/// read every row already (the solvers' input checks) skips is_symmetric's own passes for these two.
+[[nodiscard]] bool is_symmetric_after(const CsrMatrix& a, std::vector<int> after, double largest, double tol = 1e-12);
 
 double norm2(std::span<const double> x);  ///< Euclidean norm
 /// ||b - A x|| / ||b|| (or ||b - A x|| when b = 0)

@@ -371,7 +371,7 @@ class HypreSolver final : public LinearSolver {
   [[nodiscard]] bool wants_fixed_rows() const override { return galerkin_refresh_ && reuse_ > 0; }
 
  private:
-  Partition partition(const CsrMatrix& a, std::span<const double> b, std::span<double> x, SolveReport& report) const {
+  Partition partition(const CsrMatrix& a, std::span<const double> b, std::span<double> x, SolveReport& report) {
     Partition p;
     p.comm = comm_;
     MPI_Comm_size(comm_, &p.ranks);
@@ -389,9 +389,10 @@ class HypreSolver final : public LinearSolver {
     // Structure, diagonals and (on one rank, where the whole matrix is here) symmetry, as the serial backends check.
     std::string bad_input;
     try {
-      solver_detail::check_structure(name_, a, report);
-      solver_detail::check_diagonal(name_, a, static_cast<int>(p.ilower), true, report);
-      if (p.ranks == 1 && !a.is_symmetric(1e-12))
+      solver_detail::scan_rows(name_, a, static_cast<int>(p.ilower), scan_, report);
+      solver_detail::check_diagonal(name_, a, static_cast<int>(p.ilower), scan_, true, report);
+      // With a NaN or Inf in A the symmetry is moot: the finiteness check below names it.
+      if (p.ranks == 1 && scan_.finite && !solver_detail::symmetric(a, scan_))
         throw SolverError(name_ + ": the matrix is not symmetric, which PCG and the symmetric smoothers need; use "
                                   "eigen-bicgstab for a nonsymmetric matrix",
                           report);
@@ -407,7 +408,7 @@ class HypreSolver final : public LinearSolver {
       throw SolverError(name_ + ": matrix and vector sizes do not match (each rank passes its block of rows of a " +
                             "square matrix, with a.cols the global size)",
                         report);
-    if (any_rank(!solver_detail::all_finite(a.val), comm_))
+    if (any_rank(!scan_.finite, comm_))
       throw SolverError(name_ + ": NaN or Inf in the matrix", report);
     if (any_rank(!solver_detail::all_finite(b), comm_))
       throw SolverError(name_ + ": NaN or Inf in the right-hand side", report);
@@ -436,15 +437,11 @@ class HypreSolver final : public LinearSolver {
     const HYPRE_Int n = part.local_rows();
     rows_.resize(static_cast<std::size_t>(n));
     for (HYPRE_Int i = 0; i < n; ++i) rows_[static_cast<std::size_t>(i)] = part.ilower + i;
-    double largest = -1.0;  // the largest off-diagonal magnitude, found on one rank with the diagonals
     const bool one_rank = part.ranks == 1;
-    if (one_rank) find_diagonals(a, largest);
     sys.m = sys.a = one_rank ? lend(a) : upload_matrix(a, part, sys.ij, report);
     if (filter_ > 0.0) {
-      if (largest < 0.0) {
-        const double local = largest_off_diagonal(a, static_cast<int>(part.ilower));
-        MPI_Allreduce(&local, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
-      }
+      double largest = scan_.largest_off_diagonal;
+      if (!one_rank) MPI_Allreduce(&scan_.largest_off_diagonal, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
       if (part.ranks == 1 && filter_one_rank(a, kept_filtered_, filter_ * largest)) {
         sys.m = kept_filtered_.matrix;
       } else {
@@ -453,7 +450,7 @@ class HypreSolver final : public LinearSolver {
       }
     }
     // After the filtered copy, which reads a in its own order.
-    if (one_rank) swapped.swap(a, diagonal_slot_);
+    if (one_rank) swapped.swap(a, scan_.diagonal);
     set_vector(sys.b, part, b, report);
     set_vector(sys.x, part, x, report);
     set_vector(sys.r, part, b, report);
@@ -489,26 +486,6 @@ class HypreSolver final : public LinearSolver {
     return static_cast<HYPRE_ParCSRMatrix>(object);
   }
 
-  // Fills diagonal_slot_ with where each row's diagonal sits, by its sorted columns (partition() has checked that
-  // every row holds its diagonal), and, when a filter needs it, largest with the largest off-diagonal magnitude.
-  void find_diagonals(const CsrMatrix& a, double& largest) {
-    diagonal_slot_.resize(static_cast<std::size_t>(a.rows));
-    double most = 0.0;
-    for (int r = 0; r < a.rows; ++r) {
-      const auto begin = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
-      const auto end = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r) + 1]);
-      const auto d = static_cast<std::size_t>(
-          std::lower_bound(a.col.begin() + static_cast<std::ptrdiff_t>(begin),
-                           a.col.begin() + static_cast<std::ptrdiff_t>(end), r) - a.col.begin());
-      diagonal_slot_[static_cast<std::size_t>(r)] = static_cast<int>(d);
-      if (filter_ > 0.0) {
-        for (std::size_t k = begin; k < d; ++k) most = std::max(most, std::abs(a.val[k]));
-        for (std::size_t k = d + 1; k < end; ++k) most = std::max(most, std::abs(a.val[k]));
-      }
-    }
-    largest = most;
-  }
-
   // A ParCSR matrix on one rank whose column and value arrays are a's own (hypre neither copies nor frees them);
   // only its row starts are hypre's. The caller swaps the diagonals to the front before hypre reads it.
   HYPRE_ParCSRMatrix lend(const CsrMatrix& a) {
@@ -541,18 +518,29 @@ class HypreSolver final : public LinearSolver {
   // so it is moved to the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way.
   bool filter_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold) {
     const HYPRE_Int n = a.rows;
-    // Sized by the entries it keeps, not by A's: an upper bound, diagonals above the threshold counted twice.
-    const auto need = static_cast<HYPRE_Int>(
-        n + std::count_if(a.val.begin(), a.val.end(), [&](double v) { return std::abs(v) >= threshold; }));
-    if (kept.matrix == nullptr || kept.rows != n || kept.capacity < need) {
-      if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
-      HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
-      kept.capacity = need + need / 16;  // room for the pattern to grow a little from step to step
-      kept.matrix = hypre_ParCSRMatrixCreate(comm_, n, n, starts, starts, 0, kept.capacity, 0);
-      hypre_ParCSRMatrixInitialize(kept.matrix);
-      hypre_MatvecCommPkgCreate(kept.matrix);
-      kept.rows = n;
+    // Filled into the room the kept matrix has; only when that is too small are the kept entries counted (an upper
+    // bound: diagonals above the threshold counted twice) and the matrix made anew.
+    for (bool sized = kept.matrix != nullptr && kept.rows == n;; sized = false) {
+      if (!sized) {
+        const auto need = static_cast<HYPRE_Int>(
+            n + std::count_if(a.val.begin(), a.val.end(), [&](double v) { return std::abs(v) >= threshold; }));
+        if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
+        HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
+        kept.capacity = need + need / 16;  // room for the pattern to grow a little from step to step
+        kept.matrix = hypre_ParCSRMatrixCreate(comm_, n, n, starts, starts, 0, kept.capacity, 0);
+        hypre_ParCSRMatrixInitialize(kept.matrix);
+        hypre_MatvecCommPkgCreate(kept.matrix);
+        kept.rows = n;
+      }
+      const Filled filled = fill_filtered(a, kept, threshold, sized);
+      if (filled != Filled::no_room) return filled == Filled::done;
     }
+  }
+
+  enum class Filled { done, no_room, malformed };
+  // check_room: whether a row may not fit (a kept matrix's room; one made for this matrix holds every row).
+  Filled fill_filtered(const CsrMatrix& a, KeptMatrix& kept, double threshold, bool check_room) {
+    const HYPRE_Int n = a.rows;
     hypre_CSRMatrix* diag = hypre_ParCSRMatrixDiag(kept.matrix);
     HYPRE_Int* row_start = hypre_CSRMatrixI(diag);
     HYPRE_Int* column = hypre_CSRMatrixJ(diag);
@@ -561,14 +549,16 @@ class HypreSolver final : public LinearSolver {
     // One pass copies, checks the columns and finds each diagonal, which then swaps places with the row's first
     // entry, as the IJ assembly does: the same order, the same smoothing sweeps, the same numbers as through IJ.
     for (HYPRE_Int r = 0; r < n; ++r) {
+      const int begin = a.row_ptr[static_cast<std::size_t>(r)], end = a.row_ptr[static_cast<std::size_t>(r) + 1];
+      if (check_room && nnz + (end - begin) > kept.capacity) return Filled::no_room;
       const HYPRE_Int first = nnz;
       row_start[r] = first;
       HYPRE_Int d = -1;
       double lumped = 0.0;
-      for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+      for (int k = begin; k < end; ++k) {
         const int c = a.col[static_cast<std::size_t>(k)];
         const double v = a.val[static_cast<std::size_t>(k)];
-        if (c < 0 || c >= n) return false;
+        if (c < 0 || c >= n) return Filled::malformed;
         if (c == r) {
           d = nnz;
         } else if (std::abs(v) < threshold) {
@@ -578,7 +568,7 @@ class HypreSolver final : public LinearSolver {
         column[nnz] = c;
         value[nnz++] = v;
       }
-      if (d < 0) return false;
+      if (d < 0) return Filled::malformed;
       value[d] += lumped;
       std::swap(column[first], column[d]);
       std::swap(value[first], value[d]);
@@ -587,7 +577,7 @@ class HypreSolver final : public LinearSolver {
     hypre_CSRMatrixNumNonzeros(diag) = nnz;
     hypre_ParCSRMatrixSetNumNonzeros(kept.matrix);
     hypre_ParCSRMatrixSetDNumNonzeros(kept.matrix);
-    return true;
+    return Filled::done;
   }
 
   void build_hierarchy(ParSystem& sys, const Partition& part, const SolveReport& report) {
@@ -786,7 +776,7 @@ class HypreSolver final : public LinearSolver {
   std::vector<HYPRE_BigInt> rows_;  // this rank's global row numbers
   KeptMatrix kept_;                 // on one rank: A, lent (its arrays are the caller's)
   KeptMatrix kept_filtered_;        // on one rank: the copy of A's filtered matrix
-  std::vector<int> diagonal_slot_;  // on one rank: where each row's diagonal sits in the caller's order
+  solver_detail::RowScan scan_;     // the last matrix's: its diagonals (hypre's swap) and largest entries
   std::vector<char> lone_;          // refresh=galerkin: which rows of the last matrix held their diagonal only
   CsrMatrix filtered_;
   HYPRE_Solver amg_ = nullptr;      // the kept hierarchy

@@ -71,11 +71,12 @@ class PetscSolver final : public LinearSolver {
     if (rank == 0) first_row = 0;
     std::string bad;
     try {
-      solver_detail::check_structure("petsc", a, report);
+      solver_detail::RowScan scan;
+      solver_detail::scan_rows("petsc", a, static_cast<int>(first_row), scan, report);
       // CG needs a symmetric positive definite matrix: checked as hypre-pcg checks it (symmetry on one rank, where
       // the whole matrix is here).
-      solver_detail::check_diagonal("petsc", a, static_cast<int>(first_row), symmetric_, report);
-      if (symmetric_ && a.cols == a.rows && !a.is_symmetric(1e-12))
+      solver_detail::check_diagonal("petsc", a, static_cast<int>(first_row), scan, symmetric_, report);
+      if (symmetric_ && a.cols == a.rows && scan.finite && !solver_detail::symmetric(a, scan))
         throw SolverError("petsc: the matrix is not symmetric, which ksp_type=cg needs; use ksp_type=gmres or bcgs "
                           "for a nonsymmetric matrix",
                           report);
@@ -83,7 +84,7 @@ class PetscSolver final : public LinearSolver {
         throw SolverError("petsc: matrix and vector sizes do not match (each rank passes its block of rows of a "
                           "square matrix, with a.cols the global size)",
                           report);
-      if (!solver_detail::all_finite(a.val)) throw SolverError("petsc: NaN or Inf in the matrix", report);
+      if (!scan.finite) throw SolverError("petsc: NaN or Inf in the matrix", report);
       if (!solver_detail::all_finite(b)) throw SolverError("petsc: NaN or Inf in the right-hand side", report);
     } catch (const SolverError& e) {
       bad = e.what();

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "mps/boundaries/geometry.hpp"
 #include "mps/numerics/operators.hpp"
@@ -134,6 +136,58 @@ TEST(Operators, LoopsAndMatricesAgreeOnDisorderedParticles) {
       EXPECT_NEAR(gy[i], my[i], 1e-12 * scale);
       EXPECT_NEAR(div[i], mdiv[i] + tmp[i], 1e-12 * scale);
     }
+  }
+}
+
+// The rows a caller asks for (the step: the fluid it moves) get the very bits of a call over every row, with both
+// Laplacian paths and every gradient variant; the other rows' entries are left as they were.
+TEST(Operators, SelectedRowsAreComputedBitwiseAndTheOthersLeftAlone) {
+  mps::Particles p;
+  mps::fill_rectangle(p, {0, 0, 2, 2}, 0.05, mps::Kind::fluid);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> jitter(0.0, 0.01);
+  const std::size_t n = p.size();
+  std::vector<char> rows(n);
+  std::bernoulli_distribution pick(0.4);
+  for (std::size_t i = 0; i < n; ++i) {
+    p.x[i] += jitter(rng);
+    p.y[i] += jitter(rng);
+    rows[i] = pick(rng) ? 1 : 0;
+  }
+  const mps::Domain d{-0.5, 2.5, -0.5, 2.5};
+  std::vector<double> f(n), g(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    f[i] = std::sin(3 * p.x[i]) * std::cos(2 * p.y[i]);
+    g[i] = p.x[i] * p.y[i];
+  }
+  const double untouched = -12345.0;
+  auto check = [&](const std::vector<double>& all, const std::vector<double>& some, const char* what) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (rows[i]) EXPECT_EQ(some[i], all[i]) << what << ", row " << i;
+      else EXPECT_EQ(some[i], untouched) << what << ", row " << i;
+  };
+  for (bool higher_order : {false, true}) {
+    mps::Kernel k = mps::make_kernel(4.1, 0.05);
+    k.higher_order_laplacian = higher_order;
+    const auto list = mps::find_neighbors(p, d, k.re);
+    const mps::Stencil s{p, d, list, k};
+    std::vector<double> lf(n), lg(n), sf(n, untouched), sg(n, untouched);
+    mps::laplacian<2>(s, {f, g}, {lf, lg});
+    mps::laplacian<2>(s, {f, g}, {sf, sg}, rows);
+    check(lf, sf, higher_order ? "higher-order Laplacian" : "Laplacian");
+    check(lg, sg, higher_order ? "higher-order Laplacian" : "Laplacian");
+  }
+  const mps::Kernel k = mps::make_kernel(2.1, 0.05);
+  const auto list = mps::find_neighbors(p, d, k.re);
+  const mps::Stencil s{p, d, list, k};
+  for (auto variant : {mps::GradientVariant::plain, mps::GradientVariant::min_reference,
+                       mps::GradientVariant::corrected, mps::GradientVariant::corrected_min_reference,
+                       mps::GradientVariant::conservative}) {
+    std::vector<double> gx(n), gy(n), sx(n, untouched), sy(n, untouched);
+    mps::gradient<2>(s, f, {gx, gy}, variant, {}, {0.0, -1.0});
+    mps::gradient<2>(s, f, {sx, sy}, variant, {}, {0.0, -1.0}, {}, rows);
+    check(gx, sx, std::string(mps::to_string(variant)).c_str());
+    check(gy, sy, std::string(mps::to_string(variant)).c_str());
   }
 }
 

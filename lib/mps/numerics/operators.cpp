@@ -258,9 +258,11 @@ void check_components(const BasicStencil<D>& s, const Components<D>& g, const ch
 
 template <int D>
 void gradient(const BasicStencil<D>& s, std::span<const double> phi, const Components<D>& g, GradientVariant variant,
-              std::span<const char> carriers, const std::type_identity_t<Vec<D>>& min_tilt, std::span<const char> own_reference) {
+              std::span<const char> carriers, const std::type_identity_t<Vec<D>>& min_tilt,
+              std::span<const char> own_reference, std::span<const char> rows) {
   if (!carriers.empty()) check_size(carriers.size(), s.particles.size(), "carriers");
   if (!own_reference.empty()) check_size(own_reference.size(), s.particles.size(), "own_reference");
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
   const Index n = count(s);
   check_size(phi.size(), s.particles.size(), "phi");
@@ -271,6 +273,7 @@ void gradient(const BasicStencil<D>& s, std::span<const double> phi, const Compo
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    if (!rows.empty() && !rows[i]) continue;
     double ref = variant == GradientVariant::conservative ? -phi[i] : phi[i];
     if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
       // The tilted minimum removes the known linear part from the classic one, never going below it: where
@@ -385,11 +388,12 @@ namespace {
 // The Laplacian of K fields in one pass over the pairs: each pair's distance and weight serve them all.
 template <int D, std::size_t K>
 void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const double>, K>& in,
-                  const std::array<std::span<double>, K>& out) {
+                  const std::array<std::span<double>, K>& out, std::span<const char> rows = {}) {
   for (std::size_t f = 0; f < K; ++f) {
     check_size(in[f].size(), s.particles.size(), "field");
     check_size(out[f].size(), s.particles.size(), "out");
   }
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   const Index n = count(s);
   const double scale = s.kernel.laplacian_scale(D);
   const bool higher_order = s.kernel.higher_order_laplacian;
@@ -402,6 +406,7 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
+      if (!rows.empty() && !rows[i]) continue;
       Vec<D> ri, rj;
       for (std::size_t a = 0; a < D; ++a) ri[a] = X[a][i];
       std::array<double, K> sum{};
@@ -418,6 +423,7 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    if (!rows.empty() && !rows[i]) continue;
     std::array<double, K> sum{};
     for_each_pair(s, i, [&](std::size_t j, const Vec<D>&, double r2, double) {
       const double weight = s.kernel.higher_order_weight(std::sqrt(r2));
@@ -435,8 +441,9 @@ void laplacian(const BasicStencil<D>& s, std::span<const double> phi, std::span<
 }
 
 template <int D>
-void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Components<D>& out) {
-  laplacian_of<D, static_cast<std::size_t>(D)>(s, u, out);
+void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Components<D>& out,
+               std::span<const char> rows) {
+  laplacian_of<D, static_cast<std::size_t>(D)>(s, u, out, rows);
 }
 
 template <int D>
@@ -565,7 +572,7 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   template void number_density(const BasicStencil<D>&, std::vector<double>&);                                        \
   template void neighbour_asymmetry(const BasicStencil<D>&, std::vector<double>&);                                   \
   template void gradient<D>(const BasicStencil<D>&, std::span<const double>, const Components<D>&, GradientVariant,     \
-                         std::span<const char>, const Vec<D>&, std::span<const char>);                               \
+                         std::span<const char>, const Vec<D>&, std::span<const char>, std::span<const char>);        \
   template void conservative_gradient_terms<D>(const BasicStencil<D>&, std::span<const double>, std::span<const char>,  \
                                             std::span<const char>, std::span<const char>, const Components<D>&);     \
   template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);                    \
@@ -573,7 +580,8 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   template void number_density_and_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::vector<double>&,    \
                                            std::span<double>);                                                        \
   template void laplacian(const BasicStencil<D>&, std::span<const double>, std::span<double>);                       \
-  template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&);                  \
+  template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&,                  \
+                             std::span<const char>);                                                                  \
   template CsrMatrix laplacian_matrix(const BasicStencil<D>&);                                                       \
   template void surface_normals<D>(const BasicStencil<D>&, std::span<const char>, std::array<std::vector<double>, D>&); \
   template double shift_particles<D>(const BasicStencil<D>&, double, double, std::span<const char>, BasicParticles<D>&, \

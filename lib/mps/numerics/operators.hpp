@@ -75,10 +75,13 @@ GradientVariant gradient_variant_from_name(std::string_view name);  ///< the inv
 /// `own_reference` (the min-reference variants), if given: particles i with own_reference[i] != 0 take phi_i itself as
 /// the reference instead of the minimum over their neighbours (for pressure: free-surface particles, whose phi is
 /// imposed; see the HydrostaticSplit component).
+/// `rows`, if given: only particles i with rows[i] != 0 get their gradient; the others' entries of g are left as they
+/// are (the step needs the fluid's only, a fifth of the particles in the 3-D dam break at 5 cm).
 template <int D = 2>
 void gradient(const BasicStencil<D>& s, std::span<const double> phi, const Components<D>& g,
               GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
-              const std::type_identity_t<Vec<D>>& min_tilt = {}, std::span<const char> own_reference = {});
+              const std::type_identity_t<Vec<D>>& min_tilt = {}, std::span<const char> own_reference = {},
+              std::span<const char> rows = {});
 /// 2-D: the same with the components as gx, gy.
 inline void gradient(const Stencil& s, std::span<const double> phi, std::span<double> gx, std::span<double> gy,
                      GradientVariant variant = GradientVariant::plain, std::span<const char> carriers = {},
@@ -124,9 +127,11 @@ void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>&
 template <int D = 2>
 void laplacian(const BasicStencil<D>& s, std::span<const double> phi, std::span<double> out);
 /// Every component of a vector field in one pass over the pairs (the viscous term): the same numbers as a call
-/// per component, at a fraction of the distance and kernel evaluations.
+/// per component, at a fraction of the distance and kernel evaluations. `rows`, if given: only particles i with
+/// rows[i] != 0 are computed, the others' entries of out left as they are.
 template <int D = 2>
-void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Components<D>& out);
+void laplacian(const BasicStencil<D>& s, const ConstComponents<D>& u, const Components<D>& out,
+               std::span<const char> rows = {});
 /// 2-D: the same for the field (u, v).
 inline void laplacian(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> lu,
                       std::span<double> lv) {

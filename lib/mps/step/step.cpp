@@ -506,6 +506,16 @@ void BasicSimulation<D>::predict() {
   else explicit_viscous_predictor();
 }
 
+// Walls, dummies, ghosts and prescribed fluid take no viscous or pressure term: their sums are not made (in the 3-D
+// dam break at 5 cm four fifths of the particles).
+template <int D>
+void BasicSimulation<D>::mark_advanced() {
+  const Particles& p = particles_;
+  StepFields& f = fields_;
+  f.advanced.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) f.advanced[i] = p.kind[i] == Kind::fluid && !f.prescribed[i] ? 1 : 0;
+}
+
 template <int D>
 void BasicSimulation<D>::explicit_viscous_predictor() {
   Particles& p = particles_;
@@ -521,7 +531,8 @@ void BasicSimulation<D>::explicit_viscous_predictor() {
     u[a] = *vel[a];
     lap[a] = f.lap_u[a];
   }
-  laplacian<D>({p, domain_, neighbors_now(), k_laplacian_}, u, lap);
+  mark_advanced();
+  laplacian<D>({p, domain_, neighbors_now(), k_laplacian_}, u, lap, f.advanced);
   const Vec<D> force = config_.body_force<D>();
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
@@ -753,8 +764,10 @@ void BasicSimulation<D>::correct() {
     grad[a] = f.grad_p[a];
     min_tilt[a] = tilt * (force[a] - f.balanced[a]);
   }
+  mark_advanced();
   gradient<D>({p, domain_, neighbors_at_star(k_gradient_), k_gradient_}, pressure, grad, config_.pressure_gradient,
-              f.carriers, min_tilt, f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>());
+              f.carriers, min_tilt,
+              f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>(), f.advanced);
   const double dt = f.dt;
   const auto n = static_cast<Index>(p.size());
   const auto pos = p.positions();

@@ -76,8 +76,9 @@ struct BasicStepFields {
   std::vector<double> pressure_offset;  ///< the PPE solves for P - offset (empty: for P)
   bool surface_own_reference = false;   ///< free-surface particles take their own P as the gradient's reference
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees
-  /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis
+  /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis, made for the `advanced` particles only
   std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
+  std::vector<char> advanced;  ///< scratch: the fluid the step moves itself (not prescribed)
   std::vector<double> residual;  ///< scratch: P - offset for the corrector
 };
 using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
@@ -297,6 +298,7 @@ class BasicSimulation {
   [[nodiscard]] bool fringe_covers_moves() const;
   void error_compensation();
   void predict();
+  void mark_advanced();
   void explicit_viscous_predictor();
   void implicit_viscous_predictor();
   void find_neighbors_at_star();

@@ -1111,9 +1111,10 @@ void bind_scene(py::module_& m) {
           "held", [](const Ppe& p) { return flags_to_numpy(p.held); },
           "per particle: held at a given pressure, not unknowns (the free surface unless a boundary holds others)")
       .def_property_readonly(
-          "number_density", [](const Ppe& p) { return to_numpy(p.n_star); }, "n* per particle")
+          "number_density", [](const Ppe& p) { return to_numpy(p.n_star); },
+          "n* per particle (0 for dummies and ghosts, which hold no PPE row)")
       .def_property_readonly(
-          "divergence", [](const Ppe& p) { return to_numpy(p.div); }, "div u* per particle")
+          "divergence", [](const Ppe& p) { return to_numpy(p.div); }, "div u* per particle (0 for dummies and ghosts)")
       .def_property_readonly(
           "source", [](const Ppe& p) { return to_numpy(p.source); }, "per particle: lap P = source")
       .def_property_readonly(

@@ -139,8 +139,9 @@ TEST(Operators, LoopsAndMatricesAgreeOnDisorderedParticles) {
   }
 }
 
-// The rows a caller asks for (the step: the fluid it moves) get the very bits of a call over every row, with both
-// Laplacian paths and every gradient variant; the other rows' entries are left as they were.
+// The rows a caller asks for (the step: the fluid it moves, or the fluid and walls) get the very bits of a call over
+// every row, with both Laplacian paths, every gradient variant and the number density's operators; the other rows'
+// entries are left as they were, or 0 where the operator sizes its output.
 TEST(Operators, SelectedRowsAreComputedBitwiseAndTheOthersLeftAlone) {
   mps::Particles p;
   mps::fill_rectangle(p, {0, 0, 2, 2}, 0.05, mps::Kind::fluid);
@@ -180,6 +181,31 @@ TEST(Operators, SelectedRowsAreComputedBitwiseAndTheOthersLeftAlone) {
   const mps::Kernel k = mps::make_kernel(2.1, 0.05);
   const auto list = mps::find_neighbors(p, d, k.re);
   const mps::Stencil s{p, d, list, k};
+  {
+    // number_density, neighbour_asymmetry and number_density_and_rate size n themselves: 0 where not asked for.
+    std::vector<double> nd, nd_some, as, as_some, n_all, n_some, rate(n), rate_some(n, untouched), div(n),
+        div_some(n, untouched);
+    mps::number_density<2>(s, nd);
+    mps::number_density<2>(s, nd_some, rows);
+    mps::neighbour_asymmetry<2>(s, as);
+    mps::neighbour_asymmetry<2>(s, as_some, rows);
+    mps::number_density_and_rate<2>(s, {f, g}, n_all, rate);
+    mps::number_density_and_rate<2>(s, {f, g}, n_some, rate_some, rows);
+    mps::divergence<2>(s, {f, g}, div);
+    mps::divergence<2>(s, {f, g}, div_some, rows);
+    for (std::size_t i = 0; i < n; ++i)
+      if (!rows[i]) {
+        EXPECT_EQ(nd_some[i], 0.0);
+        EXPECT_EQ(as_some[i], 0.0);
+        EXPECT_EQ(n_some[i], 0.0);
+        nd_some[i] = as_some[i] = n_some[i] = untouched;
+      }
+    check(nd, nd_some, "number density");
+    check(as, as_some, "neighbour asymmetry");
+    check(n_all, n_some, "number density and rate: n");
+    check(rate, rate_some, "number density and rate: rate");
+    check(div, div_some, "divergence");
+  }
   for (auto variant : {mps::GradientVariant::plain, mps::GradientVariant::min_reference,
                        mps::GradientVariant::corrected, mps::GradientVariant::corrected_min_reference,
                        mps::GradientVariant::conservative}) {

@@ -145,11 +145,13 @@ std::vector<double> number_density(const BasicStencil<D>& s) {
 }
 
 template <int D>
-void number_density(const BasicStencil<D>& s, std::vector<double>& out) {
+void number_density(const BasicStencil<D>& s, std::vector<double>& out, std::span<const char> rows) {
   const Index n = count(s);
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   out.assign(static_cast<std::size_t>(n), 0.0);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
+    if (!rows.empty() && !rows[static_cast<std::size_t>(i)]) continue;
     double sum = 0.0;
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>&, double, double w) { sum += w; });
     out[static_cast<std::size_t>(i)] = sum;
@@ -157,11 +159,13 @@ void number_density(const BasicStencil<D>& s, std::vector<double>& out) {
 }
 
 template <int D>
-void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out) {
+void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out, std::span<const char> rows) {
   const Index n = count(s);
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   out.assign(static_cast<std::size_t>(n), 0.0);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index i = 0; i < n; ++i) {
+    if (!rows.empty() && !rows[static_cast<std::size_t>(i)]) continue;
     Vec<D> f{};
     for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>& d, double r2, double w) {
       const double r = std::sqrt(r2);
@@ -329,14 +333,17 @@ void conservative_gradient_terms(const BasicStencil<D>& s, std::span<const doubl
 }
 
 template <int D>
-void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out) {
+void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out,
+                std::span<const char> rows) {
   const Index n = count(s);
   for (std::size_t a = 0; a < D; ++a) check_size(u[a].size(), s.particles.size(), "velocity");
   check_size(out.size(), s.particles.size(), "out");
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   const double scale = D / s.kernel.n0;
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    if (!rows.empty() && !rows[i]) continue;
     double sum = 0.0;
     for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
       double flux = (u[0][j] - u[0][i]) * d[0];
@@ -365,14 +372,16 @@ void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, 
 
 template <int D>
 void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::vector<double>& n_out,
-                             std::span<double> rate) {
+                             std::span<double> rate, std::span<const char> rows) {
   const Index n = count(s);
   for (std::size_t a = 0; a < D; ++a) check_size(u[a].size(), s.particles.size(), "velocity");
   check_size(rate.size(), s.particles.size(), "rate");
+  if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   n_out.assign(static_cast<std::size_t>(n), 0.0);
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
+    if (!rows.empty() && !rows[i]) continue;
     double density = 0.0, sum = 0.0;
     for_each_pair_at_distance(s, i, [&](std::size_t j, const Vec<D>& d, double, double r, double w) {
       density += w;
@@ -569,16 +578,17 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
 
 #define MPS_OPERATORS_FOR(D)                                                                                          \
   template std::vector<double> number_density(const BasicStencil<D>&);                                               \
-  template void number_density(const BasicStencil<D>&, std::vector<double>&);                                        \
-  template void neighbour_asymmetry(const BasicStencil<D>&, std::vector<double>&);                                   \
+  template void number_density(const BasicStencil<D>&, std::vector<double>&, std::span<const char>);                 \
+  template void neighbour_asymmetry(const BasicStencil<D>&, std::vector<double>&, std::span<const char>);            \
   template void gradient<D>(const BasicStencil<D>&, std::span<const double>, const Components<D>&, GradientVariant,     \
                          std::span<const char>, const Vec<D>&, std::span<const char>, std::span<const char>);        \
   template void conservative_gradient_terms<D>(const BasicStencil<D>&, std::span<const double>, std::span<const char>,  \
                                             std::span<const char>, std::span<const char>, const Components<D>&);     \
-  template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);                    \
+  template void divergence<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>,                   \
+                              std::span<const char>);                                                                \
   template void number_density_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::span<double>);           \
   template void number_density_and_rate<D>(const BasicStencil<D>&, const ConstComponents<D>&, std::vector<double>&,    \
-                                           std::span<double>);                                                        \
+                                           std::span<double>, std::span<const char>);                                 \
   template void laplacian(const BasicStencil<D>&, std::span<const double>, std::span<double>);                       \
   template void laplacian<D>(const BasicStencil<D>&, const ConstComponents<D>&, const Components<D>&,                  \
                              std::span<const char>);                                                                  \

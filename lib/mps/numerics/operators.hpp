@@ -39,13 +39,16 @@ using ConstComponents = std::type_identity_t<std::array<std::span<const double>,
 /// n_i = sum_j w_ij
 template <int D = 2>
 std::vector<double> number_density(const BasicStencil<D>& s);
+/// Same, reusing out's memory. `rows`, if given: only particles i with rows[i] != 0 are summed, the others get 0 (the
+/// step sums the fluid and walls only: dummies and ghosts hold no PPE row).
 template <int D = 2>
-void number_density(const BasicStencil<D>& s, std::vector<double>& out);  ///< same, reusing out's memory
+void number_density(const BasicStencil<D>& s, std::vector<double>& out, std::span<const char> rows = {});
 
 /// |sum_j w_ij r_ij / |r_ij|| / n0: how one-sided particle i's neighbours lie (Khayyer et al. 2009); 0 inside a full
 /// kernel, asymmetry_of_flat_surface(kernel) in the top row of a lattice.
+/// `rows`, if given: only particles i with rows[i] != 0 are summed, the others get 0.
 template <int D = 2>
-void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out);
+void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out, std::span<const char> rows = {});
 /// The value neighbour_asymmetry takes in the top layer of a perfect lattice of spacing l0 (a flat free surface), on
 /// the kernel's own lattice (kernel.dim).
 double asymmetry_of_flat_surface(const Kernel& kernel, double l0);
@@ -103,9 +106,11 @@ inline void conservative_gradient_terms(const Stencil& s, std::span<const double
   conservative_gradient_terms<2>(s, phi, sources, targets, carriers, {ox, oy});
 }
 
-/// (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij
+/// (d/n0) sum (u_j - u_i) . r_ij/|r_ij|^2 w_ij; `rows`, if given: only particles i with rows[i] != 0, the others'
+/// entries of out left as they are.
 template <int D = 2>
-void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out);
+void divergence(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out,
+                std::span<const char> rows = {});
 /// 2-D: the same for the field (u, v).
 inline void divergence(const Stencil& s, std::span<const double> u, std::span<const double> v, std::span<double> out) {
   divergence<2>(s, {u, v}, out);
@@ -117,10 +122,11 @@ inline void divergence(const Stencil& s, std::span<const double> u, std::span<co
 template <int D = 2>
 void number_density_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::span<double> out);
 /// number_density and number_density_rate in one pass over the pairs, each pair's distance taken once: the same
-/// numbers, bitwise, as the two calls (the higher-order source needs both of the same stencil).
+/// numbers, bitwise, as the two calls (the higher-order source needs both of the same stencil). `rows`, if given:
+/// only particles i with rows[i] != 0 are summed, the others get n = 0 and their entries of rate are left as they are.
 template <int D = 2>
 void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>& u, std::vector<double>& n,
-                             std::span<double> rate);
+                             std::span<double> rate, std::span<const char> rows = {});
 
 /// (2d/(lambda n0)) sum (phi_j - phi_i) w_ij; with kernel.higher_order_laplacian, (2d/n_higher_order) sum
 /// (phi_j - phi_i) f(r_ij) (Kernel::higher_order_weight)

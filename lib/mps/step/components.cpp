@@ -118,7 +118,9 @@ template <int D>
 void BasicAsymmetrySurface<D>::before_source(StepContext& c) {
   const BasicParticles<D>& p = c.particles;
   const Kernel& k = c.sim.surface_kernel();
-  neighbour_asymmetry<D>({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_);
+  fluid_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) fluid_[i] = p.kind[i] == Kind::fluid ? 1 : 0;
+  neighbour_asymmetry<D>({p, c.sim.domain(), c.sim.neighbors_at_star(k), k}, asymmetry_, fluid_);
   const double limit = fraction_ * asymmetry_of_flat_surface(k, c.sim.config().l0);
   const std::vector<double>& n = c.fields.n_at_surface_radius();
   const double n_interior = interior_density_ > 0.0 ? interior_density_ * k.n0 : HUGE_VAL;

@@ -139,6 +139,7 @@ class BasicAsymmetrySurface : public BasicStepComponent<D> {
  private:
   double fraction_, interior_density_;
   std::vector<double> asymmetry_;
+  std::vector<char> fluid_;  // the rows asymmetry_ is made for: only fluid is flagged
 };
 using AsymmetrySurface = BasicAsymmetrySurface<2>;   ///< 2-D
 using AsymmetrySurface3 = BasicAsymmetrySurface<3>;  ///< 3-D

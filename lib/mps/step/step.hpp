@@ -58,12 +58,12 @@ struct BasicStepFields {
   /// The part of the body force a known pressure balances (HydrostaticSplit): the predictor leaves it out.
   Vec<D> balanced{};
   std::vector<char> prescribed;  ///< fluid whose velocity a boundary sets: viscosity, pressure and shifting pass it by
-  std::vector<double> n_star;    ///< number density at r* (density kernel)
-  std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs
+  std::vector<double> n_star;    ///< number density at r* (density kernel), for `in_ppe` particles (0 for the others)
+  std::vector<double> n_surface;  ///< at the surface kernel's radius, when it differs (`in_ppe` particles)
   /// The number density at the surface kernel's radius: n_surface, or n_star where the radii are the same.
   [[nodiscard]] const std::vector<double>& n_at_surface_radius() const { return n_surface.empty() ? n_star : n_surface; }
   std::vector<double> n_source;  ///< the density the source reads in place of n_star (empty: n_star)
-  std::vector<double> div;       ///< div u* (with higher_order_source: -(d/n_rate) Dn/Dt at r*, u*)
+  std::vector<double> div;       ///< div u* (with higher_order_source: -(d/n_rate) Dn/Dt at r*, u*); `in_ppe` only
   std::vector<double> n_start;   ///< scratch: number density at r^n (error_compensating_source)
   std::vector<double> ecs;       ///< the error-compensating source term, from r^n, u^n (empty: off)
   std::vector<char> surface;     ///< free-surface particles
@@ -79,6 +79,7 @@ struct BasicStepFields {
   /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis, made for the `advanced` particles only
   std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
   std::vector<char> advanced;  ///< scratch: the fluid the step moves itself (not prescribed)
+  std::vector<char> in_ppe;    ///< scratch: fluid and walls, the particles n*, div u* and the source are made for
   std::vector<double> residual;  ///< scratch: P - offset for the corrector
 };
 using StepFields = BasicStepFields<2>;  ///< a 2-D step's fields
@@ -262,7 +263,8 @@ class BasicSimulation {
   /// @}
   /// The PPE's Laplacian: the Laplacian kernel, with the higher-order weight when config().higher_order_laplacian.
   [[nodiscard]] const Kernel& pressure_kernel() const { return k_pressure_; }
-  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }  ///< n* of the last step
+  /// n* of the last step: of the fluid and wall particles (0 for dummies and ghosts, which hold no PPE row)
+  [[nodiscard]] const std::vector<double>& number_density() const { return fields_.n_star; }
   [[nodiscard]] const StepFields& fields() const { return fields_; }  ///< the fields of the last (or open) step
   /// The last step's PPE (matrix, rhs, maps); on ranks this process's part, as assembled locally.
   [[nodiscard]] const PpeSystem& last_ppe() const { return exchange_->ppe(); }
@@ -298,6 +300,7 @@ class BasicSimulation {
   [[nodiscard]] bool fringe_covers_moves() const;
   void error_compensation();
   void predict();
+  void mark_in_ppe();
   void mark_advanced();
   void explicit_viscous_predictor();
   void implicit_viscous_predictor();

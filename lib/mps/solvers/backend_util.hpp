@@ -70,7 +70,7 @@ inline bool all_finite(std::span<const double> x) {
 }
 
 // What one read of a block of rows finds (first_row: the global number of its first row). The input checks
-// below take it from here instead of reading the arrays once per check: a fifth of the PPE's own cost at 1e5.
+// below take it from here instead of reading the arrays once per check (docs/benchmarks.md).
 struct RowScan {
   std::vector<int> diagonal;  // where row r's diagonal sits in a.col; -1 where the row has none
   double largest = 0.0;       // the largest |a_ij|, where every entry is finite

@@ -507,10 +507,8 @@ void BasicSimulation<D>::predict() {
   else explicit_viscous_predictor();
 }
 
-// Walls, dummies, ghosts and prescribed fluid take no viscous or pressure term: their sums are not made (in the 3-D
-// dam break at 5 cm four fifths of the particles).
 // Only fluid and walls can hold a PPE row: the source, the surface test and the assembly read n*, div u* and the
-// error-compensating source of no other particle (in the 3-D dam break at 5 cm two thirds are dummies).
+// error-compensating source of no other particle (the dummies are most of a tank's boundary).
 template <int D>
 void BasicSimulation<D>::mark_in_ppe() {
   const Particles& p = particles_;
@@ -519,6 +517,8 @@ void BasicSimulation<D>::mark_in_ppe() {
   for (std::size_t i = 0; i < p.size(); ++i) f.in_ppe[i] = p.kind[i] == Kind::fluid || p.kind[i] == Kind::wall ? 1 : 0;
 }
 
+// Walls, dummies, ghosts and prescribed fluid take no viscous or pressure term: their sums are not made (in the 3-D
+// dam break at 5 cm four fifths of the particles).
 template <int D>
 void BasicSimulation<D>::mark_advanced() {
   const Particles& p = particles_;

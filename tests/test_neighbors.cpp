@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <iterator>
@@ -103,6 +104,47 @@ TEST(Neighbors, FringeHoldsThePairsBetweenTheRadiiAndWidensTheListToTheOuterOne)
   EXPECT_THROW(grid.neighbors(p, radius, list, inner_radius, &inner, 0.1, fringe), std::invalid_argument);  // > cell
   EXPECT_THROW(grid.neighbors(p, radius, list, inner_radius, &inner, radius, fringe), std::invalid_argument);
   EXPECT_THROW(mps::CellGrid(d, radius, -0.01), std::invalid_argument);
+}
+
+// Rows left out of a search (a tank's dummies) are empty; the rows searched are those of a full search, their pairs
+// with the rows left out included, in every list of the search, on one thread and on three (whose shares of the rows
+// are cut by the rows searched, here crowded into the first third).
+TEST(Neighbors, RowsLeftOutOfASearchAreEmptyAndTheOthersAsInAFullSearch) {
+  const mps::Domain d{0, 1, 0, 0.8, true, false};
+  const mps::Particles p = random_particles(4000, d, 8);
+  const double radius = 0.05, inner_radius = 0.03, outer = 0.055;
+  std::vector<char> rows(p.size(), 0);
+  for (std::size_t i = 0; i < p.size(); ++i) rows[i] = i < p.size() / 3 || i % 5 == 0;
+  mps::CellGrid grid(d, radius, outer - radius);
+  grid.bin(p);
+  mps::NeighborList all, all_inner, all_fringe;
+  grid.neighbors(p, radius, all, inner_radius, &all_inner, outer, all_fringe);
+  const int before = omp_get_max_threads();
+  for (int threads : {1, 3}) {
+    omp_set_num_threads(threads);
+    mps::NeighborList list, inner, fringe, plain, plain_inner;
+    grid.neighbors(p, radius, list, inner_radius, &inner, outer, fringe, rows);
+    grid.neighbors(p, radius, plain, inner_radius, plain_inner, rows);
+    std::size_t pairs = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      for (const auto& [got, full] : {std::pair{&list, &all}, {&inner, &all_inner}, {&fringe, &all_fringe},
+                                      {&plain, &all}, {&plain_inner, &all_inner}}) {
+        const auto row = got->of(i), expected = full->of(i);
+        if (rows[i]) {
+          EXPECT_EQ(std::vector<int>(row.begin(), row.end()), std::vector<int>(expected.begin(), expected.end()))
+              << "particle " << i << ", " << threads << " threads";
+        } else {
+          EXPECT_TRUE(row.empty()) << "particle " << i << ", " << threads << " threads";
+        }
+      }
+      pairs += list.of(i).size();
+    }
+    EXPECT_GT(pairs, 5 * p.size() / 2);  // the rows searched found their neighbours
+  }
+  omp_set_num_threads(before);
+  std::vector<char> short_rows(p.size() - 1, 1);
+  mps::NeighborList list;
+  EXPECT_THROW(grid.neighbors(p, radius, list, short_rows), std::invalid_argument);
 }
 
 TEST(Neighbors, CellOrderIsAPermutationThatKeepsNeighbourSets) {

@@ -343,6 +343,18 @@ TEST(Ppe, DummiesTakeTheNearestWetWallPressureCarriedHydrostatically) {
     const double below_wall = -0.05 - p.y[i];  // the wall row sits at y = -0.05, straight above
     EXPECT_NEAR(p.p[i], 100.0 + p.x[i] + rho * g * below_wall, 1e-9);
   }
+  // The pairs are read from the walls' rows: a list without the dummies' rows (as the step searches) gives the same.
+  std::vector<char> rows(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) rows[i] = p.kind[i] != mps::Kind::dummy;
+  mps::CellGrid grid(d, k.re);
+  grid.bin(p);
+  mps::NeighborList without_dummies;
+  grid.neighbors(p, k.re, without_dummies, rows);
+  mps::Particles q = p;
+  for (std::size_t i = 0; i < q.size(); ++i)
+    if (q.kind[i] == mps::Kind::dummy) q.p[i] = -1.0;  // every dummy's pressure is set again
+  EXPECT_EQ(mps::set_dummy_pressure({q, d, without_dummies, k}, q, surface, rho, 0.0, -g), carriers);
+  EXPECT_EQ(q.p, p.p);
   // A dry wall (flagged free surface) passes on no pressure: its dummies hold none.
   for (std::size_t i = 0; i < p.size(); ++i) surface[i] = p.kind[i] == mps::Kind::wall;
   const auto dry = mps::set_dummy_pressure({p, d, list, k}, p, surface, rho, 0.0, -g);

@@ -125,24 +125,25 @@ NeighborList BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, dou
 }
 
 template <int D>
-void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list) const {
-  search(particles, radius, list, nullptr, nullptr);
+void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
+                                 std::span<const char> rows) const {
+  search(particles, radius, list, nullptr, nullptr, rows);
 }
 
 template <int D>
 void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
-                                 double inner_radius, NeighborList& inner) const {
+                                 double inner_radius, NeighborList& inner, std::span<const char> rows) const {
   if (!(inner_radius > 0.0) || inner_radius > radius)
     throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
   if (&inner == &list) throw std::invalid_argument("CellGrid::neighbors: the inner list must be another list");
   inner.radius = inner_radius;
-  search(particles, radius, list, &inner, nullptr);
+  search(particles, radius, list, &inner, nullptr, rows);
 }
 
 template <int D>
 void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list,
                                  double inner_radius, NeighborList* inner, double fringe_radius,
-                                 NeighborList& fringe) const {
+                                 NeighborList& fringe, std::span<const char> rows) const {
   if (inner && (!(inner_radius > 0.0) || inner_radius > radius))
     throw std::invalid_argument("CellGrid::neighbors: the inner radius must be in (0, radius]");
   if (!(fringe_radius > radius))
@@ -151,7 +152,7 @@ void BasicCellGrid<D>::neighbors(const BasicParticles<D>& particles, double radi
     throw std::invalid_argument("CellGrid::neighbors: the inner, fringe and main lists must be three lists");
   if (inner) inner->radius = inner_radius;
   fringe.radius = fringe_radius;
-  search(particles, radius, list, inner, &fringe);
+  search(particles, radius, list, inner, &fringe, rows);
 }
 
 namespace {
@@ -183,21 +184,40 @@ void append_sorted(const std::vector<int>& row, std::size_t count, std::vector<i
   }
 }
 
+// The first row of each of `threads` shares of rows [0, n) holding equally many rows with searched(i), and n.
+template <class Searched>
+std::vector<std::ptrdiff_t> first_rows_of_shares(std::ptrdiff_t n, std::ptrdiff_t threads, Searched&& searched) {
+  std::vector<std::ptrdiff_t> start(static_cast<std::size_t>(threads) + 1, n);
+  start[0] = 0;
+  if (threads == 1) return start;
+  std::ptrdiff_t total = 0;
+  for (std::ptrdiff_t i = 0; i < n; ++i) total += searched(i) ? 1 : 0;
+  std::ptrdiff_t seen = 0, share = 1;
+  for (std::ptrdiff_t i = 0; i < n && share < threads; ++i) {
+    while (share < threads && seen >= total * share / threads) start[static_cast<std::size_t>(share++)] = i;
+    seen += searched(i) ? 1 : 0;
+  }
+  return start;
+}
+
 }  // namespace
 
 template <int D>
 void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius, NeighborList& list,
-                              NeighborList* inner, NeighborList* fringe) const {
-  if (inner && fringe) search_lists<true, true>(particles, radius, list, inner, fringe);
-  else if (inner) search_lists<true, false>(particles, radius, list, inner, fringe);
-  else if (fringe) search_lists<false, true>(particles, radius, list, inner, fringe);
-  else search_lists<false, false>(particles, radius, list, inner, fringe);
+                              NeighborList* inner, NeighborList* fringe, std::span<const char> searched_rows) const {
+  if (!searched_rows.empty() && searched_rows.size() != particles.size())
+    throw std::invalid_argument("CellGrid::neighbors: " + std::to_string(searched_rows.size()) + " row flags for " +
+                                std::to_string(particles.size()) + " particles");
+  if (inner && fringe) search_lists<true, true>(particles, radius, list, inner, fringe, searched_rows);
+  else if (inner) search_lists<true, false>(particles, radius, list, inner, fringe, searched_rows);
+  else if (fringe) search_lists<false, true>(particles, radius, list, inner, fringe, searched_rows);
+  else search_lists<false, false>(particles, radius, list, inner, fringe, searched_rows);
 }
 
 template <int D>
 template <bool with_inner, bool with_fringe>
 void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double radius, NeighborList& list,
-                                    NeighborList* inner, NeighborList* fringe) const {
+                                    NeighborList* inner, NeighborList* fringe, std::span<const char> searched_rows) const {
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
   const double scan_radius = with_fringe ? fringe->radius : radius;
   if (!(radius > 0.0) || scan_radius > cell_size_ * (1.0 + 1e-12))
@@ -233,6 +253,11 @@ void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double r
       run_kernel(static_cast<std::size_t>(begin), static_cast<std::size_t>(end), at);
     });
   };
+  const auto searched = [&](std::ptrdiff_t i) {
+    const auto si = static_cast<std::size_t>(i);
+    return particles.kind[si] != Kind::ghost && (searched_rows.empty() || searched_rows[si]);
+  };
+  std::vector<std::ptrdiff_t> share_start;  // with threads: the first row of each thread's share
 #pragma omp parallel if (detail::worth_threads(n))
   {
 #ifdef _OPENMP
@@ -240,7 +265,11 @@ void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double r
 #else
     const std::ptrdiff_t threads = 1, thread = 0;
 #endif
-    const std::ptrdiff_t first_row = n * thread / threads, end_row = n * (thread + 1) / threads;
+    // Shares of equally many searched rows: the rows skipped (a tank's dummies) lie together in cell order.
+#pragma omp single
+    share_start = first_rows_of_shares(n, threads, searched);
+    const auto share = static_cast<std::size_t>(thread);
+    const std::ptrdiff_t first_row = share_start[share], end_row = share_start[share + 1];
     std::array<std::vector<int>, 3> own_rows;
     std::array<std::vector<int>*, 3> rows{};
     for (std::size_t s = 0; s < 3; ++s) {
@@ -253,7 +282,7 @@ void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double r
     std::vector<int> row, inner_row, near_row, fringe_row;
     std::vector<double> row_d2;
     for (std::ptrdiff_t i = first_row; i < end_row; ++i) {
-      if (particles.kind[static_cast<std::size_t>(i)] == Kind::ghost) continue;
+      if (!searched(i)) continue;
       std::size_t kept = 0, inner_kept = 0, scanned = 0;
       const int self = static_cast<int>(i);
       scan(i, [&](std::size_t first, std::size_t last, const Vec<D>& at) {

@@ -41,18 +41,21 @@ class BasicCellGrid {
   /// `particles` must be those last passed to bin(), not moved since.
   [[nodiscard]] NeighborList neighbors(const BasicParticles<D>& particles, double radius) const;
   /// Same, refilling `out` in place: a time loop that keeps its lists reuses their memory instead of having
-  /// the kernel hand out (and zero) fresh pages every step.
-  void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out) const;
+  /// the kernel hand out (and zero) fresh pages every step. `rows` (one flag per particle, or empty for all): the
+  /// particles whose rows are searched; the others get empty rows, though they still appear in the rows searched.
+  void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out,
+                 std::span<const char> rows = {}) const;
   /// One search filling the lists of two radii, `inner` for inner_radius <= radius: cheaper than searching
   /// once and restricting the list.
   void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& out, double inner_radius,
-                 NeighborList& inner) const;
+                 NeighborList& inner, std::span<const char> rows = {}) const;
   /// The same search also filling `fringe` with the pairs from radius up to fringe_radius (<= cell size), and
   /// `inner` unless null. A time loop that keeps the fringe can, while no particle has moved more than half of
   /// fringe_radius - radius, widen `list` by it (add_fringe) to hold every pair now closer than radius, without a
   /// search.
   void neighbors(const BasicParticles<D>& particles, double radius, NeighborList& list, double inner_radius,
-                 NeighborList* inner, double fringe_radius, NeighborList& fringe) const;
+                 NeighborList* inner, double fringe_radius, NeighborList& fringe,
+                 std::span<const char> rows = {}) const;
   /// A permutation putting particles in cell order (ghosts last): applying it with Particles::permute makes
   /// neighbours close in memory, which every sparse kernel and incomplete factorisation profits from.
   [[nodiscard]] std::vector<int> cell_order() const;
@@ -89,10 +92,10 @@ class BasicCellGrid {
   // Fills list (pairs within radius), inner (within its radius, <= radius) and fringe (from radius to its radius)
   // in one scan; either may be null.
   void search(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner,
-              NeighborList* fringe) const;
+              NeighborList* fringe, std::span<const char> searched_rows) const;
   template <bool with_inner, bool with_fringe>
   void search_lists(const BasicParticles<D>& particles, double radius, NeighborList& list, NeighborList* inner,
-                    NeighborList* fringe) const;
+                    NeighborList* fringe, std::span<const char> searched_rows) const;
   // The cell-ordered runs [begin, end) along x that hold every binned particle within radius of r (wrapped into the
   // domain), each with the shift that turns its coordinates into the nearest periodic image.
   template <class Run>

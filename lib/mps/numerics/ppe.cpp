@@ -333,30 +333,31 @@ std::vector<char> set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>
 template <int D>
 void set_dummy_pressure(const BasicStencil<D>& s, BasicParticles<D>& p, std::span<const char> free_surface, double rho,
                         const std::type_identity_t<Vec<D>>& f, std::vector<char>& carrier) {
-  const auto n = static_cast<Index>(p.size());
   carrier.assign(p.size(), 0);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
+  // Read from the wet walls' rows, not the dummies': the step searches no dummy's row (the dummies are most of a
+  // tank's boundary), and a nearest wall is the same whichever side finds the pair.
+  std::vector<double> best_r2(p.size(), s.kernel.re * s.kernel.re);
+  std::vector<int> best_id(p.size(), -1);
+  for (std::size_t i = 0; i < p.size(); ++i) {
     if (p.kind[i] == Kind::fluid || (p.kind[i] == Kind::wall && !free_surface[i])) carrier[i] = 1;
-    if (p.kind[i] != Kind::dummy) continue;
-    double best_r2 = s.kernel.re * s.kernel.re, pressure = 0.0;
-    int best_id = -1;
-    for (int jj : s.neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jj);
-      if (p.kind[j] != Kind::wall || free_surface[j]) continue;
+    if (p.kind[i] == Kind::dummy) p.p[i] = 0.0;
+  }
+  for (std::size_t j = 0; j < p.size(); ++j) {
+    if (p.kind[j] != Kind::wall || free_surface[j]) continue;
+    for (int ii : s.neighbors.of(j)) {
+      const auto i = static_cast<std::size_t>(ii);
+      if (p.kind[i] != Kind::dummy) continue;
       const Vec<D> d = s.domain.displacement(p.position(j), p.position(i));  // r_dummy - r_wall
       const double r2 = norm2<D>(d);
-      // Of equally near walls the one of lowest id wins: the choice depends neither on the threads nor on the
-      // particles' order (cell order serially, id order and halo copies on ranks).
-      if (r2 < best_r2 || (r2 == best_r2 && p.id[j] < best_id)) {
-        best_r2 = r2;
-        best_id = p.id[j];
-        pressure = p.p[j] + rho * dot<D>(f, d);
+      // Of equally near walls the one of lowest id wins: the choice depends neither on the order the walls come in
+      // (cell order serially, id order and halo copies on ranks) nor on the threads.
+      if (r2 < best_r2[i] || (r2 == best_r2[i] && p.id[j] < best_id[i])) {
+        best_r2[i] = r2;
+        best_id[i] = p.id[j];
+        p.p[i] = p.p[j] + rho * dot<D>(f, d);
         carrier[i] = 1;
       }
     }
-    p.p[i] = pressure;
   }
 }
 

@@ -130,8 +130,9 @@ void assemble_ppe(const BasicStencil<D>& laplacian, std::span<const char> free_s
                   ClosedGroups closed = ClosedGroups::gauge, OpenSupport open = {},
                   PpeRows rows = PpeRows::unknowns);
 
-/// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) in its stencil,
-/// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach.
+/// Dummy pressure from the nearest wet wall particle (a wall not flagged free surface) within the stencil's radius,
+/// carried hydrostatically under body force f: P_wall + rho f.(r_dummy - r_wall); 0 if none is in reach. The pairs
+/// are read from the wet walls' rows of the list, so the dummies' own rows may be empty.
 /// The nearest wall, not an average: walls at other heights would carry their pressure to the wrong depth.
 /// Returns the pressure carriers: fluid particles, wet walls, and dummies that found a wet wall. Dry walls and
 /// the dummies behind them hold no pressure and must stay out of the pressure gradient: counted there as

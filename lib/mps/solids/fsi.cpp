@@ -67,6 +67,18 @@ std::array<double, 2> structure_load(const StepContext& context, std::span<const
              : pressure_force_on(context, target, fx, fy);
 }
 
+namespace {
+// The force on a structure's particle is the pressure gradient at it, summed over its row: a dummy's row too.
+void mark_group_rows(const Particles& p, int group, std::span<char> rows) {
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.group[i] == group && p.kind[i] == Kind::dummy) rows[i] = 1;
+}
+}  // namespace
+
+void WallForce::mark_rows_read(const Particles& particles, std::span<char> rows) const {
+  mark_group_rows(particles, group_, rows);
+}
+
 void WallForce::after_pressure(StepContext& context) {
   const Particles& p = context.particles;
   target_.assign(p.size(), 0);
@@ -133,6 +145,10 @@ void ElasticStructure::after_predictor(StepContext& context) {
     p.u[i] = solid_.u()[k];
     p.v[i] = solid_.v()[k];
   }
+}
+
+void ElasticStructure::mark_rows_read(const Particles& particles, std::span<char> rows) const {
+  mark_group_rows(particles, group_, rows);
 }
 
 void ElasticStructure::after_pressure(StepContext& context) {

@@ -44,6 +44,7 @@ class WallForce : public StepComponent {
  public:
   explicit WallForce(int group) : group_(group) {}  ///< measures the force on group `group`
   void after_pressure(StepContext& context) override;
+  void mark_rows_read(const Particles& particles, std::span<char> rows) const override;  ///< its dummies' rows
   [[nodiscard]] std::array<double, 2> force() const { return force_; }  ///< the last step's [N per unit depth]
 
  private:
@@ -69,6 +70,7 @@ class ElasticStructure : public StepComponent {
   void after_predictor(StepContext& context) override;
   void after_pressure(StepContext& context) override;
   void after_corrector(StepContext& context) override;
+  void mark_rows_read(const Particles& particles, std::span<char> rows) const override;  ///< its dummies' rows
 
   [[nodiscard]] const ElasticSolid& solid() const { return solid_; }  ///< the solid, as stepped so far
   [[nodiscard]] int group() const { return group_; }  ///< the fluid particles' group that are its moving particles

@@ -450,28 +450,39 @@ void BasicSimulation<D>::find_neighbors_now() {
     p.permute(grid_.cell_order());
   }
   grid_.bin(p);  // the mirror walls and outlets read the grid at r^n
+  mark_rows_read();
   info_.neighbors_carried = !reorder && fringe_covers_moves();
   if (info_.neighbors_carried) add_fringe(near_star_, fringe_);
-  else grid_.neighbors(p, radius_now(config_) * (1.0 + 1e-12), near_star_);  // radius_now: why the margin
+  else grid_.neighbors(p, radius_now(config_) * (1.0 + 1e-12), near_star_, rows_read_);  // radius_now: why the margin
   fringe_ready_ = false;
   fields_.prescribed.assign(p.size(), 0);
 }
 
+// No stage reads a dummy's neighbours (set_dummy_pressure reads the walls'), and a tank's dummies are most of its
+// particles: the searches make the rows of the fluid, the walls and what components mark only.
+template <int D>
+void BasicSimulation<D>::mark_rows_read() {
+  const Particles& p = particles_;
+  rows_read_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i)
+    rows_read_[i] = p.kind[i] == Kind::fluid || p.kind[i] == Kind::wall ? 1 : 0;
+  for (const auto& c : components_) c->mark_rows_read(p, rows_read_);
+}
+
 // Whether every pair now within the largest radius was within it plus the skin at the last search at r*: the same
-// particles (none added, removed or made a ghost), none moved half the skin (less a margin for rounding).
+// rows searched (no particle added, removed or changed kind), none moved half the skin (less a margin for
+// rounding).
 template <int D>
 bool BasicSimulation<D>::fringe_covers_moves() const {
   const Particles& p = particles_;
-  if (!fringe_ready_ || p.size() != searched_ghost_.size()) return false;
+  if (!fringe_ready_ || rows_read_ != searched_rows_) return false;
   const double limit = 0.5 * skin_ * (1.0 - 1e-9), limit2 = limit * limit;
   const auto n = static_cast<Index>(p.size());
   bool covered = true;
 #pragma omp parallel for schedule(static) reduction(&& : covered) if (detail::worth_threads(n))
   for (Index ii = 0; ii < n; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
-    const bool ghost = p.kind[i] == Kind::ghost;
-    if (ghost != (searched_ghost_[i] != 0)) covered = false;
-    if (ghost) continue;
+    if (p.kind[i] == Kind::ghost) continue;
     Vec<D> then;
     for (std::size_t a = 0; a < D; ++a) then[a] = searched_at_[a][i];
     if (!(norm2<D>(domain_.displacement(then, p.position(i))) < limit2)) covered = false;
@@ -634,22 +645,22 @@ template <int D>
 void BasicSimulation<D>::find_neighbors_at_star() {
   const Particles& p = particles_;
   grid_.bin(p);
+  mark_rows_read();
   const double largest = config_.l0 * config_.largest_radius();
   small_radius_ = 0.0;
   for (const Kernel* k : {&k_density_, &k_surface_, &k_gradient_, &k_laplacian_})
     if (k->re < largest * (1.0 - 1e-12)) small_radius_ = std::max(small_radius_, k->re);
   if (skin_ > 0.0) {
     grid_.neighbors(p, largest, near_star_, small_radius_, small_radius_ > 0.0 ? &close_star_ : nullptr,
-                    largest + skin_, fringe_);
+                    largest + skin_, fringe_, rows_read_);
     const auto pos = p.positions();
     for (std::size_t a = 0; a < D; ++a) searched_at_[a].assign(pos[a]->begin(), pos[a]->end());
-    searched_ghost_.resize(p.size());
-    for (std::size_t i = 0; i < p.size(); ++i) searched_ghost_[i] = p.kind[i] == Kind::ghost ? 1 : 0;
+    searched_rows_ = rows_read_;
     fringe_ready_ = true;
   } else if (small_radius_ > 0.0) {
-    grid_.neighbors(p, largest, near_star_, small_radius_, close_star_);
+    grid_.neighbors(p, largest, near_star_, small_radius_, close_star_, rows_read_);
   } else {
-    grid_.neighbors(p, largest, near_star_);
+    grid_.neighbors(p, largest, near_star_, rows_read_);
   }
 }
 

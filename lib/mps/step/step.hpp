@@ -121,6 +121,12 @@ class BasicStepComponent {
   /// How far from a particle it sets the component reads other particles, where that is beyond the kernels' radii
   /// [m] (0: within them): a distributed step's halo must reach as far.
   [[nodiscard]] virtual double reach(const BasicSimulation<D>&) const { return 0.0; }
+  /// Flags the particles beyond the fluid and the walls whose rows of the neighbour lists the component reads (a
+  /// structure's dummies, say): the step searches the rows of those three only, and leaves a dummy's row empty.
+  virtual void mark_rows_read(const BasicParticles<D>& particles, std::span<char> rows) const {
+    (void)particles;
+    (void)rows;
+  }
   /// What a checkpoint must hold of this component for a restored run to continue bitwise: what changes from step to
   /// step (counters, a structure's deformation), not what it was made with (default: nothing). restore_state() takes
   /// it back into the component of a simulation built as this one was (Simulation::restore).
@@ -270,14 +276,15 @@ class BasicSimulation {
   [[nodiscard]] const PpeSystem& last_ppe() const { return exchange_->ppe(); }
   [[nodiscard]] const CellGrid& grid() const { return grid_; }  ///< the cell grid, binned at the last search
   /// Neighbours at r* covering kernel k (valid from before_source on): one list at the largest radius, one at the
-  /// largest of the smaller ones.
+  /// largest of the smaller ones. Rows of the fluid and walls only, and of particles a component marks
+  /// (BasicStepComponent::mark_rows_read); the other rows are empty.
   [[nodiscard]] const NeighborList& neighbors_at_star(const Kernel& k) const {
     return k.re <= small_radius_ ? close_star_ : near_star_;
   }
   /// Neighbours at r^n within the Laplacian's radius, and perhaps pairs a little beyond it, which every sum skips by
   /// its kernel (valid from before_predictor to before_projection: the list at r* is later found into the same memory).
   /// A component that measures these pairs at r* (ParticleCollision) sees the pairs beyond too: see neighbor_skin.
-  [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }
+  [[nodiscard]] const NeighborList& neighbors_now() const { return near_star_; }  ///< rows as neighbors_at_star's
   /// The largest of `value` over the processes a step runs on (one process: `value`). Collective on ranks.
   [[nodiscard]] double max_over_ranks(double value) const { return exchange_->max(value); }
 
@@ -296,6 +303,7 @@ class BasicSimulation {
   // The stages' work, in order.
   void begin_exchange();
   void choose_time_step();
+  void mark_rows_read();
   void find_neighbors_now();
   [[nodiscard]] bool fringe_covers_moves() const;
   void error_compensation();
@@ -339,7 +347,8 @@ class BasicSimulation {
   // next step widens near_star_ by the fringe instead of searching (every sum skips pairs beyond its kernel).
   NeighborList fringe_;
   std::array<std::vector<double>, D> searched_at_;
-  std::vector<char> searched_ghost_;
+  std::vector<char> searched_rows_;  // the rows the last search at r* made, to carry its list over
+  std::vector<char> rows_read_;      // the rows some stage reads: fluid, walls, those components mark
   bool fringe_ready_ = false;
   int next_stage_ = 0;      // of the open step (0: none open)
   Particles before_step_;   // the state a failed step rolls back to

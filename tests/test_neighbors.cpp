@@ -53,6 +53,49 @@ TEST(Neighbors, MatchBruteForceWithPeriodicX) { expect_same_as_brute_force({0, 1
 
 TEST(Neighbors, MatchBruteForceWithBothAxesPeriodic) { expect_same_as_brute_force({-1, 0, 2, 2.5, true, true}, 0.1, 3); }
 
+// Each row of cells is scanned only as far as the sphere reaches at its nearest point: in 3-D, over periodic and
+// closed axes alike, with particles escaped beyond the closed ones (binned in the edge cells), searching and searched.
+TEST(Neighbors, MatchBruteForceIn3DWithPeriodicAxesAndEscapedParticles) {
+  mps::BasicDomain<3> d;
+  d.xmin = 0, d.xmax = 1, d.ymin = -0.2, d.ymax = 0.5, d.zmin = 0, d.zmax = 0.6;
+  d.periodic_x = true, d.periodic_z = true;
+  const double radius = 0.1;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  mps::BasicParticles<3> p;
+  for (std::size_t i = 0; i < 6000; ++i) {
+    mps::Vec<3> r{d.xmin + unit(rng) * 1.0, d.ymin + unit(rng) * 0.7, d.zmin + unit(rng) * 0.6};
+    if (i % 50 == 0) r[1] = i % 100 == 0 ? d.ymin - 0.7 * radius * unit(rng) : d.ymax + 2.5 * radius * unit(rng);
+    p.add(r, mps::Kind::fluid);
+  }
+  const auto list = mps::find_neighbors(p, d, radius);
+  std::size_t pairs = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    std::vector<int> expected;
+    for (std::size_t j = 0; j < p.size(); ++j) {
+      const auto r = d.displacement(p.position(i), p.position(j));
+      if (i != j && r[0] * r[0] + r[1] * r[1] + r[2] * r[2] < radius * radius) expected.push_back(static_cast<int>(j));
+    }
+    const auto got = list.of(i);
+    ASSERT_EQ(std::vector<int>(got.begin(), got.end()), expected) << "particle " << i;
+    pairs += expected.size();
+  }
+  EXPECT_GT(pairs, 10 * p.size());  // the radius really finds neighbours
+}
+
+// The same in 2-D, escaped particles beyond the closed y axis.
+TEST(Neighbors, MatchBruteForceWithEscapedParticles) {
+  const mps::Domain d{0, 1, 0, 0.7, true, false};
+  mps::Particles p = random_particles(1500, d, 12);
+  for (std::size_t i = 0; i < p.size(); i += 40) p.y[i] = i % 80 == 0 ? -0.06 * (i % 7) / 7.0 : 0.7 + 0.2 * (i % 3);
+  const auto list = mps::find_neighbors(p, d, 0.08);
+  const auto expected = brute_force(p, d, 0.08);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto got = list.of(i);
+    EXPECT_EQ(std::vector<int>(got.begin(), got.end()), expected[i]) << "particle " << i;
+  }
+}
+
 TEST(Neighbors, OneBinningServesSmallerRadii) {
   const mps::Domain d{0, 1, 0, 1, true, false};
   const mps::Particles p = random_particles(800, d, 4);

@@ -58,9 +58,12 @@ BasicCellGrid<D>::BasicCellGrid(const BasicDomain<D>& domain, double cell_size, 
                                 " cells of half the search radius (" + fmt_g(cell_size) +
                                 " m), more than the 1e8 a grid may hold: is a particle far from the others?");
   }
+  const auto lower = domain_.lower();
   for (std::size_t a = 0; a < D; ++a) {
     n_[a] = std::max(1, static_cast<int>(cells[a]));
     h_[a] = domain_.extent(static_cast<int>(a)) / n_[a];
+    // Far above the few ulps of a coordinate by which floor((x - lower) / h) can disagree with the cell's bounds.
+    edge_margin_[a] = 1e-6 * h_[a] + 1e-13 * (std::abs(lower[a]) + domain_.extent(static_cast<int>(a)));
   }
 }
 
@@ -292,22 +295,34 @@ void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double r
           if (with_inner) inner_row.resize(row.size());
           if (with_fringe) row_d2.resize(row.size());
         }
+        // Locals the compiler keeps in registers: through the captured references it reloaded them every candidate.
+        int* const out = row.data();
+        int* const inner_out = inner_row.data();
+        double* const out_d2 = row_d2.data();
+        const int* const id = ids_.data();
+        const std::array<const double*, D> c = coords;
+        const Vec<D> centre = at;
+        const double limit2 = scan_r2, inner_limit2 = inner_r2;
+        const int me = self;
+        std::size_t n_kept = kept, n_inner = inner_kept;
         for (std::size_t k = first; k < last; ++k) {
-          const double dx = coords[0][k] - at[0];
+          const double dx = c[0][k] - centre[0];
           double d2 = dx * dx;
           for (std::size_t a = 1; a < D; ++a) {
-            const double da = coords[a][k] - at[a];
+            const double da = c[a][k] - centre[a];
             d2 += da * da;
           }
-          const int j = ids_[k];
-          row[kept] = j;
-          if constexpr (with_fringe) row_d2[kept] = d2;
-          kept += (d2 < scan_r2) & (j != self) ? 1 : 0;
+          const int j = id[k];
+          out[n_kept] = j;
+          if constexpr (with_fringe) out_d2[n_kept] = d2;
+          n_kept += (d2 < limit2) & (j != me) ? 1 : 0;
           if constexpr (with_inner) {
-            inner_row[inner_kept] = j;
-            inner_kept += (d2 < inner_r2) & (j != self) ? 1 : 0;
+            inner_out[n_inner] = j;
+            n_inner += (d2 < inner_limit2) & (j != me) ? 1 : 0;
           }
         }
+        kept = n_kept;
+        inner_kept = n_inner;
       });
       std::size_t near_kept = kept, fringe_kept = 0;
       if constexpr (with_fringe) {

@@ -220,7 +220,8 @@ void BasicCellGrid<D>::search(const BasicParticles<D>& particles, double radius,
 template <int D>
 template <bool with_inner, bool with_fringe>
 void BasicCellGrid<D>::search_lists(const BasicParticles<D>& particles, double radius, NeighborList& list,
-                                    NeighborList* inner, NeighborList* fringe, std::span<const char> searched_rows) const {
+                                    NeighborList* inner, NeighborList* fringe,
+                                    std::span<const char> searched_rows) const {
   if (particles.size() != n_particles_) throw std::logic_error("CellGrid::neighbors: bin() the particles first");
   const double scan_radius = with_fringe ? fringe->radius : radius;
   if (!(radius > 0.0) || scan_radius > cell_size_ * (1.0 + 1e-12))

@@ -106,7 +106,7 @@ class BasicCellGrid {
     const auto periodic = domain_.periodic();
     std::array<std::array<int, 2>, D> range;
     for (std::size_t a = 0; a < D; ++a) range[a] = span(r[a] - lower[a], radius, h_[a], n_[a], periodic[a]);
-    if constexpr (D == 2) {  // the rows of a plane, untrimmed: trimming them saved a seventh of the cells, and cost more
+    if constexpr (D == 2) {  // a plane's rows, untrimmed: trimming them saved a seventh of the cells and cost more
       const int nx = n_[0], ny = n_[1];
       for (int ky = range[1][0]; ky <= range[1][1]; ++ky) {
         const int row = ky < 0 ? ky + ny : ky >= ny ? ky - ny : ky;

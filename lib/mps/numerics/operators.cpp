@@ -1,6 +1,7 @@
 #include "mps/numerics/operators.hpp"
 #include "mps/core/threads.hpp"
 #include "mps/core/vec.hpp"
+#include "mps/numerics/row_pairs.hpp"
 
 #include <algorithm>
 #include <array>
@@ -61,13 +62,38 @@ Index count(const BasicStencil<D>& s) {
   return static_cast<Index>(s.particles.size());
 }
 
-// sum_j r_ij/|r_ij|^2 w_ij: up the particle concentration's gradient (shifting), into the liquid (surface normals).
+// Calls f(i, pairs, m) for every row i that `rows` flags (every row if empty) with its m pairs filled and weighed,
+// the rows shared among the threads as `schedule(static)` shares them.
+template <int D, class F>
+void for_each_row_pairs(const BasicStencil<D>& s, std::span<const char> rows, F&& f) {
+  const Index n = count(s);
+#pragma omp parallel if (detail::worth_threads(n))
+  {
+    detail::RowPairs<D> pairs;
+#pragma omp for schedule(static)
+    for (Index ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      if (!rows.empty() && !rows[i]) continue;
+      const std::size_t m = pairs.fill(s.particles, s.domain, s.neighbors, i);
+      pairs.weigh(s.kernel);
+      f(i, pairs, m);
+    }
+  }
+}
+
+// sum_j r_ij/|r_ij|^2 w_ij over row i's pairs (filled and weighed): up the particle concentration's gradient
+// (shifting), into the liquid (surface normals).
 template <int D>
-Vec<D> concentration_sum(const BasicStencil<D>& s, std::size_t i) {
+Vec<D> concentration_sum(detail::RowPairs<D>& pairs, std::size_t m) {
+  const double* __restrict r2 = pairs.r2();
+  const double* __restrict w = pairs.w();
   Vec<D> g{};
-  for_each_pair(s, i, [&](std::size_t, const Vec<D>& r, double r2, double w) {
-    for (std::size_t a = 0; a < D; ++a) g[a] += r[a] / r2 * w;
-  });
+  for (std::size_t a = 0; a < D; ++a) {
+    const double* __restrict d = pairs.d(a);
+    double* __restrict term = pairs.terms(a);
+    for (std::size_t k = 0; k < m; ++k) term[k] = w[k] > 0.0 ? d[k] / r2[k] * w[k] : 0.0;
+    for (std::size_t k = 0; k < m; ++k) g[a] += term[k];
+  }
   return g;
 }
 
@@ -149,13 +175,12 @@ void number_density(const BasicStencil<D>& s, std::vector<double>& out, std::spa
   const Index n = count(s);
   if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   out.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index i = 0; i < n; ++i) {
-    if (!rows.empty() && !rows[static_cast<std::size_t>(i)]) continue;
+  for_each_row_pairs(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+    const double* w = pairs.w();
     double sum = 0.0;
-    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>&, double, double w) { sum += w; });
-    out[static_cast<std::size_t>(i)] = sum;
-  }
+    for (std::size_t k = 0; k < m; ++k) sum += w[k];
+    out[i] = sum;
+  });
 }
 
 template <int D>
@@ -163,17 +188,18 @@ void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out, std
   const Index n = count(s);
   if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   out.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index i = 0; i < n; ++i) {
-    if (!rows.empty() && !rows[static_cast<std::size_t>(i)]) continue;
+  for_each_row_pairs(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+    const double* __restrict r = pairs.r();
+    const double* __restrict w = pairs.w();
     Vec<D> f{};
-    for_each_pair(s, static_cast<std::size_t>(i), [&](std::size_t, const Vec<D>& d, double r2, double w) {
-      const double r = std::sqrt(r2);
-      if (r > 0.0)
-        for (std::size_t a = 0; a < D; ++a) f[a] += w * d[a] / r;
-    });
-    out[static_cast<std::size_t>(i)] = norm<D>(f) / s.kernel.n0;
-  }
+    for (std::size_t a = 0; a < D; ++a) {
+      const double* __restrict d = pairs.d(a);
+      double* __restrict term = pairs.terms(a);
+      for (std::size_t k = 0; k < m; ++k) term[k] = (w[k] > 0.0) & (r[k] > 0.0) ? w[k] * d[k] / r[k] : 0.0;
+      for (std::size_t k = 0; k < m; ++k) f[a] += term[k];
+    }
+    out[i] = norm<D>(f) / s.kernel.n0;
+  });
 }
 
 double asymmetry_of_flat_surface(const Kernel& k, double l0) {
@@ -238,19 +264,40 @@ Vec<D> scaled_gradient(double scale, Vec<D> g, bool corrected, const Moments<D>&
 // The velocity's gradient at particle i with the corrective matrix, built once for every component: the numbers of
 // gradient(..., GradientVariant::corrected) for each. g[c][a] = d u_c / d x_a.
 template <int D>
-std::array<Vec<D>, D> corrected_velocity_gradient(const BasicStencil<D>& s, std::size_t i) {
+std::array<Vec<D>, D> corrected_velocity_gradient(const BasicStencil<D>& s, detail::RowPairs<D>& pairs, std::size_t m,
+                                                  std::size_t i) {
   const auto vel = s.particles.velocities();
-  std::array<Vec<D>, D> g{};
-  Moments<D> m{};
-  for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
-    for (std::size_t c = 0; c < D; ++c) {
-      const double f = ((*vel[c])[j] - (*vel[c])[i]) * w / r2;
-      for (std::size_t a = 0; a < D; ++a) g[c][a] += f * d[a];
+  const int* __restrict id = s.neighbors.of(i).data();
+  const double* __restrict r2 = pairs.r2();
+  const double* __restrict w = pairs.w();
+  // Each pair's (u_c,j - u_c,i) w / r^2 and w r_a r_b / r^2 first (the divisions two to an instruction), then the sums
+  // in list order over the pairs with w > 0.
+  for (std::size_t c = 0; c < D; ++c) {
+    const double* __restrict u = vel[c]->data();
+    const double ui = u[i];
+    double* __restrict f = pairs.terms(c);
+    for (std::size_t k = 0; k < m; ++k) f[k] = (u[static_cast<std::size_t>(id[k])] - ui) * w[k] / r2[k];
+  }
+  std::size_t slot = D;
+  for (std::size_t a = 0; a < D; ++a)
+    for (std::size_t b = a; b < D; ++b) {
+      const double* __restrict da = pairs.d(a);
+      const double* __restrict db = pairs.d(b);
+      double* __restrict t = pairs.terms(slot++);
+      for (std::size_t k = 0; k < m; ++k) t[k] = w[k] * da[k] * db[k] / r2[k];
     }
-    add_moments<D>(m, d, r2, w);
-  });
+  std::array<Vec<D>, D> g{};
+  Moments<D> mo{};
+  for (std::size_t k = 0; k < m; ++k) {
+    if (!(w[k] > 0.0)) continue;
+    for (std::size_t c = 0; c < D; ++c) {
+      const double f = pairs.terms(c)[k];
+      for (std::size_t a = 0; a < D; ++a) g[c][a] += f * pairs.d(a)[k];
+    }
+    for (std::size_t q = 0; q < mo.size(); ++q) mo[q] += pairs.terms(D + q)[k];
+  }
   const double scale = D / s.kernel.n0;
-  for (std::size_t c = 0; c < D; ++c) g[c] = scaled_gradient<D>(scale, g[c], true, m);
+  for (std::size_t c = 0; c < D; ++c) g[c] = scaled_gradient<D>(scale, g[c], true, mo);
   return g;
 }
 
@@ -268,42 +315,46 @@ void gradient(const BasicStencil<D>& s, std::span<const double> phi, const Compo
   if (!own_reference.empty()) check_size(own_reference.size(), s.particles.size(), "own_reference");
   if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   const auto carries = [&](std::size_t j) { return carriers.empty() || carriers[j] != 0; };
-  const Index n = count(s);
   check_size(phi.size(), s.particles.size(), "phi");
   check_components(s, g, "gradient");
   const double scale = D / s.kernel.n0;
   const bool min_ref = variant == GradientVariant::min_reference || variant == GradientVariant::corrected_min_reference;
   const bool corrected = variant == GradientVariant::corrected || variant == GradientVariant::corrected_min_reference;
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (!rows.empty() && !rows[i]) continue;
+  for_each_row_pairs(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m_pairs) {
+    const int* __restrict id = s.neighbors.of(i).data();
+    const double* __restrict r2 = pairs.r2();
+    const double* __restrict w = pairs.w();
     double ref = variant == GradientVariant::conservative ? -phi[i] : phi[i];
     if (min_ref && (own_reference.empty() || own_reference[i] == 0)) {
       // The tilted minimum removes the known linear part from the classic one, never going below it: where
       // phi is imposed (P = 0 on a free surface) the tilt would otherwise invent a dip.
       double classic = phi[i], tilted = phi[i];
-      for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double, double) {
-        if (!carries(j)) return;
+      for (std::size_t k = 0; k < m_pairs; ++k) {
+        const auto j = static_cast<std::size_t>(id[k]);
+        if (!(w[k] > 0.0) || !carries(j)) continue;
         classic = std::min(classic, phi[j]);
         double untilted = phi[j];
-        for (std::size_t a = 0; a < D; ++a) untilted -= min_tilt[a] * d[a];
+        for (std::size_t a = 0; a < D; ++a) untilted -= min_tilt[a] * pairs.d(a)[k];
         tilted = std::min(tilted, untilted);
-      });
+      }
       ref = std::max(classic, tilted);
     }
+    // (phi_j - ref) w / r^2 for every pair at once (the divisions two to an instruction), then the sums in list order.
+    double* __restrict q = pairs.terms(0);
+    for (std::size_t k = 0; k < m_pairs; ++k) q[k] = (phi[static_cast<std::size_t>(id[k])] - ref) * w[k] / r2[k];
     Vec<D> sum{};
     Moments<D> m{};
-    for_each_pair(s, i, [&](std::size_t j, const Vec<D>& d, double r2, double w) {
-      if (!carries(j)) return;
-      const double f = (phi[j] - ref) * w / r2;
-      for (std::size_t a = 0; a < D; ++a) sum[a] += f * d[a];
-      if (!corrected) return;
-      add_moments<D>(m, d, r2, w);
-    });
+    for (std::size_t k = 0; k < m_pairs; ++k) {
+      const auto j = static_cast<std::size_t>(id[k]);
+      if (!(w[k] > 0.0) || !carries(j)) continue;
+      Vec<D> d;
+      for (std::size_t a = 0; a < D; ++a) d[a] = pairs.d(a)[k];
+      for (std::size_t a = 0; a < D; ++a) sum[a] += q[k] * d[a];
+      if (corrected) add_moments<D>(m, d, r2[k], w[k]);
+    }
     const Vec<D> gi = scaled_gradient<D>(scale, sum, corrected, m);
     for (std::size_t a = 0; a < D; ++a) g[a][i] = gi[a];
-  }
+  });
 }
 
 template <int D>
@@ -378,18 +429,37 @@ void number_density_and_rate(const BasicStencil<D>& s, const ConstComponents<D>&
   check_size(rate.size(), s.particles.size(), "rate");
   if (!rows.empty()) check_size(rows.size(), s.particles.size(), "rows");
   n_out.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (!rows.empty() && !rows[i]) continue;
+  const double re = s.kernel.re;
+  const bool bounded = s.kernel.weight == Weight::bounded;
+  for_each_row_pairs(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+    // rate_term's operations, pair by pair, an axis at a time; +0 where a pair has no weight or no direction.
+    const int* __restrict id = s.neighbors.of(i).data();
+    const double* __restrict r = pairs.r();
+    const double* __restrict w = pairs.w();
+    double* __restrict term = pairs.terms(0);
+    for (std::size_t a = 0; a < D; ++a) {
+      const double* __restrict v = u[a].data();
+      const double* __restrict d = pairs.d(a);
+      const double vi = v[i];
+      if (a == 0)
+        for (std::size_t k = 0; k < m; ++k) term[k] = (v[static_cast<std::size_t>(id[k])] - vi) * d[k];
+      else
+        for (std::size_t k = 0; k < m; ++k) term[k] += (v[static_cast<std::size_t>(id[k])] - vi) * d[k];
+    }
+    for (std::size_t k = 0; k < m; ++k) {
+      const double sk = 0.85 * r[k] + 0.15 * re;
+      const double dw = bounded ? -0.85 * re / (sk * sk) : -re / (r[k] * r[k]);
+      const double t = dw * term[k] / r[k];
+      term[k] = (w[k] > 0.0) & (r[k] > 0.0) ? t : 0.0;
+    }
     double density = 0.0, sum = 0.0;
-    for_each_pair_at_distance(s, i, [&](std::size_t j, const Vec<D>& d, double, double r, double w) {
-      density += w;
-      sum += rate_term<D>(s, u, i, j, d, r);
-    });
+    for (std::size_t k = 0; k < m; ++k) {
+      density += w[k];
+      sum += term[k];
+    }
     n_out[i] = density;
     rate[i] = sum;
-  }
+  });
 }
 
 namespace {
@@ -409,23 +479,29 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
   if (!higher_order) {
     // Every listed pair adds its term (Kernel::w_unbranched): the w > 0 loop's bits, without its branch to
     // mispredict where a list reaches past re (one carried over from the last step, SimulationConfig::neighbor_skin).
-    std::array<const double*, D> X;
-    for (std::size_t a = 0; a < D; ++a) X[a] = s.particles.positions()[a]->data();
-    const Displacement<D> displacement(s.domain);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-    for (Index ii = 0; ii < n; ++ii) {
-      const auto i = static_cast<std::size_t>(ii);
-      if (!rows.empty() && !rows[i]) continue;
-      Vec<D> ri, rj;
-      for (std::size_t a = 0; a < D; ++a) ri[a] = X[a][i];
-      std::array<double, K> sum{};
-      for (int jj : s.neighbors.of(i)) {
-        const auto j = static_cast<std::size_t>(jj);
-        for (std::size_t a = 0; a < D; ++a) rj[a] = X[a][j];
-        const double w = s.kernel.w_unbranched(std::sqrt(norm2<D>(displacement(ri, rj))));
-        for (std::size_t f = 0; f < K; ++f) sum[f] += (in[f][j] - in[f][i]) * w;
+    const Kernel& kernel = s.kernel;
+#pragma omp parallel if (detail::worth_threads(n))
+    {
+      detail::RowPairs<D> pairs;
+#pragma omp for schedule(static)
+      for (Index ii = 0; ii < n; ++ii) {
+        const auto i = static_cast<std::size_t>(ii);
+        if (!rows.empty() && !rows[i]) continue;
+        const std::size_t m = pairs.fill(s.particles, s.domain, s.neighbors, i);
+        const int* __restrict id = s.neighbors.of(i).data();
+        const double* __restrict r = pairs.r();
+        double* __restrict w = pairs.terms(0);
+        for (std::size_t k = 0; k < m; ++k) w[k] = kernel.w_unbranched(r[k]);
+        double* __restrict term = pairs.terms(1);
+        for (std::size_t f = 0; f < K; ++f) {
+          const double* __restrict field = in[f].data();
+          const double fi = field[i];
+          for (std::size_t k = 0; k < m; ++k) term[k] = (field[static_cast<std::size_t>(id[k])] - fi) * w[k];
+          double sum = 0.0;
+          for (std::size_t k = 0; k < m; ++k) sum += term[k];
+          out[f][i] = scale * sum;
+        }
       }
-      for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];
     }
     return;
   }
@@ -475,16 +551,13 @@ void surface_normals(const BasicStencil<D>& s, std::span<const char> want, std::
   const Index n = count(s);
   check_size(want.size(), static_cast<std::size_t>(n), "want");
   for (auto& c : normal) c.assign(static_cast<std::size_t>(n), 0.0);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (!want[i]) continue;
-    const Vec<D> g = concentration_sum(s, i);
+  for_each_row_pairs(s, want, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+    const Vec<D> g = concentration_sum(pairs, m);
     // Inside a full kernel the sum is round-off, whose direction means nothing.
     const double length = norm<D>(g);
     if (length > 1e-9 * s.kernel.n0 / s.kernel.re)
       for (std::size_t a = 0; a < D; ++a) normal[a][i] = -g[a] / length;
-  }
+  });
 }
 
 template <int D>
@@ -499,12 +572,11 @@ double shift_particles(const BasicStencil<D>& s, double diffusion, double max_sh
   if (along_surface)
     for (std::size_t a = 0; a < D; ++a) check_size(normal[a].size(), size, "normal");
   std::vector<Vec<D>> shift(size, Vec<D>{});
+  // The velocity gradients before any particle moves, only where a particle moves.
+  std::vector<std::array<Vec<D>, D>> grad(size);
   const double scale = diffusion * static_cast<double>(D) / s.kernel.n0;
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (!movable[i]) continue;
-    const Vec<D> g = concentration_sum(s, i);
+  for_each_row_pairs(s, movable, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+    const Vec<D> g = concentration_sum(pairs, m);
     Vec<D> sh;
     for (std::size_t a = 0; a < D; ++a) sh[a] = -scale * g[a];
     if (along_surface) {
@@ -516,14 +588,8 @@ double shift_particles(const BasicStencil<D>& s, double diffusion, double max_sh
     if (length > max_shift)
       for (std::size_t a = 0; a < D; ++a) sh[a] *= max_shift / length;
     shift[i] = sh;
-  }
-  // The velocity gradients before any particle moves, only where a particle moves.
-  std::vector<std::array<Vec<D>, D>> grad(size);
-#pragma omp parallel for schedule(static) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (movable[i]) grad[i] = corrected_velocity_gradient(s, i);
-  }
+    grad[i] = corrected_velocity_gradient(s, pairs, m, i);
+  });
   const auto positions = particles.positions();
   const auto velocities = particles.velocities();
   double largest = 0.0;
@@ -551,26 +617,34 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   // is skipped without the square root (docs/benchmarks.md); the others decide as before.
   const double clearly_out2 = reach * reach * (1.0 + 1e-12);
   long pairs = 0;
-#pragma omp parallel for schedule(static) reduction(+ : pairs) if (detail::worth_threads(n))
-  for (Index ii = 0; ii < n; ++ii) {
-    const auto i = static_cast<std::size_t>(ii);
-    if (p.kind[i] != Kind::fluid || !movable[i]) continue;
-    for (int jn : neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jn);
-      if (p.kind[j] == Kind::ghost) continue;
-      const Vec<D> d = domain.displacement(p.position(i), p.position(j));
-      if (norm2<D>(d) > clearly_out2) continue;
-      const double r = norm<D>(d);
-      if (r >= reach || r == 0.0) continue;
-      Vec<D> unit;
-      for (std::size_t a = 0; a < D; ++a) unit[a] = d[a] / r;
-      double approach = ((*vel[0])[i] - (*vel[0])[j]) * unit[0];  // > 0: closing in
-      for (std::size_t a = 1; a < D; ++a) approach += ((*vel[a])[i] - (*vel[a])[j]) * unit[a];
-      if (approach <= 0.0) continue;
-      // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the impulse.
-      const double share = p.kind[j] == Kind::fluid && movable[j] ? 0.5 : 1.0;
-      for (std::size_t a = 0; a < D; ++a) change[a][i] -= share * (1.0 + restitution) * approach * unit[a];
-      ++pairs;
+#pragma omp parallel if (detail::worth_threads(n))
+  {
+    detail::RowPairs<D> row;
+#pragma omp for schedule(static) reduction(+ : pairs)
+    for (Index ii = 0; ii < n; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      if (p.kind[i] != Kind::fluid || !movable[i]) continue;
+      const std::size_t m = row.fill(p, domain, neighbors, i);
+      const int* id = neighbors.of(i).data();
+      const double* r2 = row.r2();
+      for (std::size_t k = 0; k < m; ++k) {
+        if (r2[k] > clearly_out2) continue;
+        const auto j = static_cast<std::size_t>(id[k]);
+        if (p.kind[j] == Kind::ghost) continue;
+        Vec<D> d;
+        for (std::size_t a = 0; a < D; ++a) d[a] = row.d(a)[k];
+        const double r = norm<D>(d);
+        if (r >= reach || r == 0.0) continue;
+        Vec<D> unit;
+        for (std::size_t a = 0; a < D; ++a) unit[a] = d[a] / r;
+        double approach = ((*vel[0])[i] - (*vel[0])[j]) * unit[0];  // > 0: closing in
+        for (std::size_t a = 1; a < D; ++a) approach += ((*vel[a])[i] - (*vel[a])[j]) * unit[a];
+        if (approach <= 0.0) continue;
+        // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the impulse.
+        const double share = p.kind[j] == Kind::fluid && movable[j] ? 0.5 : 1.0;
+        for (std::size_t a = 0; a < D; ++a) change[a][i] -= share * (1.0 + restitution) * approach * unit[a];
+        ++pairs;
+      }
     }
   }
   return pairs;

@@ -1,4 +1,5 @@
 #include "mps/numerics/ppe.hpp"
+#include "mps/numerics/row_pairs.hpp"
 #include "mps/core/threads.hpp"
 #include "mps/core/vec.hpp"
 
@@ -157,13 +158,16 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     return s.kernel.w(std::sqrt(norm2<D>(displacement(at(i), at(j))))) > 0.0;
   };
   // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
-  auto ppe_weight = [&](std::size_t i, auto&& each) {
+  auto ppe_weight = [&](detail::RowPairs<D>& pairs, std::size_t i, auto&& each) {
+    const std::size_t m = pairs.fill(p, s.domain, s.neighbors, i);
+    pairs.weigh_laplacian(s.kernel);
+    const int* id = s.neighbors.of(i).data();
+    const double* weight = pairs.w();
     double diag = 0.0;
-    const Vec<D> ri = at(i);
-    for (int jj : s.neighbors.of(i)) {
-      const auto j = static_cast<std::size_t>(jj);
+    for (std::size_t k = 0; k < m; ++k) {
+      const auto j = static_cast<std::size_t>(id[k]);
       if (!in_sum(j)) continue;
-      const double w = s.kernel.laplacian_weight(std::sqrt(norm2<D>(displacement(ri, at(j)))));
+      const double w = weight[k];
       if (w <= 0.0) continue;
       diag += w;
       each(j, w);
@@ -224,37 +228,41 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
 
   // Unknowns are numbered in particle order and neighbour lists are sorted, so columns come out sorted
   // once the diagonal is slotted in at its place.
-#pragma omp parallel for schedule(static) if (detail::worth_threads(m))
-  for (Index r = 0; r < m; ++r) {
-    const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
-    if (!solved(i)) continue;
-    auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
-    std::size_t diag_slot = 0;
-    bool placed = false;
-    double known = 0.0;  // sum of w P_j over the Dirichlet neighbours
-    const double diag = ppe_weight(i, [&](std::size_t j, double w) {
-      const int col = solved(j) ? sys.unknown[j] : -1;
-      if (col < 0) {
-        anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
-        if (!dirichlet.empty()) known += w * dirichlet[j];
-        return;
+#pragma omp parallel if (detail::worth_threads(m))
+  {
+    detail::RowPairs<D> pairs;
+#pragma omp for schedule(static)
+    for (Index r = 0; r < m; ++r) {
+      const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+      if (!solved(i)) continue;
+      auto k = static_cast<std::size_t>(a.row_ptr[static_cast<std::size_t>(r)]);
+      std::size_t diag_slot = 0;
+      bool placed = false;
+      double known = 0.0;  // sum of w P_j over the Dirichlet neighbours
+      const double diag = ppe_weight(pairs, i, [&](std::size_t j, double w) {
+        const int col = solved(j) ? sys.unknown[j] : -1;
+        if (col < 0) {
+          anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
+          if (!dirichlet.empty()) known += w * dirichlet[j];
+          return;
+        }
+        if (!placed && col > r) {
+          diag_slot = k++;
+          placed = true;
+        }
+        a.col[k] = col;
+        a.val[k++] = -c * w;
+      });
+      if (!placed) diag_slot = k++;
+      const double empty = open.weight.empty() ? 0.0 : open.weight[i];
+      if (empty > 0.0) {
+        anchored[static_cast<std::size_t>(r)] = 1;
+        known += empty * open.value[i];
       }
-      if (!placed && col > r) {
-        diag_slot = k++;
-        placed = true;
-      }
-      a.col[k] = col;
-      a.val[k++] = -c * w;
-    });
-    if (!placed) diag_slot = k++;
-    const double empty = open.weight.empty() ? 0.0 : open.weight[i];
-    if (empty > 0.0) {
-      anchored[static_cast<std::size_t>(r)] = 1;
-      known += empty * open.value[i];
+      a.col[diag_slot] = static_cast<int>(r);
+      a.val[diag_slot] = c * (diag + empty) + shift;
+      sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
     }
-    a.col[diag_slot] = static_cast<int>(r);
-    a.val[diag_slot] = c * (diag + empty) + shift;
-    sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
   }
   if (sys.held_rows > 0) {
     // A held row stands alone, x = its value; its diagonal is the solved rows' mean, to leave A's scale as it was.

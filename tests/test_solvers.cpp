@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "hydrostatic_bound.hpp"
@@ -644,6 +645,59 @@ TEST(SolverReuse, GalerkinRefreshKeepsTheHierarchyWhileRowsJoinAndLeaveTheSolve)
     (void)solve_with("hypre-pcg:filter=0.2,tol=1e-10", ppe.matrix, ppe.rhs, &fresh);
     EXPECT_LE(r.iterations, 1.4 * fresh.iterations) << "step " << step;
   }
+}
+
+// auto coarsens aggressively (hypre-pcg's agg_levels = surface_agg_levels) once a row of its system stands alone, as
+// a free surface's held rows do, and not for a confined flow's: each AMG solve is hypre-pcg's with those keys, bit for
+// bit. The tank with its surface held and a row for every particle; the closed box.
+TEST(SolverAuto, CoarsensAggressivelyOnceARowStandsAlone) {
+  const mps::Particles& p = tank().particles;
+  const double l0 = 0.01;
+  const mps::Domain d{-6 * l0, 0.6 + 6 * l0, -6 * l0, 0.48 + 6 * l0};
+  const auto list = mps::find_neighbors(p, d, 4.1 * l0);
+  const mps::Kernel lap = mps::make_kernel(4.1, l0), den = mps::make_kernel(2.1, l0);
+  const std::vector<char> surface = mps::detect_free_surface(p, mps::number_density({p, d, list, den}), den.n0, 0.97);
+  std::vector<double> source(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) source[i] = -1e3 * (1.0 + 0.5 * std::cos(5.0 * p.x[i]) * p.y[i]);
+  const mps::PpeSystem held = mps::assemble_ppe({p, d, list, lap}, surface, source, {}, 0.0,
+                                                mps::ClosedGroups::gauge, {}, mps::PpeRows::every_particle);
+  const mps::PpeSystem& closed = box().ppe;
+  auto stands_alone = [](const mps::CsrMatrix& a) {
+    for (std::size_t r = 0; r + 1 < a.row_ptr.size(); ++r)
+      if (a.row_ptr[r + 1] - a.row_ptr[r] == 1) return true;
+    return false;
+  };
+  ASSERT_TRUE(stands_alone(held.matrix));
+  ASSERT_FALSE(stands_alone(closed.matrix));
+  const std::string amg = "hypre-pcg:reuse=20,filter=0.2,refresh=galerkin,tol=1e-10";
+  // Jacobi first (its iterations above switch_iterations = 0), AMG-PCG at the second solve.
+  auto second_solve = [](const std::string& spec, const mps::PpeSystem& ppe, mps::SolveReport& report) {
+    auto solver = mps::make_solver(spec);
+    std::vector<double> x(ppe.size(), 0.0);
+    (void)solver->solve(ppe.matrix, ppe.rhs, x);
+    std::fill(x.begin(), x.end(), 0.0);
+    report = solver->solve(ppe.matrix, ppe.rhs, x);
+    return x;
+  };
+  const std::string automatic = "auto:switch_iterations=0,rebuild_iterations=100000,steady_solves=1,tol=1e-10";
+  mps::SolveReport r_auto, r_hypre;
+  for (const auto& [spec, ppe, keys] : {std::tuple{automatic, &held, ",agg_levels=1"},
+                                        std::tuple{automatic + ",surface_agg_levels=2", &held, ",agg_levels=2"},
+                                        std::tuple{automatic + ",surface_agg_levels=0", &held, ""},
+                                        std::tuple{automatic, &closed, ""}}) {
+    const std::vector<double> x_auto = second_solve(spec, *ppe, r_auto);
+    const std::vector<double> x_hypre = solve_with(amg + keys, ppe->matrix, ppe->rhs, &r_hypre);
+    EXPECT_EQ(r_auto.backend, "hypre-pcg") << spec;
+    EXPECT_EQ(r_auto.iterations, r_hypre.iterations) << spec;
+    EXPECT_EQ(x_auto, x_hypre) << spec;
+    EXPECT_LT(r_auto.relative_residual, 1e-10) << spec;
+  }
+  // The keys make a difference the comparisons above would see.
+  mps::SolveReport r_plain, r_aggressive;
+  EXPECT_NE(solve_with(amg, held.matrix, held.rhs, &r_plain), solve_with(amg + ",agg_levels=1", held.matrix, held.rhs,
+                                                                         &r_aggressive));
+  EXPECT_NE(r_plain.iterations, r_aggressive.iterations);
+  EXPECT_THROW(mps::make_solver("auto:surface_agg_levels=26"), std::invalid_argument);
 }
 
 // auto asks for a row per particle once Jacobi needs more than fixed_rows_iterations (so that a free surface leaves

@@ -24,6 +24,7 @@ class AutoSolver final : public LinearSolver {
         rebuild_iterations_(o.integer("rebuild_iterations", 0, 100000000)),
         steady_solves_(o.integer("steady_solves", 1, 1000000)),
         fixed_rows_iterations_(o.integer("fixed_rows_iterations", 0, 100000000)),
+        surface_agg_levels_(o.integer("surface_agg_levels", 0, 25)),
         spec_(o.spec()) {
     const std::string tol = "tol=" + o.values().at("tol");
     // A Jacobi solve stops at rebuild_iterations: past it AMG-PCG is the faster method and finishes the solve.
@@ -85,8 +86,17 @@ class AutoSolver final : public LinearSolver {
   // broke down on a free surface torn by a moving paddle (examples/scenes/wave_paddle.toml, docs/solvers.md) where
   // IC-CG and unfiltered AMG converged. The hierarchy is set up afresh at the next solve.
   SolveReport amg_solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) {
+    // A row that stands alone (held at its Dirichlet value, or coupled to known values only) means a free surface,
+    // whose hierarchy is refreshed nearly every step: aggressive coarsening there halves the refresh for a few more
+    // iterations (docs/solvers.md). Decided once, on one process (on ranks the rows are the unknowns); the hierarchy
+    // is then set up afresh.
+    if (!surface_ && !distributed_ && surface_agg_levels_ > 0 && has_row_standing_alone(a)) {
+      surface_ = true;
+      amg_.reset();
+    }
     // Made at its first solve: a run that never leaves Jacobi-CG (a free surface) then never starts MPI and hypre.
-    if (!amg_) amg_ = make_solver(amg_spec_, context_);
+    if (!amg_)
+      amg_ = make_solver(amg_spec_ + (surface_ ? ",agg_levels=" + std::to_string(surface_agg_levels_) : ""), context_);
     guess_.assign(x.begin(), x.end());
     try {
       return amg_->solve(a, b, x);
@@ -131,10 +141,17 @@ class AutoSolver final : public LinearSolver {
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_, rescue_;
   std::vector<double> guess_;  // the guess of an AMG-PCG solve, for Jacobi-CG to start from should AMG break down
-  int switch_iterations_, rebuild_iterations_, steady_solves_, fixed_rows_iterations_, jacobi_max_iter_ = 1;
+  static bool has_row_standing_alone(const CsrMatrix& a) {
+    for (std::size_t r = 0; r + 1 < a.row_ptr.size(); ++r)
+      if (a.row_ptr[r + 1] - a.row_ptr[r] == 1) return true;
+    return false;
+  }
+
+  int switch_iterations_, rebuild_iterations_, steady_solves_, fixed_rows_iterations_, surface_agg_levels_,
+      jacobi_max_iter_ = 1;
   std::string spec_, amg_spec_, rescue_spec_;
   SolverContext context_;
-  bool distributed_ = false, on_amg_ = false, always_amg_ = false, refresh_ = true;
+  bool distributed_ = false, on_amg_ = false, always_amg_ = false, refresh_ = true, surface_ = false;
   MPI_Comm comm_ = MPI_COMM_SELF;
   int last_rows_ = -1, last_jacobi_iterations_ = 0;
   int steady_ = 0;  // solves in a row, this one included, with the same unknown count
@@ -163,6 +180,9 @@ SolverEntry auto_entry() {
             "solve); none: rebuilt whenever the unknowns change"},
            {"fixed_rows_iterations", "80",
             "with refresh=galerkin: Jacobi iterations above which the step keeps a row for every particle"},
+           {"surface_agg_levels", "1",
+            "hypre-pcg's agg_levels once a row of the system stands alone (a free surface, whose hierarchy is "
+            "refreshed nearly every step: aggressive coarsening halves the refresh); 0: as a confined flow's"},
            {"filter", "0.2",
             "hypre-pcg: AMG built on the PPE with couplings below this fraction of the strongest lumped onto the "
             "diagonal (half the solve's cost on the 4.1 l0 stencil)"}},

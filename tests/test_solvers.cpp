@@ -602,38 +602,56 @@ TEST(SolverReuse, TheHierarchyIsRebuiltAfterReuseSolvesAndWhenTheCountChanges) {
   EXPECT_EQ(reused, (std::vector<bool>{false, true, true, false, false, true}));
 }
 
+// The tank with a row for every particle (PpeRows::every_particle): its free surface, and its PPE with the
+// particles `held` flags held at P = 0, their rows standing alone.
+struct FixedRowsTank {
+  mps::Domain d{-6 * 0.01, 0.6 + 6 * 0.01, -6 * 0.01, 0.48 + 6 * 0.01};
+  mps::NeighborList list;
+  mps::Kernel lap = mps::make_kernel(4.1, 0.01), den = mps::make_kernel(2.1, 0.01);
+  std::vector<char> surface;
+  std::vector<double> source;
+  [[nodiscard]] mps::PpeSystem holding(const std::vector<char>& held) const {
+    return mps::assemble_ppe({tank().particles, d, list, lap}, held, source, {}, 0.0, mps::ClosedGroups::gauge, {},
+                             mps::PpeRows::every_particle);
+  }
+};
+const FixedRowsTank& fixed_rows_tank() {
+  static const FixedRowsTank t = [] {
+    FixedRowsTank r;
+    const mps::Particles& p = tank().particles;
+    r.list = mps::find_neighbors(p, r.d, 4.1 * 0.01);
+    r.surface = mps::detect_free_surface(p, mps::number_density({p, r.d, r.list, r.den}), r.den.n0, 0.97);
+    r.source.resize(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) r.source[i] = -1e3 * (1.0 + 0.5 * std::cos(5.0 * p.x[i]) * p.y[i]);
+    return r;
+  }();
+  return t;
+}
+
 // A free surface moving through a tank with a row for every particle (PpeRows::every_particle): the numbering holds,
 // and at each step a patch of particles around a moving centre is held at P = 0 (its rows stand alone) where the
 // step before solved them. refresh=galerkin keeps the hierarchy through all of it, each solve to its tolerance and
 // within 1.4 times the iterations of a hierarchy set up afresh on that matrix (measured: 18-19 against 14; kept
 // without the refresh, 21-23, and a rebuild at the fourth step).
 TEST(SolverReuse, GalerkinRefreshKeepsTheHierarchyWhileRowsJoinAndLeaveTheSolve) {
+  const FixedRowsTank& t = fixed_rows_tank();
   const mps::Particles& p = tank().particles;
-  const double l0 = 0.01;
-  const mps::Domain d{-6 * l0, 0.6 + 6 * l0, -6 * l0, 0.48 + 6 * l0};
-  const auto list = mps::find_neighbors(p, d, 4.1 * l0);
-  const mps::Kernel lap = mps::make_kernel(4.1, l0), den = mps::make_kernel(2.1, l0);
-  const std::vector<double> n = mps::number_density({p, d, list, den});
-  const std::vector<char> surface = mps::detect_free_surface(p, n, den.n0, 0.97);
-  std::vector<double> source(p.size());
-  for (std::size_t i = 0; i < p.size(); ++i) source[i] = -1e3 * (1.0 + 0.5 * std::cos(5.0 * p.x[i]) * p.y[i]);
   auto kept = mps::make_solver("hypre-pcg:reuse=20,filter=0.2,refresh=galerkin,tol=1e-10");
   EXPECT_TRUE(kept->wants_fixed_rows());
   EXPECT_FALSE(mps::make_solver("hypre-pcg:reuse=20,filter=0.2")->wants_fixed_rows());
   EXPECT_THROW(mps::make_solver("hypre-pcg:precond=jacobi,reuse=20,refresh=galerkin"), std::invalid_argument);
   std::size_t rows = 0;
   for (int step = 0; step < 6; ++step) {
-    std::vector<char> held = surface;
+    std::vector<char> held = t.surface;
     const double cx = 0.1 + 0.08 * step, cy = 0.2;  // a hole of radius 5 l0 moving along x
     int in_hole = 0;
     for (std::size_t i = 0; i < p.size(); ++i)
-      if (p.kind[i] == mps::Kind::fluid && std::hypot(p.x[i] - cx, p.y[i] - cy) < 5 * l0) {
+      if (p.kind[i] == mps::Kind::fluid && std::hypot(p.x[i] - cx, p.y[i] - cy) < 5 * 0.01) {
         held[i] = 1;
         ++in_hole;
       }
     ASSERT_GT(in_hole, 60);
-    const mps::PpeSystem ppe = mps::assemble_ppe({p, d, list, lap}, held, source, {}, 0.0, mps::ClosedGroups::gauge,
-                                                 {}, mps::PpeRows::every_particle);
+    const mps::PpeSystem ppe = t.holding(held);
     if (step == 0) rows = ppe.size();
     ASSERT_EQ(ppe.size(), rows);  // the numbering holds
     std::vector<double> x(ppe.size(), 0.0);
@@ -651,16 +669,8 @@ TEST(SolverReuse, GalerkinRefreshKeepsTheHierarchyWhileRowsJoinAndLeaveTheSolve)
 // a free surface's held rows do, and not for a confined flow's: each AMG solve is hypre-pcg's with those keys, bit for
 // bit. The tank with its surface held and a row for every particle; the closed box.
 TEST(SolverAuto, CoarsensAggressivelyOnceARowStandsAlone) {
-  const mps::Particles& p = tank().particles;
-  const double l0 = 0.01;
-  const mps::Domain d{-6 * l0, 0.6 + 6 * l0, -6 * l0, 0.48 + 6 * l0};
-  const auto list = mps::find_neighbors(p, d, 4.1 * l0);
-  const mps::Kernel lap = mps::make_kernel(4.1, l0), den = mps::make_kernel(2.1, l0);
-  const std::vector<char> surface = mps::detect_free_surface(p, mps::number_density({p, d, list, den}), den.n0, 0.97);
-  std::vector<double> source(p.size());
-  for (std::size_t i = 0; i < p.size(); ++i) source[i] = -1e3 * (1.0 + 0.5 * std::cos(5.0 * p.x[i]) * p.y[i]);
-  const mps::PpeSystem held = mps::assemble_ppe({p, d, list, lap}, surface, source, {}, 0.0,
-                                                mps::ClosedGroups::gauge, {}, mps::PpeRows::every_particle);
+  const FixedRowsTank& t = fixed_rows_tank();
+  const mps::PpeSystem held = t.holding(t.surface);
   const mps::PpeSystem& closed = box().ppe;
   auto stands_alone = [](const mps::CsrMatrix& a) {
     for (std::size_t r = 0; r + 1 < a.row_ptr.size(); ++r)

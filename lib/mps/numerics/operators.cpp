@@ -62,9 +62,9 @@ Index count(const BasicStencil<D>& s) {
   return static_cast<Index>(s.particles.size());
 }
 
-// Calls f(i, pairs, m) for every row i that `rows` flags (every row if empty) with its m pairs filled and weighed,
-// the rows shared among the threads as `schedule(static)` shares them.
-template <int D, class F>
+// Calls f(i, pairs, m) for every row i that `rows` flags (every row if empty) with its m pairs filled (and weighed
+// unless Weighed is false), the rows shared among the threads as `schedule(static)` shares them.
+template <bool Weighed = true, int D, class F>
 void for_each_row_pairs(const BasicStencil<D>& s, std::span<const char> rows, F&& f) {
   const Index n = count(s);
 #pragma omp parallel if (detail::worth_threads(n))
@@ -75,7 +75,7 @@ void for_each_row_pairs(const BasicStencil<D>& s, std::span<const char> rows, F&
       const auto i = static_cast<std::size_t>(ii);
       if (!rows.empty() && !rows[i]) continue;
       const std::size_t m = pairs.fill(s.particles, s.domain, s.neighbors, i);
-      pairs.weigh(s.kernel);
+      if constexpr (Weighed) pairs.weigh(s.kernel);
       f(i, pairs, m);
     }
   }
@@ -480,29 +480,21 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
     // Every listed pair adds its term (Kernel::w_unbranched): the w > 0 loop's bits, without its branch to
     // mispredict where a list reaches past re (one carried over from the last step, SimulationConfig::neighbor_skin).
     const Kernel& kernel = s.kernel;
-#pragma omp parallel if (detail::worth_threads(n))
-    {
-      detail::RowPairs<D> pairs;
-#pragma omp for schedule(static)
-      for (Index ii = 0; ii < n; ++ii) {
-        const auto i = static_cast<std::size_t>(ii);
-        if (!rows.empty() && !rows[i]) continue;
-        const std::size_t m = pairs.fill(s.particles, s.domain, s.neighbors, i);
-        const int* __restrict id = s.neighbors.of(i).data();
-        const double* __restrict r = pairs.r();
-        double* __restrict w = pairs.terms(0);
-        for (std::size_t k = 0; k < m; ++k) w[k] = kernel.w_unbranched(r[k]);
-        double* __restrict term = pairs.terms(1);
-        for (std::size_t f = 0; f < K; ++f) {
-          const double* __restrict field = in[f].data();
-          const double fi = field[i];
-          for (std::size_t k = 0; k < m; ++k) term[k] = (field[static_cast<std::size_t>(id[k])] - fi) * w[k];
-          double sum = 0.0;
-          for (std::size_t k = 0; k < m; ++k) sum += term[k];
-          out[f][i] = scale * sum;
-        }
+    for_each_row_pairs<false>(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
+      const int* __restrict id = s.neighbors.of(i).data();
+      const double* __restrict r = pairs.r();
+      double* __restrict w = pairs.terms(0);
+      for (std::size_t k = 0; k < m; ++k) w[k] = kernel.w_unbranched(r[k]);
+      double* __restrict term = pairs.terms(1);
+      for (std::size_t f = 0; f < K; ++f) {
+        const double* __restrict field = in[f].data();
+        const double fi = field[i];
+        for (std::size_t k = 0; k < m; ++k) term[k] = (field[static_cast<std::size_t>(id[k])] - fi) * w[k];
+        double sum = 0.0;
+        for (std::size_t k = 0; k < m; ++k) sum += term[k];
+        out[f][i] = scale * sum;
       }
-    }
+    });
     return;
   }
 #pragma omp parallel for schedule(static) if (detail::worth_threads(n))

@@ -616,7 +616,7 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
     for (Index ii = 0; ii < n; ++ii) {
       const auto i = static_cast<std::size_t>(ii);
       if (p.kind[i] != Kind::fluid || !movable[i]) continue;
-      const std::size_t m = row.fill(p, domain, neighbors, i);
+      const std::size_t m = row.fill_displacements(p, domain, neighbors, i);
       const int* id = neighbors.of(i).data();
       const double* r2 = row.r2();
       for (std::size_t k = 0; k < m; ++k) {

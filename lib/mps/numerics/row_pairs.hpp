@@ -25,6 +25,15 @@ class RowPairs {
   /// Fills d, r2 and r for row i of `neighbors`; returns the row's length.
   std::size_t fill(const BasicParticles<D>& p, const BasicDomain<D>& domain, const NeighborList& neighbors,
                    std::size_t i) {
+    const std::size_t m = fill_displacements(p, domain, neighbors, i);
+    const double* __restrict r2 = r2_.data();
+    double* __restrict r = r_.data();
+    for (std::size_t k = 0; k < m; ++k) r[k] = std::sqrt(r2[k]);
+    return m;
+  }
+  /// Same without r: for a pass that keeps few of the pairs and reads r2 to choose them (r() is stale).
+  std::size_t fill_displacements(const BasicParticles<D>& p, const BasicDomain<D>& domain,
+                                 const NeighborList& neighbors, std::size_t i) {
     const auto row = neighbors.of(i);
     const std::size_t m = row.size();
     if (r_.size() < m) {
@@ -32,7 +41,6 @@ class RowPairs {
       for (auto& t : t_) t.resize(2 * m);
     }
     const int* __restrict id = row.data();
-    double* __restrict r = r_.data();
     const auto periodic = domain.periodic();
     if (std::find(periodic.begin(), periodic.end(), true) != periodic.end()) {
       const Displacement<D> displacement(domain);
@@ -58,7 +66,6 @@ class RowPairs {
       const double* __restrict dz = d_[2].data();
       for (std::size_t k = 0; k < m; ++k) r2[k] = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
     }
-    for (std::size_t k = 0; k < m; ++k) r[k] = std::sqrt(r2[k]);
     size_ = m;
     return m;
   }

@@ -136,11 +136,6 @@ const Params& checked(const Params& p) {
   return p;
 }
 
-bool has_fluid_neighbour(const mps::Particles& s, std::size_t i, double radius) {
-  for (std::size_t j = 0; j < s.size(); ++j)
-    if (j != i && s.kind[j] == mps::Kind::fluid && std::hypot(s.x[j] - s.x[i], s.y[j] - s.y[i]) < radius) return true;
-  return false;
-}
 }  // namespace
 
 double estimated_steps(const Params& p) {
@@ -183,15 +178,12 @@ mps::SimulationConfig make_config(const Params& p, int dim) {
   return c;
 }
 
-// Candidates are few (the rightmost particles), so the neighbour test scans all particles for each.
 double surge_front(const mps::Particles& s, double l0) {
   std::vector<std::size_t> fluid;
   for (std::size_t i = 0; i < s.size(); ++i)
     if (s.kind[i] == mps::Kind::fluid) fluid.push_back(i);
-  std::sort(fluid.begin(), fluid.end(), [&](std::size_t a, std::size_t b) { return s.x[a] > s.x[b]; });
-  for (std::size_t i : fluid)
-    if (has_fluid_neighbour(s, i, 2.1 * l0)) return s.x[i] + 0.5 * l0;
-  return 0.0;
+  const auto front = mps::outermost_with_fluid_neighbour<2>(s, std::move(fluid), s.x, 2.1 * l0);
+  return front ? *front + 0.5 * l0 : 0.0;
 }
 
 mps::Domain make_domain(const Params& p, const mps::Particles& particles) {

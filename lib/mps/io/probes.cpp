@@ -39,11 +39,17 @@ Vec<D> displacement(const BasicParticles<D>& s, std::size_t i, const Vec<D>& at)
   return d;
 }
 
+// A run samples its front and levels every step: the per-axis test skips the square root for nearly every particle,
+// and decides as the distance would (|d| is never below one of its components, nor is its rounding).
 template <int D>
 bool has_fluid_neighbour(const BasicParticles<D>& s, std::size_t i, double radius) {
   const Vec<D> r = s.position(i);
-  for (std::size_t j = 0; j < s.size(); ++j)
-    if (j != i && s.kind[j] == Kind::fluid && norm<D>(displacement<D>(s, j, r)) < radius) return true;
+  for (std::size_t j = 0; j < s.size(); ++j) {
+    if (j == i || s.kind[j] != Kind::fluid) continue;
+    const Vec<D> d = displacement<D>(s, j, r);
+    if (std::all_of(d.begin(), d.end(), [&](double c) { return std::abs(c) < radius; }) && norm<D>(d) < radius)
+      return true;
+  }
   return false;
 }
 
@@ -149,18 +155,31 @@ double patch_pressure(const BasicParticles<D>& s, const BasicSensorPatch<D>& pat
   return count > 0 ? sum / count : 0.0;
 }
 
+// Highest first until one has a neighbour; a heap, since that is usually the first (a sort cost more than the step's
+// sampling otherwise). Candidates of equal coordinate give the same answer in any order.
+template <int D>
+std::optional<double> outermost_with_fluid_neighbour(const BasicParticles<D>& s, std::vector<std::size_t> candidates,
+                                                     std::span<const double> coordinate, double radius) {
+  const auto lower = [&](std::size_t a, std::size_t b) { return coordinate[a] < coordinate[b]; };
+  std::make_heap(candidates.begin(), candidates.end(), lower);
+  for (auto end = candidates.end(); end != candidates.begin(); --end) {
+    std::pop_heap(candidates.begin(), end, lower);
+    const std::size_t i = *(end - 1);
+    if (has_fluid_neighbour<D>(s, i, radius)) return coordinate[i];
+  }
+  return std::nullopt;
+}
+
 template <int D>
 double water_level(const BasicParticles<D>& s, const Vec<D>& at, double l0, LevelMethod method) {
   constexpr std::size_t up = D - 1;
-  const auto height = *s.positions()[up];
+  const auto& height = *s.positions()[up];
   std::vector<std::size_t> line;
   for (std::size_t i = 0; i < s.size(); ++i)
     if (s.kind[i] == Kind::fluid && from_vertical_line<D>(s, i, at) < l0) line.push_back(i);
   if (method == LevelMethod::surface) {
-    std::sort(line.begin(), line.end(), [&](std::size_t a, std::size_t b) { return height[a] > height[b]; });
-    for (std::size_t i : line)
-      if (has_fluid_neighbour<D>(s, i, kSurfaceNeighbour * l0)) return height[i] + 0.5 * l0;
-    return 0.0;
+    const auto top = outermost_with_fluid_neighbour<D>(s, std::move(line), height, kSurfaceNeighbour * l0);
+    return top ? *top + 0.5 * l0 : 0.0;
   }
   std::vector<double> heights;
   for (std::size_t i : line) heights.push_back(height[i] - at[up]);
@@ -381,6 +400,8 @@ void BasicProbeSeries<D>::restore_state(const nlohmann::json& state) {
   template Vec<D> kernel_velocity<D>(const BasicParticles<D>&, const Vec<D>&, const Kernel&);                         \
   template double patch_pressure<D>(const BasicParticles<D>&, const BasicSensorPatch<D>&);                            \
   template double water_level<D>(const BasicParticles<D>&, const Vec<D>&, double, LevelMethod);                       \
+  template std::optional<double> outermost_with_fluid_neighbour<D>(const BasicParticles<D>&, std::vector<std::size_t>, \
+                                                                   std::span<const double>, double);                 \
   template BasicProbe<D> pressure_probe<D>(std::string, std::vector<Vec<D>>, const Kernel&);                          \
   template BasicProbe<D> velocity_probe<D>(std::string, std::vector<Vec<D>>, const Kernel&);                          \
   template BasicProbe<D> patch_probe<D>(std::string, std::vector<Vec<D>>, const BasicSensorPatch<D>&);                \

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -86,6 +88,13 @@ enum class LevelMethod {
 template <int D>
 double water_level(const BasicParticles<D>& particles, const Vec<D>& at, double l0,
                    LevelMethod method = LevelMethod::surface);
+
+/// The largest coordinate[i] over the `candidates` i that have another fluid particle within `radius` (a lone drop
+/// does not count): a surge front along x, or a free surface's height. Empty if no candidate has one.
+template <int D>
+std::optional<double> outermost_with_fluid_neighbour(const BasicParticles<D>& particles,
+                                                     std::vector<std::size_t> candidates,
+                                                     std::span<const double> coordinate, double radius);
 
 /// One probe: a name and the values it reads from a particle set, `components` per point (a CSV column each).
 template <int D>

@@ -20,7 +20,7 @@ TEST(DamBreak, FrontAndLevelOfTheStandingColumnAreItsWidthAndHeight) {
   EXPECT_EQ(mps::water_level<2>(s, {2.0 * p.width, 0.0}, p.l0), 0.0);  // dry floor
   s.add(3 * p.width, 0.5 * p.height, mps::Kind::fluid);            // lone drops ahead are spray, not the front
   s.add(2 * p.width, 0.5 * p.height, mps::Kind::fluid);
-  s.add(p.width + 2.2 * p.l0, 0.0, mps::Kind::fluid);  // 2.2 l0 from the column's corner: alone too
+  s.add(p.width + 2.2 * p.l0, 0.0, mps::Kind::fluid);  // 2.7 l0 from the column's nearest particle: alone too
   EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width, 1e-12);
   s.add(p.width + p.l0, 0.5 * p.height, mps::Kind::fluid);  // 1.5 l0 from the column's edge: the new front
   EXPECT_NEAR(dambreak::surge_front(s, p.l0), p.width + 1.5 * p.l0, 1e-12);

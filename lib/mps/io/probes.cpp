@@ -155,8 +155,8 @@ double patch_pressure(const BasicParticles<D>& s, const BasicSensorPatch<D>& pat
   return count > 0 ? sum / count : 0.0;
 }
 
-// Highest first until one has a neighbour; a heap, since that is usually the first (a sort cost more than the step's
-// sampling otherwise). Candidates of equal coordinate give the same answer in any order.
+// Highest first until one has a neighbour, from a heap: usually the first does, and sorting every candidate was most
+// of the dam break's sampling, which runs every step. Candidates of equal coordinate give the same answer.
 template <int D>
 std::optional<double> outermost_with_fluid_neighbour(const BasicParticles<D>& s, std::vector<std::size_t> candidates,
                                                      std::span<const double> coordinate, double radius) {

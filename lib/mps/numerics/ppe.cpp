@@ -158,23 +158,6 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     return s.kernel.w(std::sqrt(norm2<D>(displacement(at(i), at(j))))) > 0.0;
   };
   // A candidate whose sum is empty has nothing coupling it to the rest and is left out (pressure 0).
-  auto ppe_weight = [&](detail::RowPairs<D>& pairs, std::size_t i, auto&& each) {
-    const std::size_t m = pairs.fill(p, s.domain, s.neighbors, i);
-    pairs.weigh_laplacian(s.kernel);
-    const int* id = s.neighbors.of(i).data();
-    const double* weight = pairs.w();
-    double diag = 0.0;
-    for (std::size_t k = 0; k < m; ++k) {
-      const auto j = static_cast<std::size_t>(id[k]);
-      if (!in_sum(j)) continue;
-      const double w = weight[k];
-      if (w <= 0.0) continue;
-      diag += w;
-      each(j, w);
-    }
-    return diag;
-  };
-
   sys.unknown.assign(n, -1);
   sys.particle.clear();
   sys.floating.clear();
@@ -210,21 +193,35 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
   sys.rhs.resize(static_cast<std::size_t>(m));
   std::vector<char>& anchored = sys.anchored;
   anchored.assign(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
+  std::vector<double> diagonal(sys.held_rows > 0 ? static_cast<std::size_t>(m) : 0);  // the held rows' scale reads it
 
 #pragma omp parallel for schedule(static) if (detail::worth_threads(m))
   for (Index r = 0; r < m; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
     int entries = 1;
-    if (solved(i))
-      for (int jj : s.neighbors.of(i)) {
-        const auto j = static_cast<std::size_t>(jj);
-        entries += solved(j) && coupled(i, j) ? 1 : 0;
-      }
+    if (solved(i)) {
+      // A solved particle is in every sum (fluid, or a wall below the surface), so within the kernel a count of
+      // the solved neighbours is the count of the coupled ones, without a test of kind and surface per pair.
+      if (all_in_kernel)
+        for (int j : s.neighbors.of(i)) entries += candidate[static_cast<std::size_t>(j)];
+      else
+        for (int jj : s.neighbors.of(i)) {
+          const auto j = static_cast<std::size_t>(jj);
+          entries += solved(j) && coupled(i, j) ? 1 : 0;
+        }
+    }
     a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
   }
   for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
   a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
   a.val.resize(a.col.size());
+
+  // Each particle's part in a row's sum, read once per pair from one array: its column where solved, outside_sum
+  // where it is in no sum, dirichlet_neighbour where its pressure is known.
+  constexpr int dirichlet_neighbour = -1, outside_sum = -2;
+  std::vector<int> column_of(n);
+  for (std::size_t j = 0; j < n; ++j)
+    column_of[j] = solved(j) ? sys.unknown[j] : in_sum(j) ? dirichlet_neighbour : outside_sum;
 
   // Unknowns are numbered in particle order and neighbour lists are sorted, so columns come out sorted
   // once the diagonal is slotted in at its place.
@@ -239,12 +236,21 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
       std::size_t diag_slot = 0;
       bool placed = false;
       double known = 0.0;  // sum of w P_j over the Dirichlet neighbours
-      const double diag = ppe_weight(pairs, i, [&](std::size_t j, double w) {
-        const int col = solved(j) ? sys.unknown[j] : -1;
-        if (col < 0) {
-          anchored[static_cast<std::size_t>(r)] = 1;  // a free-surface (Dirichlet) neighbour
+      double diag = 0.0;
+      const std::size_t pair_count = pairs.fill(p, s.domain, s.neighbors, i);
+      pairs.weigh_laplacian(s.kernel);
+      const int* id = s.neighbors.of(i).data();
+      const double* weight = pairs.w();
+      for (std::size_t t = 0; t < pair_count; ++t) {
+        const auto j = static_cast<std::size_t>(id[t]);
+        const int col = column_of[j];
+        const double w = weight[t];
+        if (col == outside_sum || w <= 0.0) continue;
+        diag += w;
+        if (col == dirichlet_neighbour) {
+          anchored[static_cast<std::size_t>(r)] = 1;
           if (!dirichlet.empty()) known += w * dirichlet[j];
-          return;
+          continue;
         }
         if (!placed && col > r) {
           diag_slot = k++;
@@ -252,7 +258,7 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
         }
         a.col[k] = col;
         a.val[k++] = -c * w;
-      });
+      }
       if (!placed) diag_slot = k++;
       const double empty = open.weight.empty() ? 0.0 : open.weight[i];
       if (empty > 0.0) {
@@ -261,6 +267,7 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
       }
       a.col[diag_slot] = static_cast<int>(r);
       a.val[diag_slot] = c * (diag + empty) + shift;
+      if (!diagonal.empty()) diagonal[static_cast<std::size_t>(r)] = a.val[diag_slot];
       sys.rhs[static_cast<std::size_t>(r)] = -source[i] + c * known;
     }
   }
@@ -268,9 +275,7 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
     // A held row stands alone, x = its value; its diagonal is the solved rows' mean, to leave A's scale as it was.
     double sum = 0.0;
     for (Index r = 0; r < m; ++r)
-      if (!sys.held[static_cast<std::size_t>(r)])
-        for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k)
-          if (a.col[static_cast<std::size_t>(k)] == r) sum += a.val[static_cast<std::size_t>(k)];
+      if (!sys.held[static_cast<std::size_t>(r)]) sum += diagonal[static_cast<std::size_t>(r)];
     const auto solved_rows = static_cast<double>(static_cast<std::size_t>(m) - sys.held_rows);
     const double scale = solved_rows > 0 ? sum / solved_rows : 1.0;
     for (Index r = 0; r < m; ++r) {

@@ -195,33 +195,27 @@ void assemble_ppe(const BasicStencil<D>& s, std::span<const char> free_surface, 
   anchored.assign(static_cast<std::size_t>(m), shift > 0.0 ? 1 : 0);
   std::vector<double> diagonal(sys.held_rows > 0 ? static_cast<std::size_t>(m) : 0);  // the held rows' scale reads it
 
-#pragma omp parallel for schedule(static) if (detail::worth_threads(m))
-  for (Index r = 0; r < m; ++r) {
-    const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
-    int entries = 1;
-    if (solved(i)) {
-      // A solved particle is in every sum (fluid, or a wall below the surface), so within the kernel a count of
-      // the solved neighbours is the count of the coupled ones, without a test of kind and surface per pair.
-      if (all_in_kernel)
-        for (int j : s.neighbors.of(i)) entries += candidate[static_cast<std::size_t>(j)];
-      else
-        for (int jj : s.neighbors.of(i)) {
-          const auto j = static_cast<std::size_t>(jj);
-          entries += solved(j) && coupled(i, j) ? 1 : 0;
-        }
-    }
-    a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
-  }
-  for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
-  a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
-  a.val.resize(a.col.size());
-
   // Each particle's part in a row's sum, read once per pair from one array: its column where solved, outside_sum
   // where it is in no sum, dirichlet_neighbour where its pressure is known.
   constexpr int dirichlet_neighbour = -1, outside_sum = -2;
   std::vector<int> column_of(n);
   for (std::size_t j = 0; j < n; ++j)
     column_of[j] = solved(j) ? sys.unknown[j] : in_sum(j) ? dirichlet_neighbour : outside_sum;
+
+#pragma omp parallel for schedule(static) if (detail::worth_threads(m))
+  for (Index r = 0; r < m; ++r) {
+    const auto i = static_cast<std::size_t>(sys.particle[static_cast<std::size_t>(r)]);
+    int entries = 1;
+    if (solved(i))
+      for (int jj : s.neighbors.of(i)) {
+        const auto j = static_cast<std::size_t>(jj);
+        entries += column_of[j] >= 0 && (all_in_kernel || coupled(i, j)) ? 1 : 0;
+      }
+    a.row_ptr[static_cast<std::size_t>(r) + 1] = entries;
+  }
+  for (std::size_t r = 1; r < a.row_ptr.size(); ++r) a.row_ptr[r] += a.row_ptr[r - 1];
+  a.col.resize(static_cast<std::size_t>(a.row_ptr.back()));
+  a.val.resize(a.col.size());
 
   // Unknowns are numbered in particle order and neighbour lists are sorted, so columns come out sorted
   // once the diagonal is slotted in at its place.

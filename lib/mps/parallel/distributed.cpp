@@ -784,7 +784,7 @@ void gauge_closed_groups(DistributedPpe& d, int closed_groups, MPI_Comm comm) {
 template <int D>
 void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
-                              DistributedPpe& d, OpenSupport open) {
+                              DistributedPpe& d, OpenSupport open, PpeRows rows_wanted) {
   const std::size_t n = s.particles.size();
   if (n != halo.owned() + halo.copies() || free_surface.size() != n || source.size() != n ||
       (!dirichlet.empty() && dirichlet.size() != n) || (!open.weight.empty() && (open.weight.size() != n || open.value.size() != n)))
@@ -806,13 +806,18 @@ void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& s, std:
     halo.refresh(open_weight);
     halo.refresh(open_value);
   }
-  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave, {open_weight, open_value});
+  assemble_ppe<D>(s, surface, source, d.local, held, shift, ClosedGroups::leave, {open_weight, open_value},
+                  rows_wanted);
   const PpeSystem& sys = d.local;
   const std::size_t m = sys.size();
   std::size_t rows = 0;  // owned particles come first, so their unknowns are the first rows
   while (rows < m && static_cast<std::size_t>(sys.particle[rows]) < halo.owned()) ++rows;
 
   number_globally(halo, rows, d);
+  const auto owned_rows = sys.held.begin() + static_cast<std::ptrdiff_t>(rows);
+  auto solved = static_cast<long long>(std::count(sys.held.begin(), owned_rows, 0));
+  MPI_Allreduce(MPI_IN_PLACE, &solved, 1, MPI_LONG_LONG, MPI_SUM, to_comm(halo.comm()));
+  d.solved_rows = solved;
   int closed_groups = 0;
   d.group = closed_groups_of_rows(halo, sys, rows, closed_groups);
   gauge_closed_groups(d, closed_groups, to_comm(halo.comm()));
@@ -830,10 +835,12 @@ SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe,
   const PpeSystem& sys = ppe.local;
   const std::size_t rows = ppe.rows();
   auto base = [&](std::size_t i) { return offset.empty() ? 0.0 : offset[i]; };
+  // A held row (PpeRows::every_particle) starts at its value, which it keeps.
   std::vector<double> x(rows);
   for (std::size_t r = 0; r < rows; ++r) {
     const auto i = static_cast<std::size_t>(sys.particle[r]);
-    x[r] = particles.p[i] - base(i);
+    x[r] = sys.held[r] ? ppe.rhs[r] / ppe.matrix.val[static_cast<std::size_t>(ppe.matrix.row_ptr[r])]
+                       : particles.p[i] - base(i);
   }
   SolveReport report = solver.solve(ppe.matrix, ppe.rhs, x);
 
@@ -845,6 +852,7 @@ SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe,
   for (std::size_t i = 0; i < halo.owned(); ++i)
     if (particles.kind[i] == Kind::fluid || particles.kind[i] == Kind::wall) particles.p[i] = 0.0;
   for (std::size_t r = 0; r < rows; ++r) {
+    if (sys.held[r]) continue;  // stays 0 as a particle left out would, as PpeSystem::scatter leaves it
     const auto i = static_cast<std::size_t>(sys.particle[r]);
     const int g = ppe.group[r];
     if (g >= 0) particles.p[i] = x[r] - mean[static_cast<std::size_t>(g)] + base(i);
@@ -867,7 +875,7 @@ SolveReport solve_distributed_ppe(BasicHalo<D>& halo, const DistributedPpe& ppe,
                                                    std::span<const double>, std::span<const double>, double);         \
   template void assemble_distributed_ppe(BasicHalo<D>&, const BasicStencil<D>&, std::span<const char>,               \
                                          std::span<const double>, std::span<const double>, double, DistributedPpe&,   \
-                                         OpenSupport);                                                                \
+                                         OpenSupport, PpeRows);                                                       \
   template SolveReport solve_distributed_ppe(BasicHalo<D>&, const DistributedPpe&, LinearSolver&, BasicParticles<D>&, \
                                              bool, std::span<const double>);
 MPS_DISTRIBUTED_FOR(2)

@@ -177,7 +177,8 @@ struct DistributedPpe {
   CsrMatrix matrix;          ///< this rank's rows with global column numbers (matrix.cols: the global size)
   std::vector<double> rhs;   ///< their right-hand side, each closed group's mean taken out
   long long first_row = 0;   ///< the global number of this rank's first row
-  long long global_rows = 0; ///< unknowns over all ranks
+  long long global_rows = 0; ///< rows over all ranks
+  long long solved_rows = 0; ///< rows over all ranks that are solved for: global_rows less the held rows
   std::vector<int> global;   ///< local unknown (owned or halo) -> global unknown number
   std::vector<int> group;    ///< row -> index into closed, or -1 when a free surface anchors it
   /// Every group of unknowns no free surface anchors, over all ranks (the same list on every rank): `pinned` is the
@@ -198,12 +199,13 @@ DistributedPpe assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D
                                         std::span<const double> source, std::span<const double> dirichlet = {},
                                         double shift = 0.0);
 /// The same into `into`, whose vectors keep their memory from one step to the next (a step's PPE at 1e6 particles is
-/// about a gigabyte that would otherwise come back from the kernel as fresh pages each step); `open` as assemble_ppe's
-/// (the halo's entries refreshed likewise).
+/// about a gigabyte that would otherwise come back from the kernel as fresh pages each step); `open` and `rows` as
+/// assemble_ppe's (the halo's entries refreshed likewise). With PpeRows::every_particle each rank holds a row for each
+/// fluid and wall particle it owns, so the numbering holds between migrations however the free surface moves.
 template <int D>
 void assemble_distributed_ppe(BasicHalo<D>& halo, const BasicStencil<D>& laplacian, std::span<const char> free_surface,
                               std::span<const double> source, std::span<const double> dirichlet, double shift,
-                              DistributedPpe& into, OpenSupport open = {});
+                              DistributedPpe& into, OpenSupport open = {}, PpeRows rows = PpeRows::unknowns);
 
 /// Solves the distributed PPE with `solver` (made with SolverContext::mpi_comm = the halo's communicator: hypre-pcg,
 /// hypre-amg or auto), warm-started from the particles' pressures, and writes the pressures as PpeSystem::scatter

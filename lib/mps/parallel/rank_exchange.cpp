@@ -193,9 +193,9 @@ void BasicRankExchange<D>::share_flags(std::span<char> flags) { refresh(flags); 
 template <int D>
 PpeCounts BasicRankExchange<D>::assemble(const BasicStencil<D>& laplacian, std::span<const char> held,
                                          std::span<const double> source, std::span<const double> held_value,
-                                         double shift, OpenSupport open, PpeRows /*rows: the unknowns*/) {
-  assemble_distributed_ppe(*halo_, laplacian, held, source, held_value, shift, ppe_, open);
-  return {static_cast<std::size_t>(ppe_.global_rows), ppe_.closed.size()};
+                                         double shift, OpenSupport open, PpeRows rows) {
+  assemble_distributed_ppe(*halo_, laplacian, held, source, held_value, shift, ppe_, open, rows);
+  return {static_cast<std::size_t>(ppe_.solved_rows), ppe_.closed.size()};
 }
 
 template <int D>

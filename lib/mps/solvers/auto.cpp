@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "mps/core/state.hpp"
+#include "mps/solvers/backend_util.hpp"
 #include "mps/solvers/registry.hpp"
 
 namespace mps {
@@ -40,9 +41,8 @@ class AutoSolver final : public LinearSolver {
     // Eigen solves one rank's rows only: on ranks, Jacobi-CG is hypre's PCG with the diagonal.
     jacobi_ = distributed_ ? make_solver("hypre-pcg:precond=jacobi," + tol + jacobi_max_iter, context)
                            : make_solver("eigen-cg:precond=jacobi," + tol + jacobi_max_iter);
-    // On ranks the rows stay the unknowns, which migration renumbers: no refresh there.
     amg_spec_ = "hypre-pcg:reuse=" + o.values().at("reuse") + ",filter=" + o.values().at("filter") +
-                (distributed_ ? "" : ",refresh=" + o.values().at("refresh")) + "," + tol;
+                ",refresh=" + o.values().at("refresh") + "," + tol;
     rescue_spec_ =
         (distributed_ ? "hypre-pcg:precond=jacobi," : "eigen-cg:precond=jacobi,") + tol + ",max_iter=100000";
     context_ = context;
@@ -50,12 +50,7 @@ class AutoSolver final : public LinearSolver {
 
   SolveReport solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) override {
     // On ranks: steady only while no rank's count changed (what lets hypre reuse a hierarchy), the same on every rank.
-    bool same = a.rows == last_rows_;
-    if (distributed_) {
-      int local = same ? 1 : 0, all = 0;
-      MPI_Allreduce(&local, &all, 1, MPI_INT, MPI_LAND, comm_);
-      same = all != 0;
-    }
+    const bool same = !any_rank(a.rows != last_rows_);
     steady_ = same ? steady_ + 1 : 1;
     last_rows_ = a.rows;
     // Jacobi this slow costs more than a fresh filtered AMG setup and solve (about 150 and 50 SpMVs at 1e5
@@ -88,9 +83,8 @@ class AutoSolver final : public LinearSolver {
   SolveReport amg_solve(const CsrMatrix& a, std::span<const double> b, std::span<double> x) {
     // A row that stands alone (held at its Dirichlet value, or coupled to known values only) means a free surface,
     // whose hierarchy is refreshed nearly every step: aggressive coarsening there halves the refresh for a few more
-    // iterations (docs/solvers.md). Decided once, on one process (on ranks the rows are the unknowns); the hierarchy
-    // is then set up afresh.
-    if (!surface_ && !distributed_ && surface_agg_levels_ > 0 && has_row_standing_alone(a)) {
+    // iterations (docs/solvers.md). Decided once, alike on every rank; the hierarchy is then set up afresh.
+    if (!surface_ && surface_agg_levels_ > 0 && any_rank(has_row_standing_alone(a))) {
       surface_ = true;
       amg_.reset();
     }
@@ -135,12 +129,16 @@ class AutoSolver final : public LinearSolver {
   // and its refreshed hierarchy serves from step to step. A refresh costs more than a few PCG iterations, so it is
   // asked for only where Jacobi is slower than that and AMG together (docs/solvers.md).
   [[nodiscard]] bool wants_fixed_rows() const override {
-    return refresh_ && !distributed_ && (always_amg_ || last_jacobi_iterations_ > fixed_rows_iterations_);
+    return refresh_ && (always_amg_ || last_jacobi_iterations_ > fixed_rows_iterations_);
   }
 
  private:
   std::unique_ptr<LinearSolver> jacobi_, amg_, rescue_;
   std::vector<double> guess_;  // the guess of an AMG-PCG solve, for Jacobi-CG to start from should AMG break down
+  // One process may not have started MPI (a run that never leaves Jacobi-CG never does).
+  [[nodiscard]] bool any_rank(bool local) const {
+    return distributed_ ? solver_detail::any_rank(local, comm_) : local;
+  }
   static bool has_row_standing_alone(const CsrMatrix& a) {
     for (std::size_t r = 0; r + 1 < a.row_ptr.size(); ++r)
       if (a.row_ptr[r + 1] - a.row_ptr[r] == 1) return true;

@@ -10,9 +10,10 @@
 // takes the matrix it is given at solve time as level 0), the coarse levels stay those of the setup. The
 // hierarchy is rebuilt when N reuses are spent, when the unknown count changes, after a solve whose
 // iterations exceed 1.5x those of the first solve after the setup, and immediately (with the solve redone)
-// if a reused hierarchy fails to converge. With refresh=galerkin (one process) a kept hierarchy's coarse operators are
-// made again from the new matrix whenever rows joined or left the solve (a free surface's, with a row for every
-// particle: PpeRows::every_particle), its coarsening and interpolation kept.
+// if a reused hierarchy fails to converge. With refresh=galerkin a kept hierarchy's coarse operators are made again
+// from the new matrix whenever rows joined or left the solve (a free surface's, with a row for every particle:
+// PpeRows::every_particle; on ranks the numbering then holds between migrations), its coarsening and interpolation
+// kept.
 #include <HYPRE.h>
 #include <HYPRE_IJ_mv.h>
 #include <HYPRE_krylov.h>
@@ -273,9 +274,6 @@ class HypreSolver final : public LinearSolver {
       throw std::invalid_argument(name_ + ": refresh remakes the AMG hierarchy; precond=jacobi has none: leave "
                                           "refresh out");
     ensure_runtime();
-    if (galerkin_refresh_ && context.mpi_comm)
-      throw std::invalid_argument(name_ + ": refresh=galerkin is for one process (on MPI ranks particles crossing a "
-                                          "cut renumber the unknowns); leave refresh out");
     comm_ = context.mpi_comm ? MPI_Comm_f2c(*context.mpi_comm) : MPI_COMM_SELF;
     if (comm_ == MPI_COMM_NULL)
       throw std::invalid_argument(name_ + ": the communicator passed in SolverContext is MPI_COMM_NULL");
@@ -623,6 +621,7 @@ class HypreSolver final : public LinearSolver {
     hypre_ParCSRMatrix** a = hypre_ParAMGDataAArray(data);
     hypre_ParCSRMatrix** p = hypre_ParAMGDataPArray(data);
     a[0] = reinterpret_cast<hypre_ParCSRMatrix*>(sys.m);  // the caller's, as BoomerAMGSolve sets it
+    if (!hypre_ParCSRMatrixCommPkg(a[0])) hypre_MatvecCommPkgCreate(a[0]);  // an IJ matrix on ranks has none yet
     for (HYPRE_Int l = 0; l + 1 < levels; ++l) {
       hypre_ParCSRMatrix* coarse = nullptr;
       check(hypre_BoomerAMGBuildCoarseOperatorKT(p[l], a[l], p[l], 0, &coarse), name_,
@@ -642,7 +641,9 @@ class HypreSolver final : public LinearSolver {
         hypre_SeqVectorInitialize_v2(l1[l], hypre_ParCSRMatrixMemoryLocation(a[l]));
       }
     }
-    if (hypre_ParAMGDataAMat(data) != nullptr) {  // the coarsest level solved by Gaussian elimination
+    // The coarsest level solved by Gaussian elimination: its dense copy is made again on every rank together (a
+    // rank without coarse rows holds none but takes part in the sub-communicator's making).
+    if (hypre_ParAMGDataGSSetup(data)) {
       hypre_TFree(hypre_ParAMGDataAMat(data), HYPRE_MEMORY_HOST);
       hypre_TFree(hypre_ParAMGDataBVec(data), HYPRE_MEMORY_HOST);
       hypre_TFree(hypre_ParAMGDataCommInfo(data), HYPRE_MEMORY_HOST);

@@ -641,10 +641,12 @@ void number_globally(BasicHalo<D>& halo, std::size_t rows, DistributedPpe& d) {
       throw std::logic_error("assemble_distributed_ppe: a halo unknown has no global number (halo out of date?)");
     a.col[k] = g;
   }
-  // Sorted columns, as CsrMatrix wants them: halo numbers interleave with owned ones.
+  // Sorted columns, as CsrMatrix wants them: halo numbers interleave with owned ones, in the rows that reach a halo.
   std::vector<std::pair<int, double>> row;
   for (std::size_t r = 0; r < rows; ++r) {
     const auto b = static_cast<std::size_t>(a.row_ptr[r]), e = static_cast<std::size_t>(a.row_ptr[r + 1]);
+    if (std::is_sorted(a.col.begin() + static_cast<std::ptrdiff_t>(b), a.col.begin() + static_cast<std::ptrdiff_t>(e)))
+      continue;
     row.clear();
     for (std::size_t k = b; k < e; ++k) row.emplace_back(a.col[k], a.val[k]);
     std::sort(row.begin(), row.end());

@@ -90,7 +90,7 @@ struct ParVector {
 };
 
 struct ParSystem {
-  HYPRE_IJMatrix ij = nullptr, ij_m = nullptr;
+  HYPRE_IJMatrix ij_m = nullptr;  // a filtered matrix the one-rank copy refused
   HYPRE_ParCSRMatrix a = nullptr;
   HYPRE_ParCSRMatrix m = nullptr;  // the matrix the AMG preconditioner is built on: a, or a filtered
   ParVector b, x, r;
@@ -101,8 +101,7 @@ struct ParSystem {
     if (g_runtime_finalised) return;
     for (ParVector* v : {&b, &x, &r})
       if (v->ij != nullptr) HYPRE_IJVectorDestroy(v->ij);
-    for (HYPRE_IJMatrix matrix : {ij, ij_m})
-      if (matrix != nullptr) HYPRE_IJMatrixDestroy(matrix);
+    if (ij_m != nullptr) HYPRE_IJMatrixDestroy(ij_m);
   }
 };
 
@@ -136,10 +135,12 @@ class SwappedDiagonals {
   std::span<const int> slot_;
 };
 
-// A ParCSR matrix kept from solve to solve on one rank, refilled in place while its rows and capacity fit.
+// A ParCSR matrix kept from solve to solve, refilled in place while its rows and capacity fit.
 struct KeptMatrix {
   hypre_ParCSRMatrix* matrix = nullptr;
   HYPRE_Int rows = -1, capacity = 0;
+  HYPRE_BigInt first_row = -1;   // on ranks: the global number of this rank's first row
+  HYPRE_Int offd_capacity = 0;  // on ranks: room for entries in other ranks' columns
   KeptMatrix() = default;
   KeptMatrix(const KeptMatrix&) = delete;
   KeptMatrix& operator=(const KeptMatrix&) = delete;
@@ -436,11 +437,13 @@ class HypreSolver final : public LinearSolver {
     rows_.resize(static_cast<std::size_t>(n));
     for (HYPRE_Int i = 0; i < n; ++i) rows_[static_cast<std::size_t>(i)] = part.ilower + i;
     const bool one_rank = part.ranks == 1;
-    sys.m = sys.a = one_rank ? lend(a) : upload_matrix(a, part, sys.ij, report);
+    sys.m = sys.a = one_rank ? lend(a) : copy_on_ranks(a, part, kept_, 0.0);
     if (filter_ > 0.0) {
       double largest = scan_.largest_off_diagonal;
       if (!one_rank) MPI_Allreduce(&scan_.largest_off_diagonal, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
-      if (part.ranks == 1 && filter_one_rank(a, kept_filtered_, filter_ * largest)) {
+      if (!one_rank) {
+        sys.m = copy_on_ranks(a, part, kept_filtered_, filter_ * largest);
+      } else if (filter_one_rank(a, kept_filtered_, filter_ * largest)) {
         sys.m = kept_filtered_.matrix;
       } else {
         lump_weak_entries(a, filter_ * largest, filtered_, static_cast<int>(part.ilower));
@@ -454,7 +457,99 @@ class HypreSolver final : public LinearSolver {
     set_vector(sys.r, part, b, report);
   }
 
-  // Through the IJ interface: on ranks, and for a filtered matrix the one-rank copy refuses.
+  // On ranks: A's rows (or its filtered matrix, entries below `threshold` lumped onto the diagonal as
+  // lump_weak_entries does) copied into a ParCSR matrix kept from solve to solve, laid out as the IJ assembly lays
+  // them out: in the diagonal block each row's diagonal swapped to the front, in the off-diagonal block the entries in
+  // A's order, their columns numbered in increasing global order. Through IJ every step allocated two fresh matrices
+  // and filled them entry by entry (docs/scaling.md). partition() has checked the structure and the diagonals.
+  hypre_ParCSRMatrix* copy_on_ranks(const CsrMatrix& a, const Partition& part, KeptMatrix& kept, double threshold) {
+    const HYPRE_Int n = part.local_rows();
+    const auto outside = [&](HYPRE_BigInt c) { return c < part.ilower || c > part.iupper; };
+    offd_columns_.clear();
+    HYPRE_Int diag_nnz = 0;
+    for (std::size_t k = 0; k < a.col.size(); ++k) {
+      const HYPRE_BigInt c = a.col[k];
+      if (outside(c)) {
+        if (std::abs(a.val[k]) >= threshold) offd_columns_.push_back(c);
+      } else {
+        ++diag_nnz;  // an upper bound: the diagonal blocks' weak entries are counted too
+      }
+    }
+    const auto offd_nnz = static_cast<HYPRE_Int>(offd_columns_.size());
+    std::sort(offd_columns_.begin(), offd_columns_.end());
+    offd_columns_.erase(std::unique(offd_columns_.begin(), offd_columns_.end()), offd_columns_.end());
+    const auto offd_cols = static_cast<HYPRE_Int>(offd_columns_.size());
+
+    // Made anew on every rank together: a new matrix's assumed partition is made collectively.
+    if (any_rank(kept.matrix == nullptr || kept.rows != n || kept.first_row != part.ilower ||
+                     hypre_ParCSRMatrixGlobalNumRows(kept.matrix) != part.global_rows || kept.capacity < diag_nnz ||
+                     kept.offd_capacity < offd_nnz,
+                 comm_)) {
+      if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
+      HYPRE_BigInt starts[2] = {part.ilower, part.iupper + 1};
+      kept.capacity = diag_nnz + diag_nnz / 16;  // room for the pattern to grow a little from step to step
+      kept.offd_capacity = offd_nnz + offd_nnz / 4 + 64;
+      kept.matrix = hypre_ParCSRMatrixCreate(comm_, part.global_rows, part.global_rows, starts, starts, 0,
+                                             kept.capacity, kept.offd_capacity);
+      hypre_ParCSRMatrixInitialize(kept.matrix);
+      kept.rows = n;
+      kept.first_row = part.ilower;
+    }
+    hypre_ParCSRMatrix* m = kept.matrix;
+    // The other ranks' columns this matrix reaches, and the exchange pattern of its products, made afresh.
+    if (hypre_ParCSRMatrixCommPkg(m) != nullptr) hypre_MatvecCommPkgDestroy(hypre_ParCSRMatrixCommPkg(m));
+    hypre_ParCSRMatrixCommPkg(m) = nullptr;
+    hypre_TFree(hypre_ParCSRMatrixColMapOffd(m), HYPRE_MEMORY_HOST);
+    hypre_ParCSRMatrixColMapOffd(m) = hypre_CTAlloc(HYPRE_BigInt, offd_cols, HYPRE_MEMORY_HOST);
+    std::copy(offd_columns_.begin(), offd_columns_.end(), hypre_ParCSRMatrixColMapOffd(m));
+
+    hypre_CSRMatrix* diag = hypre_ParCSRMatrixDiag(m);
+    hypre_CSRMatrix* offd = hypre_ParCSRMatrixOffd(m);
+    HYPRE_Int *diag_start = hypre_CSRMatrixI(diag), *diag_column = hypre_CSRMatrixJ(diag);
+    HYPRE_Int *offd_start = hypre_CSRMatrixI(offd), *offd_column = hypre_CSRMatrixJ(offd);
+    HYPRE_Complex *diag_value = hypre_CSRMatrixData(diag), *offd_value = hypre_CSRMatrixData(offd);
+    HYPRE_Int dn = 0, on = 0;
+    for (HYPRE_Int r = 0; r < n; ++r) {
+      const HYPRE_BigInt row = part.ilower + r;
+      const HYPRE_Int first = dn;
+      diag_start[r] = dn;
+      offd_start[r] = on;
+      HYPRE_Int d = first;
+      double lumped = 0.0;
+      for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+        const HYPRE_BigInt c = a.col[static_cast<std::size_t>(k)];
+        const double v = a.val[static_cast<std::size_t>(k)];
+        if (c == row) {
+          d = dn;
+        } else if (std::abs(v) < threshold) {
+          lumped += v;
+          continue;
+        }
+        if (outside(c)) {
+          offd_column[on] = static_cast<HYPRE_Int>(
+              std::lower_bound(offd_columns_.begin(), offd_columns_.end(), c) - offd_columns_.begin());
+          offd_value[on++] = v;
+        } else {
+          diag_column[dn] = static_cast<HYPRE_Int>(c - part.ilower);
+          diag_value[dn++] = v;
+        }
+      }
+      diag_value[d] += lumped;
+      std::swap(diag_column[first], diag_column[d]);
+      std::swap(diag_value[first], diag_value[d]);
+    }
+    diag_start[n] = dn;
+    offd_start[n] = on;
+    hypre_CSRMatrixNumNonzeros(diag) = dn;
+    hypre_CSRMatrixNumNonzeros(offd) = on;
+    hypre_CSRMatrixNumCols(offd) = offd_cols;
+    hypre_ParCSRMatrixSetNumNonzeros(m);
+    hypre_ParCSRMatrixSetDNumNonzeros(m);
+    hypre_MatvecCommPkgCreate(m);
+    return m;
+  }
+
+  // Through the IJ interface: for a filtered matrix the one-rank copy refuses.
   HYPRE_ParCSRMatrix upload_matrix(const CsrMatrix& a, const Partition& part, HYPRE_IJMatrix& ij,
                                    const SolveReport& report) {
     const HYPRE_Int n = part.local_rows();
@@ -775,8 +870,9 @@ class HypreSolver final : public LinearSolver {
   MPI_Comm comm_ = MPI_COMM_SELF;
 
   std::vector<HYPRE_BigInt> rows_;  // this rank's global row numbers
-  KeptMatrix kept_;                 // on one rank: A, lent (its arrays are the caller's)
-  KeptMatrix kept_filtered_;        // on one rank: the copy of A's filtered matrix
+  KeptMatrix kept_;                 // A: on one rank lent (its arrays are the caller's), on ranks a copy
+  KeptMatrix kept_filtered_;        // the copy of A's filtered matrix
+  std::vector<HYPRE_BigInt> offd_columns_;  // on ranks: the other ranks' columns a copy reaches, sorted
   solver_detail::RowScan scan_;     // the last matrix's: its diagonals (hypre's swap) and largest entries
   std::vector<char> lone_;          // refresh=galerkin: which rows of the last matrix held their diagonal only
   CsrMatrix filtered_;

@@ -247,8 +247,12 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
     std::ofstream csv(out, std::ios::app);
     if (fresh) csv << header << '\n';
     const char* threads = std::getenv("OMP_NUM_THREADS");
+    // The spec quoted as CSV quotes a field (its keys are separated by commas), a quote in it doubled.
+    std::string quoted = "\"";
+    for (const char c : spec) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    quoted += '"';
     csv << ranks << ',' << (threads ? threads : "") << ',' << load << ',' << scene_size << ',' << fluid_count << ','
-        << owned_max << ',' << spec << ',' << steps << ',' << wall / n << ',' << migrate << ',' << halo << ','
+        << owned_max << ',' << quoted << ',' << steps << ',' << wall / n << ',' << migrate << ',' << halo << ','
         << neighbors << ',' << predict << ',' << assemble << ',' << setup << ',' << solve << ',' << correct << ','
         << sim.last_step().solve.iterations << ',' << copies_max << ',' << copies_sum << ',' << messages_sum << ','
         << bytes_sum << ',' << migrated_sum << ',' << options.rebalance_threshold << ',' << repartitions << ','

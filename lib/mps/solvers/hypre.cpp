@@ -90,7 +90,6 @@ struct ParVector {
 };
 
 struct ParSystem {
-  HYPRE_IJMatrix ij_m = nullptr;  // a filtered matrix the one-rank copy refused
   HYPRE_ParCSRMatrix a = nullptr;
   HYPRE_ParCSRMatrix m = nullptr;  // the matrix the AMG preconditioner is built on: a, or a filtered
   ParVector b, x, r;
@@ -101,7 +100,6 @@ struct ParSystem {
     if (g_runtime_finalised) return;
     for (ParVector* v : {&b, &x, &r})
       if (v->ij != nullptr) HYPRE_IJVectorDestroy(v->ij);
-    if (ij_m != nullptr) HYPRE_IJMatrixDestroy(ij_m);
   }
 };
 
@@ -139,8 +137,8 @@ class SwappedDiagonals {
 struct KeptMatrix {
   hypre_ParCSRMatrix* matrix = nullptr;
   HYPRE_Int rows = -1, capacity = 0;
-  HYPRE_BigInt first_row = -1;   // on ranks: the global number of this rank's first row
-  HYPRE_Int offd_capacity = 0;  // on ranks: room for entries in other ranks' columns
+  HYPRE_BigInt first_row = -1;  // the global number of this rank's first row
+  HYPRE_Int offd_capacity = 0;  // room for entries in other ranks' columns
   KeptMatrix() = default;
   KeptMatrix(const KeptMatrix&) = delete;
   KeptMatrix& operator=(const KeptMatrix&) = delete;
@@ -159,17 +157,6 @@ struct FilteredPrecond {
 HYPRE_Int filtered_vcycle(HYPRE_Solver data, HYPRE_ParCSRMatrix /*a*/, HYPRE_ParVector b, HYPRE_ParVector x) {
   const auto* p = reinterpret_cast<const FilteredPrecond*>(data);
   return HYPRE_BoomerAMGSolve(p->amg, p->m, b, x);
-}
-
-// Converts our 32-bit indices to HYPRE_BigInt only when hypre was built with wider ones.
-template <class T>
-const HYPRE_BigInt* as_big(const std::vector<T>& v, std::vector<HYPRE_BigInt>& scratch) {
-  if constexpr (std::is_same_v<T, HYPRE_BigInt>) {
-    return v.data();
-  } else {
-    scratch.assign(v.begin(), v.end());
-    return scratch.data();
-  }
 }
 
 struct Partition {
@@ -437,18 +424,11 @@ class HypreSolver final : public LinearSolver {
     rows_.resize(static_cast<std::size_t>(n));
     for (HYPRE_Int i = 0; i < n; ++i) rows_[static_cast<std::size_t>(i)] = part.ilower + i;
     const bool one_rank = part.ranks == 1;
-    sys.m = sys.a = one_rank ? lend(a) : copy_on_ranks(a, part, kept_, 0.0);
+    sys.m = sys.a = one_rank ? lend(a) : copy_kept(a, part, kept_, 0.0);
     if (filter_ > 0.0) {
       double largest = scan_.largest_off_diagonal;
       if (!one_rank) MPI_Allreduce(&scan_.largest_off_diagonal, &largest, 1, MPI_DOUBLE, MPI_MAX, comm_);
-      if (!one_rank) {
-        sys.m = copy_on_ranks(a, part, kept_filtered_, filter_ * largest);
-      } else if (filter_one_rank(a, kept_filtered_, filter_ * largest)) {
-        sys.m = kept_filtered_.matrix;
-      } else {
-        lump_weak_entries(a, filter_ * largest, filtered_, static_cast<int>(part.ilower));
-        sys.m = upload_matrix(filtered_, part, sys.ij_m, report);
-      }
+      sys.m = copy_kept(a, part, kept_filtered_, filter_ * largest);
     }
     // After the filtered copy, which reads a in its own order.
     if (one_rank) swapped.swap(a, scan_.diagonal);
@@ -457,22 +437,26 @@ class HypreSolver final : public LinearSolver {
     set_vector(sys.r, part, b, report);
   }
 
-  // On ranks: A's rows (or its filtered matrix, entries below `threshold` lumped onto the diagonal as
-  // lump_weak_entries does) copied into a ParCSR matrix kept from solve to solve, laid out as the IJ assembly lays
-  // them out: in the diagonal block each row's diagonal swapped to the front, in the off-diagonal block the entries in
-  // A's order, their columns numbered in increasing global order. Through IJ every step allocated two fresh matrices
-  // and filled them entry by entry (docs/scaling.md). partition() has checked the structure and the diagonals.
-  hypre_ParCSRMatrix* copy_on_ranks(const CsrMatrix& a, const Partition& part, KeptMatrix& kept, double threshold) {
+  // A's rows (on ranks), or its filtered matrix (entries below `threshold` lumped onto the diagonal as
+  // lump_weak_entries does), copied into a ParCSR matrix kept from solve to solve, laid out as the IJ assembly lays
+  // them out: in the diagonal block each row's diagonal swapped to the front (hypre's smoothers take a row's first
+  // entry as its diagonal), in the off-diagonal block the entries in A's order, their columns numbered in increasing
+  // global order. Through IJ every step allocated fresh matrices and filled them entry by entry (docs/scaling.md).
+  // partition() has checked the structure and the diagonals.
+  hypre_ParCSRMatrix* copy_kept(const CsrMatrix& a, const Partition& part, KeptMatrix& kept, double threshold) {
     const HYPRE_Int n = part.local_rows();
     const auto outside = [&](HYPRE_BigInt c) { return c < part.ilower || c > part.iupper; };
     offd_columns_.clear();
     HYPRE_Int diag_nnz = 0;
-    for (std::size_t k = 0; k < a.col.size(); ++k) {
-      const HYPRE_BigInt c = a.col[k];
-      if (outside(c)) {
-        if (std::abs(a.val[k]) >= threshold) offd_columns_.push_back(c);
-      } else {
-        ++diag_nnz;  // an upper bound: the diagonal blocks' weak entries are counted too
+    for (HYPRE_Int r = 0; r < n; ++r) {
+      const HYPRE_BigInt row = part.ilower + r;
+      for (int k = a.row_ptr[static_cast<std::size_t>(r)]; k < a.row_ptr[static_cast<std::size_t>(r) + 1]; ++k) {
+        const HYPRE_BigInt c = a.col[static_cast<std::size_t>(k)];
+        if (c != row && std::abs(a.val[static_cast<std::size_t>(k)]) < threshold) continue;  // lumped
+        if (outside(c))
+          offd_columns_.push_back(c);
+        else
+          ++diag_nnz;
       }
     }
     const auto offd_nnz = static_cast<HYPRE_Int>(offd_columns_.size());
@@ -549,36 +533,6 @@ class HypreSolver final : public LinearSolver {
     return m;
   }
 
-  // Through the IJ interface: for a filtered matrix the one-rank copy refuses.
-  HYPRE_ParCSRMatrix upload_matrix(const CsrMatrix& a, const Partition& part, HYPRE_IJMatrix& ij,
-                                   const SolveReport& report) {
-    const HYPRE_Int n = part.local_rows();
-    std::vector<HYPRE_Int> row_nnz(static_cast<std::size_t>(n)), diag(static_cast<std::size_t>(n)),
-        offd(static_cast<std::size_t>(n));
-    for (HYPRE_Int i = 0; i < n; ++i) {
-      const auto u = static_cast<std::size_t>(i);
-      row_nnz[u] = a.row_ptr[u + 1] - a.row_ptr[u];
-      for (int k = a.row_ptr[u]; k < a.row_ptr[u + 1]; ++k) {
-        const HYPRE_BigInt j = a.col[static_cast<std::size_t>(k)];
-        ++(j >= part.ilower && j <= part.iupper ? diag[u] : offd[u]);
-      }
-    }
-    check(HYPRE_IJMatrixCreate(comm_, part.ilower, part.iupper, part.ilower, part.iupper, &ij), name_,
-          "HYPRE_IJMatrixCreate", report);
-    HYPRE_IJMatrixSetObjectType(ij, HYPRE_PARCSR);
-    HYPRE_IJMatrixSetDiagOffdSizes(ij, diag.data(), offd.data());
-    check(HYPRE_IJMatrixInitialize(ij), name_, "HYPRE_IJMatrixInitialize", report);
-    if (n > 0) {
-      std::vector<HYPRE_BigInt> scratch;
-      check(HYPRE_IJMatrixSetValues(ij, n, row_nnz.data(), rows_.data(), as_big(a.col, scratch), a.val.data()),
-            name_, "HYPRE_IJMatrixSetValues", report);
-    }
-    check(HYPRE_IJMatrixAssemble(ij), name_, "HYPRE_IJMatrixAssemble", report);
-    void* object = nullptr;
-    HYPRE_IJMatrixGetObject(ij, &object);
-    return static_cast<HYPRE_ParCSRMatrix>(object);
-  }
-
   // A ParCSR matrix on one rank whose column and value arrays are a's own (hypre neither copies nor frees them);
   // only its row starts are hypre's. The caller swaps the diagonals to the front before hypre reads it.
   HYPRE_ParCSRMatrix lend(const CsrMatrix& a) {
@@ -602,75 +556,6 @@ class HypreSolver final : public LinearSolver {
     hypre_ParCSRMatrixSetNumNonzeros(kept_.matrix);
     hypre_ParCSRMatrixSetDNumNonzeros(kept_.matrix);
     return kept_.matrix;
-  }
-
-  // On one rank A's filtered matrix (off-diagonal entries below the threshold in magnitude lumped onto the
-  // diagonal, as lump_weak_entries makes it) is copied straight into a ParCSR matrix kept from solve to solve.
-  // Through the IJ interface every step allocated, zeroed and filled a fresh matrix entry by entry, then reordered
-  // it: 0.06 s of a 1 s time step at 3e5 unknowns. hypre's smoothers take each row's first entry as its diagonal,
-  // so it is moved to the front; a matrix with a row lacking its diagonal, or a column out of range, goes the IJ way.
-  bool filter_one_rank(const CsrMatrix& a, KeptMatrix& kept, double threshold) {
-    const HYPRE_Int n = a.rows;
-    // Filled into the room the kept matrix has; only when that is too small are the kept entries counted (an upper
-    // bound: diagonals above the threshold counted twice) and the matrix made anew.
-    for (bool sized = kept.matrix != nullptr && kept.rows == n;; sized = false) {
-      if (!sized) {
-        const auto need = static_cast<HYPRE_Int>(
-            n + std::count_if(a.val.begin(), a.val.end(), [&](double v) { return std::abs(v) >= threshold; }));
-        if (kept.matrix != nullptr) hypre_ParCSRMatrixDestroy(kept.matrix);
-        HYPRE_BigInt starts[2] = {0, static_cast<HYPRE_BigInt>(n)};
-        kept.capacity = need + need / 16;  // room for the pattern to grow a little from step to step
-        kept.matrix = hypre_ParCSRMatrixCreate(comm_, n, n, starts, starts, 0, kept.capacity, 0);
-        hypre_ParCSRMatrixInitialize(kept.matrix);
-        hypre_MatvecCommPkgCreate(kept.matrix);
-        kept.rows = n;
-      }
-      const Filled filled = fill_filtered(a, kept, threshold, sized);
-      if (filled != Filled::no_room) return filled == Filled::done;
-    }
-  }
-
-  enum class Filled { done, no_room, malformed };
-  // check_room: whether a row may not fit (a kept matrix's room; one made for this matrix holds every row).
-  Filled fill_filtered(const CsrMatrix& a, KeptMatrix& kept, double threshold, bool check_room) {
-    const HYPRE_Int n = a.rows;
-    hypre_CSRMatrix* diag = hypre_ParCSRMatrixDiag(kept.matrix);
-    HYPRE_Int* row_start = hypre_CSRMatrixI(diag);
-    HYPRE_Int* column = hypre_CSRMatrixJ(diag);
-    HYPRE_Complex* value = hypre_CSRMatrixData(diag);
-    HYPRE_Int nnz = 0;
-    // One pass copies, checks the columns and finds each diagonal, which then swaps places with the row's first
-    // entry, as the IJ assembly does: the same order, the same smoothing sweeps, the same numbers as through IJ.
-    for (HYPRE_Int r = 0; r < n; ++r) {
-      const int begin = a.row_ptr[static_cast<std::size_t>(r)], end = a.row_ptr[static_cast<std::size_t>(r) + 1];
-      if (check_room && nnz + (end - begin) > kept.capacity) return Filled::no_room;
-      const HYPRE_Int first = nnz;
-      row_start[r] = first;
-      HYPRE_Int d = -1;
-      double lumped = 0.0;
-      for (int k = begin; k < end; ++k) {
-        const int c = a.col[static_cast<std::size_t>(k)];
-        const double v = a.val[static_cast<std::size_t>(k)];
-        if (c < 0 || c >= n) return Filled::malformed;
-        if (c == r) {
-          d = nnz;
-        } else if (std::abs(v) < threshold) {
-          lumped += v;
-          continue;
-        }
-        column[nnz] = c;
-        value[nnz++] = v;
-      }
-      if (d < 0) return Filled::malformed;
-      value[d] += lumped;
-      std::swap(column[first], column[d]);
-      std::swap(value[first], value[d]);
-    }
-    row_start[n] = nnz;
-    hypre_CSRMatrixNumNonzeros(diag) = nnz;
-    hypre_ParCSRMatrixSetNumNonzeros(kept.matrix);
-    hypre_ParCSRMatrixSetDNumNonzeros(kept.matrix);
-    return Filled::done;
   }
 
   void build_hierarchy(ParSystem& sys, const Partition& part, const SolveReport& report) {
@@ -872,10 +757,9 @@ class HypreSolver final : public LinearSolver {
   std::vector<HYPRE_BigInt> rows_;  // this rank's global row numbers
   KeptMatrix kept_;                 // A: on one rank lent (its arrays are the caller's), on ranks a copy
   KeptMatrix kept_filtered_;        // the copy of A's filtered matrix
-  std::vector<HYPRE_BigInt> offd_columns_;  // on ranks: the other ranks' columns a copy reaches, sorted
+  std::vector<HYPRE_BigInt> offd_columns_;  // the other ranks' columns a copy reaches, sorted
   solver_detail::RowScan scan_;     // the last matrix's: its diagonals (hypre's swap) and largest entries
   std::vector<char> lone_;          // refresh=galerkin: which rows of the last matrix held their diagonal only
-  CsrMatrix filtered_;
   HYPRE_Solver amg_ = nullptr;      // the kept hierarchy
   HYPRE_Int setup_local_rows_ = -1;
   int reuses_ = 0;             // solves that reused amg_ since its setup

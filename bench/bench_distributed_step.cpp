@@ -188,9 +188,11 @@ int measure(mps::BasicSimulation<D>& sim, const mps::BasicRankExchange<D>& excha
   // Each rank's own phases: a phase that ends in a collective holds the wait for the slowest rank.
   if (set.per_rank)
     std::fprintf(stderr,
-                 "rank %d owns %zu particles, %zu fluid: neighbours %.4f, predict %.4f, assemble %.4f, AMG setup "
-                 "%.4f, solve %.4f, correct %.4f s per step\n",
+                 "rank %d owns %zu particles, %zu fluid, %zu wall, %zu dummy, %zu ghost: neighbours %.4f, predict "
+                 "%.4f, assemble %.4f, AMG setup %.4f, solve %.4f, correct %.4f s per step\n",
                  set.rank, sim.particles().size(), sim.particles().count(mps::Kind::fluid),
+                 sim.particles().count(mps::Kind::wall), sim.particles().count(mps::Kind::dummy),
+                 sim.particles().count(mps::Kind::ghost),
                  (t.neighbors - t0.neighbors) / steps, (t.predict - t0.predict) / steps,
                  (t.assemble - t0.assemble) / steps, (t.solver_setup - t0.solver_setup) / steps,
                  (t.solve - t0.solve) / steps, (t.correct - t0.correct) / steps);

@@ -68,8 +68,9 @@ struct BoxImpactFile {
 BoxImpactFile box_impact_from_particles(mps::Particles3 particles, double dx, const Params& options);
 
 // On MPI ranks the cuts balance these loads of a fluid, wall, dummy and ghost particle: the walls and dummies
-// outnumber the fluid but cost less a step (estimated and measured in docs/scaling.md).
-inline constexpr mps::RcbPartition::KindWeights box_impact_kind_weights{1.0, 0.6, 0.25, 0.01};
+// outnumber the fluid but a wall or dummy particle costs about a tenth of a fluid one a step (fitted to each rank's
+// phases by bench/kind_weights_fit.py, docs/scaling.md).
+inline constexpr mps::RcbPartition::KindWeights box_impact_kind_weights{1.0, 0.2, 0.05, 0.01};
 // The domain around the tank, with room above the column for splashes; and what the scene adds to its simulation: the
 // dam break's components (collisions, the surface test, spray over the walls removed) and the wall backstop.
 mps::Domain3 box_impact_domain(const BoxImpactGeometry& g, double l0);

@@ -1,10 +1,11 @@
 #!/usr/bin/python3
-"""What a fluid and a boundary (wall or dummy) particle cost each phase of the 3-D step, fitted from each rank's own phase times, and
-the kind weights for the cuts that follow (docs/scaling.md). Runs the 3-D dam break of bench_distributed_step on 2
-ranks (one thread each, one run at a time) once per weight set, each cut giving the ranks other mixes of kinds, and
-fits each phase's seconds per step on a rank as c_fluid n_fluid + c_boundary (n_wall + n_dummy) (non-negative least
-squares over every rank of every run; this tank's cuts give every rank walls and dummies in nearly one ratio). A
-phase that ends in a collective holds the wait for the slower rank, so the weights follow from the neighbour phase and the predictor, which end in none; the others are reported beside them.
+"""What a fluid and a boundary (wall or dummy) particle cost each phase of the 3-D step, fitted from each rank's own
+phase times, and the kind weights for the cuts that follow (docs/scaling.md). Runs the 3-D dam break of
+bench_distributed_step on 2 ranks (one thread each, one run at a time) once per weight set, each cut giving the ranks
+other mixes of kinds, and fits each phase's seconds per step on a rank as c_fluid n_fluid + c_boundary (n_wall +
+n_dummy) (non-negative least squares over every rank of every run; this tank's cuts give every rank walls and
+dummies in nearly one ratio). A phase that ends in a collective holds the wait for the slower rank, so the weights
+follow from the neighbour phase and the predictor, which end in none; the others are reported beside them.
 Run it on an idle machine.
 
   bench/kind_weights_fit.py BUILD [--fluid 4.3e5] [--steps 6] [--solver auto] [--rounds 0]

@@ -1,7 +1,6 @@
 #pragma once
 /// \file
 /// One particle's listed pairs as arrays, for the pair loops of the operators and the PPE (private to the library).
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -42,19 +41,15 @@ class RowPairs {
     }
     const int* __restrict id = row.data();
     const auto periodic = domain.periodic();
-    if (std::find(periodic.begin(), periodic.end(), true) != periodic.end()) {
-      const Displacement<D> displacement(domain);
-      const Vec<D> ri = p.position(i);
-      for (std::size_t k = 0; k < m; ++k) {
-        const Vec<D> d = displacement(ri, p.position(static_cast<std::size_t>(id[k])));
-        for (std::size_t a = 0; a < D; ++a) d_[a][k] = d[a];
-      }
-    } else {
-      for (std::size_t a = 0; a < D; ++a) {
-        const double* __restrict x = p.positions()[a]->data();
-        double* __restrict out = d_[a].data();
-        const double xi = x[i];
-        for (std::size_t k = 0; k < m; ++k) out[k] = x[static_cast<std::size_t>(id[k])] - xi;
+    for (std::size_t a = 0; a < D; ++a) {
+      const double* __restrict x = p.positions()[a]->data();
+      double* __restrict out = d_[a].data();
+      const double xi = x[i];
+      for (std::size_t k = 0; k < m; ++k) out[k] = x[static_cast<std::size_t>(id[k])] - xi;
+      // Displacement's nearest image, an axis at a time: a pair's position is not copied through a call.
+      if (periodic[a]) {
+        const double length = domain.extent(static_cast<int>(a));
+        for (std::size_t k = 0; k < m; ++k) out[k] = BasicDomain<D>::nearest_image(out[k], length);
       }
     }
     const double* __restrict dx = d_[0].data();

@@ -284,11 +284,14 @@ bench-default-solver: deps build/release/CMakeCache.txt
 	/usr/bin/python3 bench/default_solver.py build/release --results $(RESULTS)
 
 # cost per particle of each phase against N, one and two threads, peak RSS: the 2-D channel, then the 3-D dam break
-# (~10 min; needs an idle machine)
+# (~10 min; needs an idle machine). OLD=BUILD_DIR [OLD_LABEL=commit] runs an older build in turn with this one
+# (2-D three times each, ~35 min in all)
 bench-phase-cost: deps build/release/CMakeCache.txt
 	cmake --build build/release -j$(JOBS) --target bench_scaling dambreak
-	/usr/bin/python3 bench/phase_cost.py build/release --results $(RESULTS)
-	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5 --results $(RESULTS)
+	/usr/bin/python3 bench/phase_cost.py build/release --results $(RESULTS) \
+	  $(if $(OLD),--against $(OLD) --against-label $(or $(OLD_LABEL),old) --repeat 3)
+	/usr/bin/python3 bench/phase_cost.py build/release --dim 3 --sizes 1e4,1e5 --results $(RESULTS) \
+	  $(if $(OLD),--against $(OLD) --against-label $(or $(OLD_LABEL),old))
 
 # auto's hierarchy kept across a moving free surface: the seed column with auto and Jacobi-CG at H/50 and H/100, one
 # run at a time (~40 min); OLD=BUILD_DIR adds an older build's auto at H/50

@@ -3,7 +3,8 @@
 arrival and first peak and its H2 and H4 heights against the experiment (Kleefsman et al. 2005), every other sensor and
 gauge reported. Writes bench/results/dambreak3d.csv and dambreak3d.png (P1, H2 and H4 against the record; the other
 sensors and gauges beside them), and NAME_sensors.csv: every pressure sensor's arrival, first peak and largest value,
-and every height gauge's first wetting (a water height over 2 cm), mean and largest height, at each spacing.
+and every height gauge's first wetting (a water height over 2 cm), mean (over time) and largest height, at each
+spacing.
 
   bench/dambreak3d_study.py BUILD_DIR [--spacings 0.05,0.04] [--runs DIR] [--jobs 1] [--end-time 6] [-- extra args]
 
@@ -85,12 +86,26 @@ def plot(runs, spacings, chart, xmax):
 WET_M = 0.02  # a gauge counts as wet once its water is deeper than this
 
 
+def gauge_figures(t, h):
+    """First wetting, mean height over time (the trapezoid rule: a run's steps are not equal) and largest height."""
+    wet = next((tk for tk, v in zip(t, h) if v > WET_M), "")
+    area = sum(0.5 * (h[k] + h[k + 1]) * (t[k + 1] - t[k]) for k in range(len(t) - 1))
+    return [wet, area / (t[-1] - t[0]), max(h)]
+
+
 def write_sensors(runs, spacings, summaries, path):
-    """Every sensor and gauge at every spacing: the figures to check against the experiment's records not given here."""
+    """Every sensor and gauge at every spacing: the figures to check against the experiment's records not given here.
+    The record's rows (dx_m "record": P1 from the run's own reading of it, H2 and H4 over the record's 0-6 s) lead."""
+    record = read_csv(ROOT / "data" / "dambreak" / "spheric2_p1_h2_h4.csv")
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["dx_m", "sensor", "arrival_s", "first_peak_pa", "largest_pa", "first_wet_s", "mean_height_m",
                     "largest_height_m"])
+        checks = summaries[0].get("checks", {})
+        w.writerow(["record", "P1", checks.get("p1_arrival_record_s", ""), checks.get("p1_first_peak_record_pa", ""),
+                    max(record["P1_Pa"]), "", "", ""])
+        for gauge in ("H2", "H4"):
+            w.writerow(["record", gauge, "", "", "", *gauge_figures(record["time_s"], record[f"{gauge}_m"])])
         for dx, s in zip(spacings, summaries):
             checks = s.get("checks", {})
             for p in checks.get("pressure_sensors", []):
@@ -98,9 +113,7 @@ def write_sensors(runs, spacings, summaries, path):
                             ""])
             level = read_csv(runs / f"dx{dx}" / "level.csv")
             for g in checks.get("height_gauges", []):
-                h = level[f"{g['name']}_m"]
-                wet = next((t for t, v in zip(level["time_s"], h) if v > WET_M), "")
-                w.writerow([dx, g["name"], "", "", "", wet, sum(h) / len(h), g["largest_m"]])
+                w.writerow([dx, g["name"], "", "", "", *gauge_figures(level["time_s"], level[f"{g['name']}_m"])])
 
 
 def main():

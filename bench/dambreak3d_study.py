@@ -95,8 +95,10 @@ def gauge_figures(t, h):
 
 def write_sensors(runs, spacings, summaries, path):
     """Every sensor and gauge at every spacing: the figures to check against the experiment's records not given here.
-    The record's rows (dx_m "record": P1 from the run's own reading of it, H2 and H4 over the record's 0-6 s) lead."""
+    The record's rows (dx_m "record": P1 from the run's own reading of it, H2 and H4 over the runs' span) lead."""
     record = read_csv(ROOT / "data" / "dambreak" / "spheric2_p1_h2_h4.csv")
+    span = sum(1 for t in record["time_s"] if t <= min(s["time_s"] for s in summaries))
+    record = {k: v[:span] for k, v in record.items()}
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["dx_m", "sensor", "arrival_s", "first_peak_pa", "largest_pa", "first_wet_s", "mean_height_m",

@@ -81,20 +81,30 @@ void for_each_row_pairs(const BasicStencil<D>& s, std::span<const char> rows, F&
   }
 }
 
+// terms(first + c) for c < K, each summed in list order, the K sums side by side: each is a chain of dependent
+// additions, and K chains at once no longer wait on one another's latency.
+template <std::size_t K, int D>
+std::array<double, K> sums_side_by_side(detail::RowPairs<D>& pairs, std::size_t m, std::size_t first = 0) {
+  std::array<const double*, K> terms{};
+  for (std::size_t c = 0; c < K; ++c) terms[c] = pairs.terms(first + c);
+  std::array<double, K> sum{};
+  for (std::size_t k = 0; k < m; ++k)
+    for (std::size_t c = 0; c < K; ++c) sum[c] += terms[c][k];
+  return sum;
+}
+
 // sum_j r_ij/|r_ij|^2 w_ij over row i's pairs (filled and weighed): up the particle concentration's gradient
 // (shifting), into the liquid (surface normals).
 template <int D>
 Vec<D> concentration_sum(detail::RowPairs<D>& pairs, std::size_t m) {
   const double* __restrict r2 = pairs.r2();
   const double* __restrict w = pairs.w();
-  Vec<D> g{};
   for (std::size_t a = 0; a < D; ++a) {
     const double* __restrict d = pairs.d(a);
     double* __restrict term = pairs.terms(a);
     for (std::size_t k = 0; k < m; ++k) term[k] = w[k] > 0.0 ? d[k] / r2[k] * w[k] : 0.0;
-    for (std::size_t k = 0; k < m; ++k) g[a] += term[k];
   }
-  return g;
+  return sums_side_by_side<D, D>(pairs, m);
 }
 
 // A CSR matrix with one row per particle, built from per-pair coefficients in two passes; `diagonal`
@@ -191,14 +201,12 @@ void neighbour_asymmetry(const BasicStencil<D>& s, std::vector<double>& out, std
   for_each_row_pairs(s, rows, [&](std::size_t i, detail::RowPairs<D>& pairs, std::size_t m) {
     const double* __restrict r = pairs.r();
     const double* __restrict w = pairs.w();
-    Vec<D> f{};
     for (std::size_t a = 0; a < D; ++a) {
       const double* __restrict d = pairs.d(a);
       double* __restrict term = pairs.terms(a);
       for (std::size_t k = 0; k < m; ++k) term[k] = (w[k] > 0.0) & (r[k] > 0.0) ? w[k] * d[k] / r[k] : 0.0;
-      for (std::size_t k = 0; k < m; ++k) f[a] += term[k];
     }
-    out[i] = norm<D>(f) / s.kernel.n0;
+    out[i] = norm<D>(sums_side_by_side<D, D>(pairs, m)) / s.kernel.n0;
   });
 }
 
@@ -485,15 +493,14 @@ void laplacian_of(const BasicStencil<D>& s, const std::array<std::span<const dou
       const double* __restrict r = pairs.r();
       double* __restrict w = pairs.terms(0);
       for (std::size_t k = 0; k < m; ++k) w[k] = kernel.w_unbranched(r[k]);
-      double* __restrict term = pairs.terms(1);
       for (std::size_t f = 0; f < K; ++f) {
         const double* __restrict field = in[f].data();
+        double* __restrict term = pairs.terms(1 + f);
         const double fi = field[i];
         for (std::size_t k = 0; k < m; ++k) term[k] = (field[static_cast<std::size_t>(id[k])] - fi) * w[k];
-        double sum = 0.0;
-        for (std::size_t k = 0; k < m; ++k) sum += term[k];
-        out[f][i] = scale * sum;
       }
+      const std::array<double, K> sum = sums_side_by_side<K, D>(pairs, m, 1);
+      for (std::size_t f = 0; f < K; ++f) out[f][i] = scale * sum[f];
     });
     return;
   }

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
@@ -524,6 +525,60 @@ TEST(Collisions, AFluidParticleTurnsBackFromAWallAloneAndTheOrderDoesNotMatter) 
     EXPECT_EQ(back.u[2 - i], out.u[i]);
     EXPECT_EQ(back.v[2 - i], out.v[i]);
   }
+}
+
+// The dynamic stabilisation's changes with reach 0.1 and dt 0.01 (movable: all, unless set), applied as the corrector
+// does: to the velocity and, times dt, to the position.
+mps::Particles stabilised(Pair& s) {
+  if (s.movable.empty()) s.movable.assign(s.p.size(), 1);
+  const auto list = mps::find_neighbors(s.p, s.d, 0.5);
+  std::array<std::vector<double>, 2> change;
+  mps::stabilisation_velocity_changes<2>(s.p, s.d, list, 0.1, 0.01, s.movable, change);
+  mps::Particles out = s.p;
+  for (std::size_t i = 0; i < s.p.size(); ++i) {
+    out.u[i] += change[0][i];
+    out.v[i] += change[1][i];
+    out.x[i] += 0.01 * change[0][i];
+    out.y[i] += 0.01 * change[1][i];
+  }
+  return out;
+}
+
+// A pair nearer than the reach is put back at the reach by the corrector's move, whether closing in, parting or at
+// rest; the two changes are equal and opposite (momentum), along the line between them.
+TEST(Stabilisation, AClosePairIsPutBackAtTheReachWithItsMomentumKept) {
+  for (const double closing : {1.0, 0.0, -1.0}) {
+    Pair s;
+    s.p.add(0.0, 0.0, mps::Kind::fluid, 0, 0.5 * closing, 0.3);
+    s.p.add(0.036, 0.048, mps::Kind::fluid, 0, -0.5 * closing, 0.3);  // 0.06 apart along (0.6, 0.8)
+    const mps::Particles out = stabilised(s);
+    EXPECT_NEAR(std::hypot(out.x[1] - out.x[0], out.y[1] - out.y[0]), 0.1, 1e-15) << closing;
+    EXPECT_NEAR(out.u[0] - s.p.u[0], -0.5 * 4.0 * 0.6, 1e-13);  // (0.1 - 0.06)/0.01 = 4, shared
+    EXPECT_NEAR(out.v[0] - s.p.v[0], -0.5 * 4.0 * 0.8, 1e-13);
+    EXPECT_DOUBLE_EQ(out.u[0] + out.u[1], s.p.u[0] + s.p.u[1]);
+    EXPECT_DOUBLE_EQ(out.v[0] + out.v[1], s.p.v[0] + s.p.v[1]);
+  }
+}
+
+// A wall does not give way, nor does a fluid particle that may not move: the movable one takes the whole change. Pairs
+// beyond the reach, and ghosts, are left alone, so a lattice at the spacing is untouched.
+TEST(Stabilisation, AWallOrUnmovableParticleIsFixedAndPairsBeyondTheReachAreLeftAlone) {
+  Pair s;
+  s.p.add(0.0, 0.0, mps::Kind::wall);
+  s.p.add(0.0, 0.07, mps::Kind::fluid, 0, 0.0, -1.0);
+  s.p.add(0.5, 0.0, mps::Kind::fluid);
+  s.p.add(0.55, 0.0, mps::Kind::fluid);  // 0.05 from an unmovable one
+  s.p.add(-0.5, 0.0, mps::Kind::fluid);
+  s.p.add(-0.39, 0.0, mps::Kind::fluid);  // beyond the reach
+  s.p.add(-0.45, 0.0, mps::Kind::ghost);
+  s.movable = {1, 1, 0, 1, 1, 1, 1};
+  const mps::Particles out = stabilised(s);
+  EXPECT_EQ(out.v[0], 0.0);
+  EXPECT_NEAR(out.y[1], 0.1, 1e-15);  // put back at the reach from the wall, alone
+  EXPECT_NEAR(out.v[1], -1.0 + 3.0, 1e-13);
+  EXPECT_EQ(out.u[2], 0.0);
+  EXPECT_NEAR(out.x[3], 0.6, 1e-15);
+  for (std::size_t i = 4; i < 7; ++i) EXPECT_EQ(out.u[i], 0.0) << i;
 }
 
 }  // namespace

@@ -294,12 +294,20 @@ TEST(PressureTreatments, NamesRoundTripAndUnknownOrRepeatedNamesAreRefused) {
   EXPECT_EQ(mps::pressure_treatment(c), "hs+hl+ecs+cfs+gc");
   mps::set_pressure_treatment(c, "none");
   EXPECT_EQ(mps::pressure_treatment(c), "gc");  // "none" turns the four flags off; the gradient is the config's own
+  mps::set_pressure_treatment(c, "ds+hs");
+  EXPECT_EQ(c.stabilisation_distance, mps::SimulationConfig::default_stabilisation_distance);
+  EXPECT_EQ(mps::pressure_treatment(c), "hs+gc+ds");
+  c.stabilisation_distance = 0.7;
+  mps::set_pressure_treatment(c, "hs+ds");  // a distance already set is kept
+  EXPECT_EQ(c.stabilisation_distance, 0.7);
+  mps::set_pressure_treatment(c, "hs");
+  EXPECT_EQ(c.stabilisation_distance, 0.0);
   for (const char* bad : {"hs+hx", "hs+hs", "", "hs+", "HS"}) {
     try {
       mps::set_pressure_treatment(c, bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
     } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("valid: hs, hl, ecs, cfs and gc"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("valid: hs, hl, ecs, cfs, gc and ds"), std::string::npos) << e.what();
     }
   }
 }

@@ -604,10 +604,14 @@ double shift_particles(const BasicStencil<D>& s, double diffusion, double max_sh
   return largest;
 }
 
-template <int D>
-long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>& domain,
-                                const NeighborList& neighbors, double reach, double restitution,
-                                std::span<const char> movable, std::type_identity_t<std::array<std::vector<double>, D>>& change) {
+namespace {
+// What collisions and the dynamic stabilisation share: every pair of a movable fluid particle i and a neighbour j
+// nearer than `reach` gets the speed speed_along(r, approach) (approach > 0: closing in) taken off i along r_ij, shared
+// between two movable fluid particles and all i's when j is fixed. A speed of 0 or less skips the pair.
+template <int D, class SpeedAlong>
+long close_pair_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>& domain, const NeighborList& neighbors,
+                                 double reach, std::span<const char> movable, std::array<std::vector<double>, D>& change,
+                                 SpeedAlong speed_along) {
   check_size(movable.size(), p.size(), "movable");
   const auto n = static_cast<Index>(p.size());
   for (auto& c : change) c.assign(p.size(), 0.0);
@@ -638,15 +642,35 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
         for (std::size_t a = 0; a < D; ++a) unit[a] = d[a] / r;
         double approach = ((*vel[0])[i] - (*vel[0])[j]) * unit[0];  // > 0: closing in
         for (std::size_t a = 1; a < D; ++a) approach += ((*vel[a])[i] - (*vel[a])[j]) * unit[a];
-        if (approach <= 0.0) continue;
-        // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the impulse.
+        const double speed = speed_along(r, approach);
+        if (!(speed > 0.0)) continue;
+        // A wall, dummy or prescribed fluid particle does not give way: the moving one takes all of the change.
         const double share = p.kind[j] == Kind::fluid && movable[j] ? 0.5 : 1.0;
-        for (std::size_t a = 0; a < D; ++a) change[a][i] -= share * (1.0 + restitution) * approach * unit[a];
+        for (std::size_t a = 0; a < D; ++a) change[a][i] -= share * speed * unit[a];
         ++pairs;
       }
     }
   }
   return pairs;
+}
+}  // namespace
+
+template <int D>
+long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>& domain,
+                                const NeighborList& neighbors, double reach, double restitution,
+                                std::span<const char> movable, std::type_identity_t<std::array<std::vector<double>, D>>& change) {
+  return close_pair_velocity_changes<D>(p, domain, neighbors, reach, movable, change,
+                                        [restitution](double, double approach) {
+                                          return approach > 0.0 ? (1.0 + restitution) * approach : 0.0;
+                                        });
+}
+
+template <int D>
+long stabilisation_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>& domain,
+                                    const NeighborList& neighbors, double reach, double dt, std::span<const char> movable,
+                                    std::type_identity_t<std::array<std::vector<double>, D>>& change) {
+  return close_pair_velocity_changes<D>(p, domain, neighbors, reach, movable, change,
+                                        [reach, dt](double r, double) { return (reach - r) / dt; });
 }
 
 #define MPS_OPERATORS_FOR(D)                                                                                          \
@@ -669,6 +693,9 @@ long collision_velocity_changes(const BasicParticles<D>& p, const BasicDomain<D>
   template void surface_normals<D>(const BasicStencil<D>&, std::span<const char>, std::array<std::vector<double>, D>&); \
   template double shift_particles<D>(const BasicStencil<D>&, double, double, std::span<const char>, BasicParticles<D>&, \
                                   const ConstComponents<D>&);                                                        \
+  template long stabilisation_velocity_changes<D>(const BasicParticles<D>&, const BasicDomain<D>&, const NeighborList&, \
+                                                 double, double, std::span<const char>,                            \
+                                                 std::array<std::vector<double>, D>&);                             \
   template long collision_velocity_changes<D>(const BasicParticles<D>&, const BasicDomain<D>&, const NeighborList&,     \
                                            double, double, std::span<const char>, std::array<std::vector<double>, D>&);
 MPS_OPERATORS_FOR(2)

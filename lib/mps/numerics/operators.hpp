@@ -197,6 +197,14 @@ template <int D = 2>
 long collision_velocity_changes(const BasicParticles<D>& particles, const BasicDomain<D>& domain,
                                 const NeighborList& neighbors, double reach, double restitution,
                                 std::span<const char> movable, std::type_identity_t<std::array<std::vector<double>, D>>& change);
+/// Dynamic stabilisation (after Tsuruta, Khayyer & Gotoh 2013): a movable fluid particle i and a neighbour j nearer
+/// than `reach` are pushed apart at (reach - r)/dt along r_ij, shared as collisions share, so that the corrector's move
+/// puts the pair back at `reach` whether or not it is closing in. Momentum is conserved between movable particles.
+/// Writes each particle's velocity change from the positions as they are; the caller applies it. Returns the pairs.
+template <int D = 2>
+long stabilisation_velocity_changes(const BasicParticles<D>& particles, const BasicDomain<D>& domain,
+                                    const NeighborList& neighbors, double reach, double dt, std::span<const char> movable,
+                                    std::type_identity_t<std::array<std::vector<double>, D>>& change);
 /// 2-D: the same with the changes as du, dv.
 inline long collision_velocity_changes(const Particles& particles, const Domain& domain, const NeighborList& neighbors,
                                        double reach, double restitution, std::span<const char> movable,

@@ -40,12 +40,13 @@ std::string pressure_treatment(const SimulationConfig& config) {
   add(config.error_compensating_source, "ecs");
   add(config.continuous_free_surface, "cfs");
   add(config.pressure_gradient == GradientVariant::corrected, "gc");
+  add(config.stabilisation_distance > 0.0, "ds");
   return names.empty() ? "none" : names;
 }
 
 void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
-  const std::string valid = "; valid: hs, hl, ecs, cfs and gc joined by '+' (e.g. hs+hl+ecs), or none";
-  bool hs = false, hl = false, ecs = false, cfs = false, gc = false;
+  const std::string valid = "; valid: hs, hl, ecs, cfs, gc and ds joined by '+' (e.g. hs+hl+ecs), or none";
+  bool hs = false, hl = false, ecs = false, cfs = false, gc = false, ds = false;
   if (names != "none") {
     std::size_t start = 0;
     while (true) {
@@ -56,6 +57,7 @@ void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
                    : name == "ecs" ? &ecs
                    : name == "cfs" ? &cfs
                    : name == "gc"  ? &gc
+                   : name == "ds"  ? &ds
                                    : nullptr;
       if (!flag)
         throw std::invalid_argument("pressure treatment: unknown name '" + std::string(name) + "' in '" +
@@ -73,6 +75,9 @@ void set_pressure_treatment(SimulationConfig& config, std::string_view names) {
   config.error_compensating_source = ecs;
   config.continuous_free_surface = cfs;
   if (gc) config.pressure_gradient = GradientVariant::corrected;
+  if (!ds) config.stabilisation_distance = 0.0;
+  else if (!(config.stabilisation_distance > 0.0))
+    config.stabilisation_distance = SimulationConfig::default_stabilisation_distance;
 }
 
 void SimulationConfig::validate() const {

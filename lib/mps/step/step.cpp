@@ -793,6 +793,10 @@ void BasicSimulation<D>::correct() {
               f.carriers, min_tilt,
               f.surface_own_reference ? std::span<const char>(f.surface) : std::span<const char>(), f.advanced);
   const double dt = f.dt;
+  const bool stabilise = config_.stabilisation_distance > 0.0;
+  if (stabilise)
+    stabilisation_velocity_changes<D>(p, domain_, neighbors_at_star(k_gradient_),
+                                      config_.stabilisation_distance * config_.l0, dt, f.advanced, f.stabilisation);
   const auto n = static_cast<Index>(p.size());
   const auto pos = p.positions();
   const auto vel = p.velocities();
@@ -802,7 +806,8 @@ void BasicSimulation<D>::correct() {
     if (p.kind[i] != Kind::fluid || f.prescribed[i]) continue;
     Vec<D> r;
     for (std::size_t a = 0; a < D; ++a) {
-      const double du = -dt / config_.rho * f.grad_p[a][i];
+      double du = -dt / config_.rho * f.grad_p[a][i];
+      if (stabilise) du += f.stabilisation[a][i];
       (*vel[a])[i] += du;
       r[a] = (*pos[a])[i] + dt * du;  // the predictor having moved it by dt u*
     }

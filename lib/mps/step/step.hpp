@@ -78,6 +78,7 @@ struct BasicStepFields {
   std::vector<char> carriers;    ///< particles whose pressure the gradient sees
   /// @{ scratch: the velocity's Laplacian and the pressure's gradient by axis, made for the `advanced` particles only
   std::array<std::vector<double>, D> lap_u, grad_p;  /// @}
+  std::array<std::vector<double>, D> stabilisation;  ///< scratch: the dynamic stabilisation's velocity changes
   std::vector<char> advanced;  ///< scratch: the fluid the step moves itself (not prescribed)
   std::vector<char> in_ppe;    ///< scratch: fluid and walls, the particles n*, div u* and the source are made for
   std::vector<double> residual;  ///< scratch: P - offset for the corrector

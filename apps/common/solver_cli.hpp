@@ -47,7 +47,8 @@ inline CLI::Option* add_pressure_treatment_option(CLI::App& app, std::string& na
   return app.add_option("--pressure-treatment", names,
                         "Khayyer & Gotoh's treatments of the projection, joined by '+': hs (higher-order source), hl "
                         "(higher-order Laplacian), ecs (error-compensating source), cfs (continuous free surface: every "
-                        "fluid particle an unknown), gc (corrected gradient); or none (docs/pressure.md)")
+                        "fluid particle an unknown), gc (corrected gradient), ds (dynamic stabilisation of close pairs); or "
+                        "none (docs/pressure.md)")
       ->capture_default_str()
       ->check([](const std::string& given) {
         mps::SimulationConfig c;

@@ -114,6 +114,9 @@ const Params& checked(const Params& p) {
                                 fmt(first_step) + " s); raise the end time");
   if (!(p.collision >= 0.0 && p.collision < 1.0))
     throw std::invalid_argument("dam break: the collision distance must be in [0, 1) l0 (0: off), got " + fmt(p.collision));
+  if (!(p.stabilisation_distance > 0.0 && p.stabilisation_distance < 1.0))
+    throw std::invalid_argument("dam break: the stabilisation distance must be in (0, 1) l0, got " +
+                                fmt(p.stabilisation_distance));
   if (!(p.restitution >= 0.0 && p.restitution <= 1.0))
     throw std::invalid_argument("dam break: the restitution must be in [0, 1], got " + fmt(p.restitution));
   if (!(p.asymmetry >= 0.0 && p.asymmetry <= 10.0))
@@ -169,6 +172,7 @@ mps::SimulationConfig make_config(const Params& p, int dim) {
   c.cfl = p.cfl;
   c.dt_max = c.cfl * p.l0 / std::sqrt(2 * p.g * p.height);  // the CFL step at the free-fall speed from H
   c.pressure_gradient = p.gradient;
+  c.stabilisation_distance = p.stabilisation_distance;  // kept by a treatment with "ds", dropped by one without
   mps::set_pressure_treatment(c, p.pressure_treatment);
   c.shifting = p.shifting;
   c.shift_along_free_surface = true;

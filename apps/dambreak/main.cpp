@@ -40,6 +40,7 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::BasicSimulation
                                    "spray removal"};
   if (p.asymmetry > 0) physics.emplace_back("free surface by neighbour asymmetry");
   if (p.collision > 0) physics.emplace_back("particle collisions");
+  if (c.stabilisation_distance > 0) physics.emplace_back("dynamic stabilisation of close pairs");
   if (p.wet_walls) physics.emplace_back("walls wetted by the liquid's interior");
   if (p.shifting > 0) physics.emplace_back("particle shifting (along the free surface near it)");
   return {{"scene", "dam break"}, {"column", dambreak::to_string(p.column)},
@@ -47,7 +48,8 @@ nlohmann::json params_json(const dambreak::Params& p, const mps::BasicSimulation
           {"tank_height_m", p.tank_height}, {"dx_m", p.l0}, {"gamma", p.gamma},
           {"gradient", mps::to_string(c.pressure_gradient)}, {"pressure_treatment", mps::pressure_treatment(c)}, {"cfl", p.cfl}, {"asymmetry", p.asymmetry},
           {"asymmetry_interior_density_over_n0", p.asymmetry_interior_density},
-          {"collision_l0", p.collision}, {"restitution", p.restitution}, {"shifting", p.shifting},
+          {"collision_l0", p.collision}, {"restitution", p.restitution},
+          {"stabilisation_distance_l0", c.stabilisation_distance}, {"shifting", p.shifting},
           {"shifting_along_free_surface", true}, {"wet_walls", p.wet_walls},
           {"dt_max_s", c.dt_max}, {"end_time_s", p.end_time}, {"g_m_per_s2", p.g}, {"rho_kg_per_m3", c.rho},
           {"nu_m2_per_s", c.nu},
@@ -124,6 +126,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--collision", o.p.collision, "close pairs collide: two particles nearer than this that approach each "
                  "other keep only --restitution of their approach speed (0: off) [l0]")
       ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
+  app.add_option("--stabilisation-distance", o.p.stabilisation_distance, "with ds in --pressure-treatment: the "
+                 "corrector puts pairs nearer than this back at it (dynamic stabilisation) [l0]")
+      ->capture_default_str()->check(number_in(0.01, 0.99))->group("Numerics");
   app.add_option("--restitution", o.p.restitution, "restitution of a collision")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
   app.add_option("--asymmetry", o.p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
@@ -775,7 +780,8 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
       params,
       {{"scene", {"tank_m", "column_m", box_key, "g_m_per_s2", "rho_kg_per_m3", "nu_m2_per_s"}},
        {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
-                     "asymmetry", "asymmetry_interior_density_over_n0", "shifting", "wet_walls"}},
+                     "stabilisation_distance_l0", "asymmetry", "asymmetry_interior_density_over_n0", "shifting",
+                     "wet_walls"}},
        {"solver", {"solver", "warm_start"}},
        {"run", {"end_time_s"}}});
   const fs::path dir(o.out);
@@ -853,8 +859,9 @@ int main(int argc, char** argv) {
         params,
         {{"scene", {"column_width_m", "column_height_m", "tank_length_m", "tank_height_m", "g_m_per_s2",
                     "rho_kg_per_m3", "nu_m2_per_s"}},
-         {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution", "asymmetry",
-                       "asymmetry_interior_density_over_n0", "shifting", "wet_walls"}},
+         {"numerics", {"dx_m", "gamma", "pressure_treatment", "gradient", "cfl", "dt_max_s", "collision_l0", "restitution",
+                       "stabilisation_distance_l0", "asymmetry", "asymmetry_interior_density_over_n0", "shifting",
+                     "wet_walls"}},
          {"solver", {"solver", "warm_start"}},
          {"run", {"end_time_s", "pressure_probes_H", "level_probes_from_downstream_wall_H"}}});
     const fs::path dir(o.out);

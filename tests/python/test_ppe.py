@@ -6,7 +6,7 @@ import scipy.io
 import scipy.sparse
 
 import sparsemps
-from conftest import DAMBREAK_ASYMMETRY, dambreak_scene, dambreak_simulation
+from conftest import dambreak_scene, dambreak_simulation
 
 G = 9.81
 
@@ -29,13 +29,13 @@ def test_assembled_ppe_equals_the_dambreak_apps_first_step_bitwise(dambreak_run)
     sim.step()
     order, dt = sim.particles.id, sim.last_step.dt
     ppe = sparsemps.assemble_ppe(particles.x[order], particles.y[order], particles.u[order], particles.v[order],
-                                 particles.kind[order], dt=dt, config=config, asymmetry=DAMBREAK_ASYMMETRY)
+                                 particles.kind[order], dt=dt, config=config)
     a = scipy.io.mmread(dambreak_run / "ppe" / "step_000001.mtx")
     b = np.asarray(scipy.io.mmread(dambreak_run / "ppe" / "step_000001_rhs.mtx")).ravel()
     assert_same_system(ppe.matrix, ppe.rhs, a, b)
     # In the particles' own order the same system with its unknowns renumbered, to round-off: the sums over
     # neighbours run in another order.
-    unordered = sparsemps.assemble_ppe(particles, dt=dt, config=config, asymmetry=DAMBREAK_ASYMMETRY)
+    unordered = sparsemps.assemble_ppe(particles, dt=dt, config=config)
     back = np.argsort(order)  # original index -> position in the step's order
     perm = ppe.unknown[back][unordered.particle]  # unordered unknown -> step-order unknown
     a_perm = ppe.matrix.toarray()[np.ix_(perm, perm)]

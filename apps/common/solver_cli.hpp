@@ -43,14 +43,17 @@ inline CLI::Option* add_shifting_option(CLI::App& app, double& shifting, const s
 
 // --pressure-treatment: Khayyer & Gotoh's treatments of the projection by name (mps::set_pressure_treatment), a bad
 // name refused with the library's message.
-inline CLI::Option* add_pressure_treatment_option(CLI::App& app, std::string& names) {
-  return app.add_option("--pressure-treatment", names,
+// `default_by_scene`: the default's words where it depends on other options (then no default string is shown or
+// written to config.toml).
+inline CLI::Option* add_pressure_treatment_option(CLI::App& app, std::string& names,
+                                                  const std::string& default_by_scene = "") {
+  CLI::Option* o = app.add_option("--pressure-treatment", names,
                         "Khayyer & Gotoh's treatments of the projection, joined by '+': hs (higher-order source), hl "
                         "(higher-order Laplacian), ecs (error-compensating source), cfs (continuous free surface: every "
                         "fluid particle an unknown), gc (corrected gradient), ds (dynamic stabilisation of close pairs); or "
-                        "none (docs/pressure.md)")
-      ->capture_default_str()
-      ->check([](const std::string& given) {
+                        "none (docs/pressure.md)" + default_by_scene);
+  if (default_by_scene.empty()) o->capture_default_str();
+  return o->check([](const std::string& given) {
         mps::SimulationConfig c;
         try {
           mps::set_pressure_treatment(c, given);

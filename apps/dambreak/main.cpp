@@ -87,6 +87,10 @@ struct Options {
   CheckpointOptions checkpoints;
   double interior_density = -1.0;  // the asymmetry test's; negative: the scene's default
   double shifting = -1.0;          // negative: the scene's default
+  // Negative or empty: the scene's default (the 2-D columns run without collisions since the dynamic stabilisation; the
+  // 3-D dam break keeps what it was validated with).
+  double collision = -1.0, asymmetry = -1.0;
+  std::string pressure_treatment;
   dambreak::Params p;
 };
 
@@ -120,20 +124,22 @@ void add_options(CLI::App& app, Options& o) {
                  "(the corrective matrix) | corrected-min-reference")
       ->capture_default_str()->check(CLI::IsMember({"min-reference", "plain", "corrected", "corrected-min-reference"}))
       ->group("Numerics");
-  add_pressure_treatment_option(app, o.p.pressure_treatment);
+  add_pressure_treatment_option(app, o.pressure_treatment, " (default: hs+ds in 2-D, hs with --dim 3)");
   app.add_option("--cfl", o.p.cfl, "time step: dt <= CFL l0 / |u|max")->capture_default_str()->check(positive_up_to(10))
       ->group("Numerics");
-  app.add_option("--collision", o.p.collision, "close pairs collide: two particles nearer than this that approach each "
-                 "other keep only --restitution of their approach speed (0: off) [l0]")
-      ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
+  // No default strings: the defaults depend on --dim.
+  app.add_option("--collision", o.collision, "close pairs collide: two particles nearer than this that approach each "
+                 "other keep only --restitution of their approach speed (0: off; default: 0 in 2-D, 0.8 with --dim 3) "
+                 "[l0]")
+      ->check(number_in(0.0, 0.99))->group("Numerics");
   app.add_option("--stabilisation-distance", o.p.stabilisation_distance, "with ds in --pressure-treatment: the "
                  "corrector puts pairs nearer than this back at it (dynamic stabilisation) [l0]")
       ->capture_default_str()->check(number_in(0.01, 0.99))->group("Numerics");
   app.add_option("--restitution", o.p.restitution, "restitution of a collision")
       ->capture_default_str()->check(number_in(0.0, 1.0))->group("Numerics");
-  app.add_option("--asymmetry", o.p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
-                 "fraction of a flat surface's asymmetry (0: the density test alone)")
-      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+  app.add_option("--asymmetry", o.asymmetry, "free surface also where the neighbours lie one-sided: above this "
+                 "fraction of a flat surface's asymmetry (0: the density test alone; default: 0 in 2-D, 0.9 with --dim 3)")
+      ->check(number_in(0.0, 10.0))->group("Numerics");
   // No default string: the default depends on --dim.
   app.add_option("--asymmetry-interior-density", o.interior_density,
                  "... but not fluid at or above this number density, which has a full kernel however one-sided (fluid "
@@ -198,6 +204,9 @@ Start make_start(const Options& o) {
   p.gradient = mps::gradient_variant_from_name(o.gradient);
   if (o.interior_density >= 0) p.asymmetry_interior_density = o.interior_density;
   if (o.shifting >= 0) p.shifting = o.shifting;
+  if (o.collision >= 0) p.collision = o.collision;
+  if (o.asymmetry >= 0) p.asymmetry = o.asymmetry;
+  if (!o.pressure_treatment.empty()) p.pressure_treatment = o.pressure_treatment;
   if (!o.particles_file.empty() && o.tank_length > 0)
     throw std::invalid_argument("--tank-length and --particles: the particle file's walls are the tank; give one of "
                                 "them");
@@ -720,6 +729,9 @@ int run_box_impact(const Options& o, const CLI::App& app, const AppRanks& ranks)
   p.gradient = mps::gradient_variant_from_name(o.gradient);
   p.asymmetry_interior_density = o.interior_density >= 0 ? o.interior_density : base.asymmetry_interior_density;
   p.shifting = o.shifting >= 0 ? o.shifting : base.shifting;
+  p.collision = o.collision >= 0 ? o.collision : base.collision;
+  p.asymmetry = o.asymmetry >= 0 ? o.asymmetry : base.asymmetry;
+  p.pressure_treatment = !o.pressure_treatment.empty() ? o.pressure_treatment : base.pressure_treatment;
   p.l0 = o.dx > 0 ? o.dx : base.l0;
   p.end_time = o.end_time > 0 ? o.end_time : base.end_time;
   if (!o.write_particles.empty()) {

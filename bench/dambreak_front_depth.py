@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Where the classic column's front stops converging (docs/dambreak.md, "The classic column's front"): the front as the
 app reads it (the leading fluid particle, front.csv) beside the front taken where the water is 0.02, 0.05 and 0.1 a
-deep, at a/20, a/40 and a/80 with the defaults (`hs`, to T = 3.5). Writes bench/results/dambreak_front_depth.csv (every
-frame), dambreak_front_depth_summary.csv (per definition: the developed speed fitted over T in [1.5, 3.5] at each
+deep, at a/20, a/40 and a/80 with the defaults (`hs+ds`, no collisions, to T = 3.5). Writes
+bench/results/dambreak_front_depth.csv (every frame), dambreak_front_depth_summary.csv (per definition: the developed speed fitted over T in [1.5, 3.5] at each
 spacing, and the largest difference between a/40 and a/80 over T in [0.5, 3.5]) and a chart.
 
   bench/dambreak_front_depth.py BUILD_DIR [--runs DIR] [--results DIR] [--spacings 20,40,80] [--jobs 2]
@@ -116,7 +116,7 @@ def main():
         T = [r["T"] for r in series[n]]
         left.plot(T, [r["tip"] for r in series[n]], "k" + style, label=f"leading particle, a/{n}")
         left.plot(T, [r["depth_0.05a"] for r in series[n]], "C0" + style, label=f"0.05 a deep, a/{n}")
-    left.set(xlabel="T = t sqrt(2g/a)", ylabel="front x / a", title="classic column, hs")
+    left.set(xlabel="T = t sqrt(2g/a)", ylabel="front x / a", title="classic column, the defaults (hs+ds)")
     left.legend(fontsize=8)
     for k, name in enumerate(names):
         T, difference = relative_difference(series[80], series[40], name)

@@ -1,10 +1,15 @@
 #!/usr/bin/python3
-"""Stability map of the classic dam-break column (a/20, to T = 3.5 in its 8a tank) over gamma x CFL, with and without
-particle collisions, for the classic source (--pressure-treatment none) and the dam break's default (hs): stable (ran
-to the end, front within 25 % of Martin & Moyce), inaccurate (ran, front further off), or blown up (stopped by the
-guard, with the time it was stopped at). CSV + PNG.
+"""Stability map of the classic dam-break column (a/20 unless --across, to T = 3.5 in its 8a tank) over gamma x CFL for four settings:
+the classic source and the higher-order source (hs) with collisions at 0.8 l0 and the asymmetry test at 0.9 (hs so was
+the dam break's default before the dynamic stabilisation), hs with neither, and today's default hs+ds with neither.
+Each run is stable (ran to the end, front within 25 % of Martin & Moyce), inaccurate (ran, front further off), or
+blown up (stopped by the guard, with the time it was stopped at). CSV + PNG.
 
-  bench/dambreak_stability.py BUILD_DIR [--results bench/results] [--jobs 2]   (one thread per run; about 8 minutes)
+  bench/dambreak_stability.py BUILD_DIR [--results bench/results] [--jobs 2] [--across 20] [--name dambreak_stability]
+                              [--settings 0,1,2,3]
+  (one thread per run; about 12 minutes at a/20)
+  bench/dambreak_stability.py BUILD_DIR --across 40 --settings 1,3 --name dambreak_stability_a40   (the old default
+  beside the new at the default spacing)
 """
 import argparse
 import csv
@@ -21,15 +26,15 @@ import matplotlib.pyplot as plt
 
 GAMMAS = [0.01, 0.1, 0.5, 0.99]
 CFLS = [0.05, 0.1, 0.2, 0.4, 0.8]
-COLLISIONS = [0.8, 0.0]
-TREATMENTS = ["none", "hs"]
+# (treatment, collision distance in l0, asymmetry fraction)
+SETTINGS = [("none", 0.8, 0.9), ("hs", 0.8, 0.9), ("hs", 0.0, 0.0), ("hs+ds", 0.0, 0.0)]
 ACCURATE = 0.25
 
 
-def run(exe, treatment, collision, cfl, gamma):
+def run(exe, across, treatment, collision, asymmetry, cfl, gamma):
     with tempfile.TemporaryDirectory() as out:
-        subprocess.run([str(exe), "--dx", repr(0.146 / 20), "--gamma", str(gamma), "--cfl", str(cfl),
-                        "--collision", str(collision),
+        subprocess.run([str(exe), "--dx", repr(0.146 / across), "--gamma", str(gamma), "--cfl", str(cfl),
+                        "--collision", str(collision), "--asymmetry", str(asymmetry),
                         "--pressure-treatment", treatment, "--frames", "0", "--out", out], capture_output=True,
                        env=dict(os.environ, OMP_NUM_THREADS="1"))
         s = json.loads((Path(out) / "summary.json").read_text())
@@ -41,7 +46,7 @@ def run(exe, treatment, collision, cfl, gamma):
     else:
         verdict = "stable" if error != "" and error <= ACCURATE else "inaccurate"
     reason = s.get("error", "").split("): ")[-1].split(" (reduce")[0]
-    row = {"pressure_treatment": treatment, "collision_l0": collision, "cfl": cfl, "gamma": gamma, "class": verdict,
+    row = {"across": across, "pressure_treatment": treatment, "collision_l0": collision, "asymmetry": asymmetry, "cfl": cfl, "gamma": gamma, "class": verdict,
            "front_error": error, "stopped_at_s": s["time_s"] if verdict == "blown up" else "", "steps": s["steps"],
            "reason": reason}
     print(row, flush=True)
@@ -53,24 +58,28 @@ def main():
     ap.add_argument("build")
     ap.add_argument("--results", default="bench/results")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--across", type=int, default=20, help="particles across the column's width a")
+    ap.add_argument("--name", default="dambreak_stability", help="the CSV's and the chart's name in --results")
+    ap.add_argument("--settings", default="0,1,2,3", help="which of SETTINGS to run, by index (e.g. 1,3: the old "
+                    "default and the new)")
     args = ap.parse_args()
     results = Path(args.results)
     results.mkdir(parents=True, exist_ok=True)
     exe = Path(args.build) / "apps" / "dambreak" / "dambreak"
-    jobs = [(t, c, cfl, g) for t in TREATMENTS for c in COLLISIONS for cfl in CFLS for g in GAMMAS]
+    settings = [SETTINGS[int(k)] for k in args.settings.split(",")]
+    jobs = [(*setting, cfl, g) for setting in settings for cfl in CFLS for g in GAMMAS]
     with ThreadPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(lambda j: run(exe, *j), jobs))
-    with open(results / "dambreak_stability.csv", "w", newline="") as f:
+        rows = list(pool.map(lambda j: run(exe, args.across, *j), jobs))
+    with open(results / f"{args.name}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     colours = {"stable": "tab:green", "inaccurate": "tab:orange", "blown up": "tab:red"}
-    fig, axes = plt.subplots(len(TREATMENTS), len(COLLISIONS), figsize=(10, 4 * len(TREATMENTS)), sharey=True,
-                             squeeze=False)
-    for (ti, treatment), (ci, collision) in [(t, c) for t in enumerate(TREATMENTS) for c in enumerate(COLLISIONS)]:
-        ax = axes[ti, ci]
+    rows_of_panels = (len(settings) + 1) // 2
+    fig, axes = plt.subplots(rows_of_panels, 2, figsize=(10, 4 * rows_of_panels), sharey=True, squeeze=False)
+    for ax, (treatment, collision, asymmetry) in zip(axes.flat, settings):
         for r in rows:
-            if r["collision_l0"] != collision or r["pressure_treatment"] != treatment:
+            if (r["pressure_treatment"], r["collision_l0"], r["asymmetry"]) != (treatment, collision, asymmetry):
                 continue
             x, y = GAMMAS.index(r["gamma"]), CFLS.index(r["cfl"])
             ax.add_patch(plt.Rectangle((x - 0.5, y - 0.5), 1, 1, color=colours[r["class"]]))
@@ -82,11 +91,12 @@ def main():
         ax.set_yticks(range(len(CFLS)), [str(c) for c in CFLS])
         ax.set_xlabel("gamma")
         ax.set_ylabel("CFL")
-        ax.set_title(f"source {treatment}, collisions {'at ' + str(collision) + ' l0' if collision else 'off'}")
-    fig.suptitle("Classic dam break a/20 to T = 3.5: green ran with front within 25 % of Martin & Moyce, "
+        ax.set_title(f"{treatment}, " + (f"collisions at {collision} l0, asymmetry {asymmetry}" if collision
+                                         else "no collisions, no asymmetry test"), fontsize=9)
+    fig.suptitle(f"Classic dam break a/{args.across} to T = 3.5: green ran with front within 25 % of Martin & Moyce, "
                  "orange ran, red stopped (time)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(results / "dambreak_stability.png", dpi=120)
+    fig.savefig(results / f"{args.name}.png", dpi=120)
 
 
 if __name__ == "__main__":

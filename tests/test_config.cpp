@@ -55,7 +55,7 @@ TEST(ConfigSchema, EveryNumberOutsideItsRangeIsRefusedNamingTheField) {
       }
     }
   });
-  EXPECT_EQ(numbers, 22);  // the 21 doubles and reorder_every
+  EXPECT_EQ(numbers, 23);  // the 22 doubles and reorder_every
 }
 
 // The summaries record the config from the same list: one key per field, each ending in its unit, with the field's

@@ -95,8 +95,8 @@ Scene dam_break(double nu, double shifting) {
   s.ceiling = s.domain.ymax - 2 * p.l0;
   s.add_components = [](mps::Simulation& sim, const Scene& scene) {
     const dambreak::Params d = dambreak::defaults(dambreak::Column::classic);
-    sim.add<mps::ParticleCollision>(d.collision, d.restitution);
-    sim.add<mps::AsymmetrySurface>(d.asymmetry);
+    if (d.collision > 0) sim.add<mps::ParticleCollision>(d.collision, d.restitution);  // as add_dam_break_components
+    if (d.asymmetry > 0) sim.add<mps::AsymmetrySurface>(d.asymmetry);
     const double ceiling = scene.ceiling, top = scene.top, length = scene.length;
     sim.add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < length)); });
   };

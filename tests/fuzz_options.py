@@ -36,12 +36,13 @@ OPTIONS = {
                  "--radius", "--end-time", "--samples", "--maps", "--frames", "--tolerance", "--guard-factor"],
     "dambreak": ["--column", "--dx", "--gamma", "--cfl", "--asymmetry", "--asymmetry-interior-density", "--end-time",
                  "--frames", "--front-speed-tolerance", "--front-shape-tolerance", "--tank-length", "--sensor-height",
-                 "--pressure-treatment", "--shifting", "--gradient", "--collision", "--restitution",
-                 "--solver", "--data", "--particles"],
+                 "--pressure-treatment", "--shifting", "--gradient", "--collision", "--stabilisation-distance",
+                 "--restitution", "--solver", "--data", "--particles"],
     "structure": ["--scene", "--dx", "--model", "--radius", "--hourglass", "--cfl", "--end-time", "--sample-interval",
                   "--frames", "--period-tolerance", "--amplitude-tolerance", "--csm3-tolerance", "--data"],
     "fsi": ["--scene", "--dx", "--modulus", "--poisson", "--density", "--cfl", "--relaxation", "--solid-cfl",
-            "--end-time", "--frames", "--solver", "--pressure-gradient", "--pressure-treatment", "--wet-walls"],
+            "--end-time", "--frames", "--solver", "--pressure-gradient", "--pressure-treatment", "--wet-walls",
+            "--collision", "--asymmetry", "--stabilisation-distance"],
 }
 # Hostile values and a few ordinary ones (large but legitimate values are left out: a long run is no bug).
 VALUES = ["0", "-1", "1", "2", "0.5", "nan", "inf", "-inf", "1e300", "1e-300", "abc", "", "2147483647", "3",

@@ -69,6 +69,15 @@ void add_options(CLI::App& app, Options& o) {
                  "body's load is -V grad P, corrected (default: plate conservative, gate min-reference; docs/fsi.md)")
       ->check(CLI::IsMember({"min-reference", "conservative"}))->group("Numerics");
   add_pressure_treatment_option(app, o.p.pressure_treatment);
+  app.add_option("--collision", o.p.collision, "close pairs collide: two particles nearer than this that approach each "
+                 "other keep only the dam break's restitution of their approach speed (0: off) [l0]")
+      ->capture_default_str()->check(number_in(0.0, 0.99))->group("Numerics");
+  app.add_option("--asymmetry", o.p.asymmetry, "free surface also where the neighbours lie one-sided: above this "
+                 "fraction of a flat surface's asymmetry (0: the density test alone)")
+      ->capture_default_str()->check(number_in(0.0, 10.0))->group("Numerics");
+  app.add_option("--stabilisation-distance", o.p.stabilisation_distance, "with ds in --pressure-treatment: the "
+                 "corrector puts pairs nearer than this back at it (dynamic stabilisation) [l0]")
+      ->capture_default_str()->check(number_in(0.01, 0.99))->group("Numerics");
   app.add_option("--solver", o.p.solver, "pressure solver spec")->capture_default_str()->group("Solver");
   app.add_option("--end-time", o.end_time, "simulated time (default: plate 0.3, gate 0.4) [s]")
       ->check(positive_up_to(100))->group("Run");
@@ -203,7 +212,9 @@ int main(int argc, char** argv) {
         {"poisson", p.poisson_ratio}, {"density_kg_per_m3", p.density}, {"solid_cfl", p.solid_cfl},
         {"relaxation", p.relaxation}, {"wet_walls", p.wet_walls},
         {"pressure_gradient", mps::to_string(p.pressure_gradient)},
-        {"pressure_treatment", mps::pressure_treatment(sim.config())}, {"cfl", p.cfl},
+        {"pressure_treatment", mps::pressure_treatment(sim.config())}, {"collision_l0", p.collision},
+        {"asymmetry", p.asymmetry}, {"stabilisation_distance_l0", sim.config().stabilisation_distance},
+        {"cfl", p.cfl},
         {"end_time_s", p.end_time}, {"solver", sim.solver().spec()},
         {"simulation_config", mps::config_json(sim.config())},
         {"coupling", "staggered: solid advanced to t^{n+1} under the force of step n, in its own sub-steps"}};
@@ -216,7 +227,7 @@ int main(int argc, char** argv) {
         {{"scene", {"water_width_m", "water_height_m", "body_x_m", "body_width_m", "body_height_m", "rigid",
                     "modulus_pa", "poisson", "density_kg_per_m3"}},
          {"numerics", {"dx_m", "cfl", "solid_cfl", "relaxation", "wet_walls", "pressure_gradient",
-                       "pressure_treatment"}},
+                       "pressure_treatment", "collision_l0", "asymmetry", "stabilisation_distance_l0"}},
          {"solver", {"solver"}},
          {"run", {"end_time_s"}}});
     const fs::path dir(o.out);

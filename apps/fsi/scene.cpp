@@ -67,6 +67,7 @@ Params defaults(Case c) {
 Scene::Scene(const Params& p) : params_(p) {
   dambreak::Params d = dambreak::defaults(dambreak::Column::classic);
   d.pressure_treatment = p.pressure_treatment;
+  d.stabilisation_distance = p.stabilisation_distance;
   d.l0 = p.l0;
   d.end_time = p.end_time;
   d.solver = p.solver;
@@ -122,10 +123,8 @@ Scene::Scene(const Params& p) : params_(p) {
   c.pressure_gradient = p.pressure_gradient;
   c.hydrostatic_split = false;  // the body must feel the whole pressure
   sim_ = std::make_unique<mps::Simulation>(std::move(l.particles), domain, c);
-  // docs/fsi.md's studies were measured with collisions at 0.8 l0 and the asymmetry test at 0.9, the dam break's
-  // defaults before its dynamic stabilisation.
-  sim_->add<mps::ParticleCollision>(0.8, d.restitution);
-  sim_->add<mps::AsymmetrySurface>(0.9);
+  if (p.collision > 0) sim_->add<mps::ParticleCollision>(p.collision, d.restitution);
+  if (p.asymmetry > 0) sim_->add<mps::AsymmetrySurface>(p.asymmetry);
   if (p.wet_walls) sim_->add<mps::WetWalls>();
   const double L = d.tank_length, top = d.tank_height, ceiling = domain.ymax - 2 * p.l0;
   sim_->add<mps::RemoveEscaped>([=](double x, double y) { return y < ceiling && (y < top || (x > 0.0 && x < L)); });

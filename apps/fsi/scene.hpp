@@ -36,6 +36,12 @@ struct Params {
   // Khayyer & Gotoh's treatments (mps::set_pressure_treatment). docs/fsi.md's studies were measured with none; the
   // dam break's default, hs, is measured on the plate there too.
   std::string pressure_treatment = "none";
+  // Close-pair components (docs/fsi.md's studies: collisions at 0.8 l0, the asymmetry test at 0.9, the dam break's
+  // defaults before its dynamic stabilisation); 0 switches one off. The distance is ds's, used when the treatment
+  // names ds.
+  double collision = 0.8;        // [l0]
+  double asymmetry = 0.9;        // fraction of a flat surface's asymmetry
+  double stabilisation_distance = mps::SimulationConfig::default_stabilisation_distance;  // [l0]
   double cfl = 0.2;              // the fluid's: dt <= cfl l0 / |u|max
   double solid_cfl = 0.3;
   double end_time = 0.3;         // [s]
